@@ -1,0 +1,1 @@
+"""twmr.components: the paper's blocks (plant, slip, trajectory, asmc, smc, motor)."""

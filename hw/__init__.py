@@ -1,0 +1,1 @@
+"""twmr.hw: CAN motor drives (protocols, drive component, emulator, safety)."""

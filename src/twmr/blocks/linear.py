@@ -1,0 +1,116 @@
+"""Linear blocks: gain, sum, integrator, single-input single-output state space, unit delay."""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy.signal import cont2discrete
+
+from twmr.core.component import Component
+from twmr.core.port import Input, Output, Parameter
+
+
+class Gain(Component):
+    """y = k u (direct feedthrough)."""
+
+    kind = "gain"
+    k = Parameter(1.0)
+    u = Input(0.0)
+    y = Output(0.0, depends_on=("u",))
+
+    def initialize(self) -> None:
+        self.evaluate(self.start_time)
+
+    def evaluate(self, t: float) -> None:
+        self.y = self.k * self.u
+
+
+class Sum(Component):
+    """y = k1 u1 + k2 u2 (direct feedthrough); k2 = -1 makes an error junction."""
+
+    kind = "sum"
+    k1 = Parameter(1.0)
+    k2 = Parameter(1.0)
+    u1 = Input(0.0)
+    u2 = Input(0.0)
+    y = Output(0.0, depends_on=("u1", "u2"))
+
+    def initialize(self) -> None:
+        self.evaluate(self.start_time)
+
+    def evaluate(self, t: float) -> None:
+        self.y = self.k1 * self.u1 + self.k2 * self.u2
+
+
+class Integrator(Component):
+    """x' = k u, y = x; exact for an input held over the step: x(t+h) = x(t) + k u h."""
+
+    kind = "integrator"
+    k = Parameter(1.0)
+    x0 = Parameter(0.0, description="initial state")
+    u = Input(0.0)
+    y = Output(0.0)
+
+    def initialize(self) -> None:
+        self.y = self.x0
+
+    def do_step(self, t: float, h: float) -> None:
+        self.y = self.y + self.k * self.u * h
+
+
+class Delay(Component):
+    """Unit delay of one step: y(t + h) = u(t). Breaks an algebraic loop."""
+
+    kind = "delay"
+    y0 = Parameter(0.0, description="output before the first step")
+    u = Input(0.0)
+    y = Output(0.0)
+
+    def initialize(self) -> None:
+        self.y = self.y0
+
+    def do_step(self, t: float, h: float) -> None:
+        self.y = self.u
+
+
+class StateSpace(Component):
+    """x' = A x + B u, y = C x + D u (single input, single output, n states), discretised exactly
+    for an input held over the step (zero-order hold) at the first `do_step`.
+
+    A is n*n values row by row, B and C n values each. y depends on u directly only when D != 0."""
+
+    kind = "state_space"
+    A = Parameter((0.0,), size=0, description="state matrix, row-major")
+    B = Parameter((1.0,), size=0, description="input column")
+    C = Parameter((1.0,), size=0, description="output row")
+    D = Parameter(0.0, description="feedthrough")
+    x0 = Parameter((), size=0, description="initial state (default zeros)")
+    u = Input(0.0)
+    y = Output(0.0, depends_on=("u",))
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        super().set_parameter(name, value)
+        if name == "D":  # feedthrough only when D != 0, so a strictly proper block breaks loops
+            self.variables = dict(self.variables)
+            self.variables["y"] = Output(0.0, depends_on=("u",) if self.D != 0.0 else ())
+            self.variables["y"].name = "y"
+
+    def initialize(self) -> None:
+        n = len(self.B)
+        self._a = np.reshape(self.A, (n, n))
+        self._b = np.reshape(self.B, (n, 1))
+        self._c = np.reshape(self.C, (1, n))
+        self._x = np.array(self.x0 or [0.0] * n, dtype=float)
+        self._h = math.nan
+        self.evaluate(self.start_time)
+
+    def evaluate(self, t: float) -> None:
+        self.y = float(self._c[0] @ self._x) + self.D * self.u
+
+    def do_step(self, t: float, h: float) -> None:
+        if h != self._h:
+            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
+            self._ad, self._bd, self._h = ad, bd[:, 0], h
+        self._x = self._ad @ self._x + self._bd * self.u
+        self.evaluate(t + h)

@@ -1,0 +1,114 @@
+"""`Component`: one interface for every block, shaped like an FMI 2.0 co-simulation slave.
+
+Life cycle: ``setup(start, stop)`` → ``initialize()`` → at each communication point t the master
+writes the inputs, calls ``evaluate(t)`` when the component has direct feedthrough, then
+``do_step(t, h)`` → ... → ``terminate()``.
+
+Semantics (what the master relies on):
+- after ``initialize()`` the outputs hold their values at the start time;
+- ``evaluate(t)`` recomputes the direct-feedthrough outputs from the inputs just written, at time t
+  (FMI: fmi2GetReal after fmi2SetReal);
+- ``do_step(t, h)`` advances from t to t + h with the inputs held (zero-order hold) and leaves the
+  state-dependent outputs at t + h.
+"""
+from __future__ import annotations
+
+import copy
+from typing import Any, ClassVar
+
+from twmr.core.port import Input, Output, Parameter, State, Variable
+
+
+class Component:
+    """Base class of native blocks. Subclasses declare `Input`/`Output`/`Parameter`/`State`
+    descriptors and override the life-cycle methods they need."""
+
+    kind: ClassVar[str] = ""
+    can_get_and_set_state: ClassVar[bool] = True
+
+    def __init__(self, name: str = "", **parameters: Any):
+        self.name = name or type(self).__name__
+        self.variables: dict[str, Variable] = self.declared()
+        for var in self.variables.values():
+            self.__dict__[var.name] = var.start
+        for key, value in parameters.items():
+            self.set_parameter(key, value)
+
+    # -- interface description ---------------------------------------------------------------
+    @classmethod
+    def declared(cls) -> dict[str, Variable]:
+        """The class's variables in declaration order, base classes first."""
+        found: dict[str, Variable] = {}
+        for klass in reversed(cls.__mro__):
+            for key, value in vars(klass).items():
+                if isinstance(value, Variable):
+                    found[key] = value
+        return found
+
+    def _of(self, kind: str) -> dict[str, Variable]:
+        return {n: v for n, v in self.variables.items() if v.kind == kind}
+
+    @property
+    def inputs(self) -> dict[str, Input]:
+        return self._of("input")  # type: ignore[return-value]
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        return self._of("output")  # type: ignore[return-value]
+
+    @property
+    def parameters(self) -> dict[str, Parameter]:
+        return self._of("parameter")  # type: ignore[return-value]
+
+    @property
+    def states(self) -> dict[str, State]:
+        return self._of("state")  # type: ignore[return-value]
+
+    @property
+    def has_feedthrough(self) -> bool:
+        """True when some output depends directly on some input (then `evaluate` is called)."""
+        return any(o.depends_on for o in self.outputs.values())
+
+    # -- values ------------------------------------------------------------------------------
+    def set_parameter(self, name: str, value: Any) -> None:
+        """Set a parameter or a start value (input, state) before `initialize()`.
+
+        Raises KeyError for an unknown name and ValueError/TypeError for a value that does not fit."""
+        var = self.variables[name]
+        self.__dict__[name] = var.coerce(value)
+
+    def get(self, name: str) -> Any:
+        """Current value of any variable."""
+        return self.__dict__[name]
+
+    # -- life cycle (FMI 2.0 co-simulation) ---------------------------------------------------
+    def setup(self, start: float, stop: float | None) -> None:
+        """Called once before `initialize()` with the experiment's start and stop times [s]."""
+        self.start_time = start
+        self.stop_time = stop
+
+    def initialize(self) -> None:
+        """Compute the outputs at the start time from parameters, states and inputs."""
+
+    def evaluate(self, t: float) -> None:
+        """Recompute direct-feedthrough outputs from the current inputs at time t [s]."""
+
+    def do_step(self, t: float, h: float) -> None:
+        """Advance from t to t + h [s] with inputs held; leave outputs at t + h."""
+
+    def terminate(self) -> None:
+        """Release resources; called once, also after an error."""
+
+    def get_state(self) -> Any:
+        """A snapshot of everything `do_step` changes (FMI fmi2GetFMUstate)."""
+        return copy.deepcopy({k: v for k, v in self.__dict__.items() if k != "variables"})
+
+    def set_state(self, state: Any) -> None:
+        """Restore a snapshot taken by `get_state` (FMI fmi2SetFMUstate)."""
+        self.__dict__.update(copy.deepcopy(state))
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.name!r}>"
+
+
+__all__ = ["Component", "Input", "Output", "Parameter", "State"]

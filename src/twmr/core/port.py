@@ -1,0 +1,134 @@
+"""Variable descriptors: `Input`, `Output`, `Parameter`, `State`.
+
+Declared at class level, they take their name from the attribute. Values live in the instance's
+``__dict__`` (the descriptors are non-data descriptors), so reading ``self.pose`` in a step costs one
+dict lookup. A scalar (size None) holds a float/int/bool; a vector of size n holds a tuple of n
+floats, which the master can share between components without copying.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
+TYPES = (REAL, INTEGER, BOOLEAN)
+_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool}
+
+
+@dataclass
+class Variable:
+    """Base descriptor; `kind` is 'input', 'output', 'parameter' or 'state'.
+
+    size None is a scalar, n > 0 a vector of n elements, 0 a vector of any length (nested lists,
+    e.g. a matrix given row by row, are flattened row-major)."""
+
+    start: Any = None
+    size: int | None = None
+    unit: str | tuple[str, ...] = "1"
+    type: str = REAL
+    min: float | None = None
+    max: float | None = None
+    description: str = ""
+    name: str = field(default="", init=False)
+    kind = "variable"
+
+    def __post_init__(self) -> None:
+        if self.type not in TYPES:
+            raise ValueError(f"type must be one of {TYPES}, not {self.type!r}")
+        if isinstance(self.unit, tuple) and len(self.unit) != (self.size or 1):
+            raise ValueError(f"{len(self.unit)} units given for size {self.size}")
+        self.start = self.coerce(self._default_start() if self.start is None else self.start)
+
+    def _default_start(self) -> Any:
+        return _CAST[self.type]()
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj: Any, objtype: type | None = None) -> Any:
+        if obj is None:
+            return self
+        return obj.__dict__.setdefault(self.name, self.start)
+
+    @property
+    def width(self) -> int:
+        """Number of scalar elements."""
+        return self.size or 1
+
+    def element_unit(self, index: int) -> str:
+        """Unit string of element `index` (0-based)."""
+        return self.unit[index] if isinstance(self.unit, tuple) else self.unit
+
+    @property
+    def unit_text(self) -> str:
+        """The unit as one string, e.g. '(m, m, rad)' for per-element units."""
+        return f"({', '.join(self.unit)})" if isinstance(self.unit, tuple) else self.unit
+
+    def coerce(self, value: Any) -> Any:
+        """Value in the port's representation: a scalar, or a tuple of `size` elements.
+
+        Raises ValueError/TypeError with a plain message when the value does not fit."""
+        cast = _CAST[self.type]
+        if self.size is None:
+            if isinstance(value, (list, tuple)):
+                raise ValueError(f"expected a scalar, got a list of {len(value)}")
+            return self._check(cast(value))
+        if not isinstance(value, (list, tuple)):
+            return tuple(self._check(cast(value)) for _ in range(self.size))
+        if self.size == 0:
+            value = _flatten(value)
+        elif len(value) != self.size:
+            raise ValueError(f"expected {self.size} values, got {len(value)}")
+        return tuple(self._check(cast(v)) for v in value)
+
+    def _check(self, v: Any) -> Any:
+        if self.min is not None and v < self.min:
+            raise ValueError(f"{v} is below the minimum {self.min}")
+        if self.max is not None and v > self.max:
+            raise ValueError(f"{v} is above the maximum {self.max}")
+        return v
+
+
+def _flatten(value: Any) -> list[Any]:
+    if isinstance(value, (list, tuple)):
+        return [x for v in value for x in _flatten(v)]
+    return [value]
+
+
+@dataclass
+class Input(Variable):
+    """A value the component reads; set by the master from a connection (or its start value)."""
+
+    kind = "input"
+
+
+@dataclass
+class Output(Variable):
+    """A value the component writes. `depends_on` lists the inputs it depends on directly
+    (direct feedthrough); empty means it depends only on state and time."""
+
+    depends_on: tuple[str, ...] = ()
+    kind = "output"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.depends_on, str):
+            self.depends_on = (self.depends_on,)
+        self.depends_on = tuple(self.depends_on)
+        super().__post_init__()
+
+
+@dataclass
+class Parameter(Variable):
+    """A value fixed before `initialize()`: set from the scenario, checked against min/max."""
+
+    kind = "parameter"
+
+    def _default_start(self) -> Any:
+        raise ValueError("a Parameter needs a default value")
+
+
+@dataclass
+class State(Variable):
+    """A continuous or discrete state; its start is settable from the scenario's `initial:`."""
+
+    kind = "state"

@@ -1,0 +1,77 @@
+"""The records a built scenario hands to the master: `System`, `Connection`, `Experiment`, `RecordSpec`.
+
+Data only. `twmr.scenario.build` makes them from a scenario file; the master steps them.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from twmr.core.component import Component
+from twmr.core.errors import Location
+
+
+@dataclass(frozen=True)
+class Connection:
+    """One wire: source output elements -> destination input elements.
+
+    Indices are 0-based element indices (None = the whole port). The unit conversion found at build
+    time is folded in as dst = gain * src + offset (gain 1, offset 0 when the units agree)."""
+
+    src: str
+    src_port: str
+    dst: str
+    dst_port: str
+    src_index: tuple[int, ...] | None = None
+    dst_index: tuple[int, ...] | None = None
+    gain: float = 1.0
+    offset: float = 0.0
+    location: Location = field(default_factory=Location)
+
+    def __str__(self) -> str:
+        def end(c: str, p: str, idx: tuple[int, ...] | None) -> str:
+            sel = "" if idx is None else "[" + ",".join(str(i + 1) for i in idx) + "]"
+            return f"{c}.{p}{sel}"
+
+        return f"{end(self.src, self.src_port, self.src_index)} -> " \
+               f"{end(self.dst, self.dst_port, self.dst_index)}"
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Start and stop [s], base step h [s], algorithm ('gauss_seidel' | 'jacobi'), pacing."""
+
+    start: float = 0.0
+    stop: float = 1.0
+    step: float = 1e-3
+    algorithm: str = "gauss_seidel"
+    realtime: bool = False
+
+    @property
+    def n_steps(self) -> int:
+        """Number of base steps, rounded to the nearest integer."""
+        return int(round((self.stop - self.start) / self.step))
+
+
+@dataclass(frozen=True)
+class RecordSpec:
+    """Signals to record as (instance, port) pairs, every `decimation` base steps."""
+
+    signals: tuple[tuple[str, str], ...] = ()
+    decimation: int = 1
+
+
+@dataclass
+class System:
+    """Components created and checked, wires resolved, execution order fixed."""
+
+    components: dict[str, Component]
+    connections: list[Connection]
+    order: list[str]
+    experiment: Experiment
+    record: RecordSpec = field(default_factory=RecordSpec)
+    step_multiples: dict[str, int] = field(default_factory=dict)
+    source: str = "<scenario>"
+
+    def multiple(self, name: str) -> int:
+        """Step multiple of an instance (1 when not set)."""
+        return self.step_multiples.get(name, 1)
