@@ -4,10 +4,10 @@ from twmr.core.errors import (
     AlgebraicLoopError, ComponentError, CosimError, FmuError, HardwareError, Location, Problem,
     ScenarioError, UnitError, WiringError,
 )
-from twmr.core.port import BOOLEAN, INTEGER, REAL, Input, Output, Parameter, State, Variable
+from twmr.core.port import BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, State, Variable
 
 __all__ = [
-    "Component", "Input", "Output", "Parameter", "State", "Variable", "REAL", "INTEGER", "BOOLEAN",
+    "Component", "Input", "Output", "Parameter", "State", "Variable", "REAL", "INTEGER", "BOOLEAN", "STRING",
     "CosimError", "ScenarioError", "WiringError", "AlgebraicLoopError", "ComponentError", "FmuError",
     "HardwareError", "UnitError", "Location", "Problem",
 ]

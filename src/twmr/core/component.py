@@ -14,6 +14,7 @@ Semantics (what the master relies on):
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 from typing import Any, ClassVar
 
 from twmr.core.port import Input, Output, Parameter, State, Variable
@@ -25,6 +26,8 @@ class Component:
 
     kind: ClassVar[str] = ""
     can_get_and_set_state: ClassVar[bool] = True
+    #: parameters needed to construct the instance (e.g. an FMU's `path`), given to `create`
+    construction_parameters: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, name: str = "", **parameters: Any):
         self.name = name or type(self).__name__
@@ -33,6 +36,12 @@ class Component:
             self.__dict__[var.name] = var.start
         for key, value in parameters.items():
             self.set_parameter(key, value)
+
+    @classmethod
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> "Component":
+        """Make an instance for a scenario; `construction` holds the values of
+        `construction_parameters`, and relative file paths resolve against `base_dir`."""
+        return cls(name, **construction)
 
     # -- interface description ---------------------------------------------------------------
     @classmethod

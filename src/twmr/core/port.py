@@ -10,9 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
-TYPES = (REAL, INTEGER, BOOLEAN)
-_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool}
+REAL, INTEGER, BOOLEAN, STRING = "Real", "Integer", "Boolean", "String"
+TYPES = (REAL, INTEGER, BOOLEAN, STRING)
+_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str}
 
 
 @dataclass
@@ -69,6 +69,10 @@ class Variable:
 
         Raises ValueError/TypeError with a plain message when the value does not fit."""
         cast = _CAST[self.type]
+        if self.type == BOOLEAN and not isinstance(value, (bool, int, list, tuple)):
+            raise TypeError(f"expected true or false, got {value!r}")
+        if self.type in (REAL, INTEGER) and isinstance(value, str):
+            raise TypeError(f"expected a number, got the text {value!r}")
         if self.size is None:
             if isinstance(value, (list, tuple)):
                 raise ValueError(f"expected a scalar, got a list of {len(value)}")
@@ -82,6 +86,8 @@ class Variable:
         return tuple(self._check(cast(v)) for v in value)
 
     def _check(self, v: Any) -> Any:
+        if self.type == STRING:
+            return v
         if self.min is not None and v < self.min:
             raise ValueError(f"{v} is below the minimum {self.min}")
         if self.max is not None and v > self.max:
