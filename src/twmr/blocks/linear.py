@@ -87,7 +87,7 @@ class StateSpace(Component):
     D = Parameter(0.0, description="feedthrough")
     x0 = Parameter((), size=0, description="initial state (default zeros)")
     u = Input(0.0)
-    y = Output(0.0, depends_on=("u",))
+    y = Output(0.0)
 
     def set_parameter(self, name: str, value: Any) -> None:
         super().set_parameter(name, value)

@@ -1,0 +1,184 @@
+"""`Execution`: runs a built `System` with a master algorithm, from setup to terminate.
+
+It owns the clock (an integer count of base steps), real-time pacing, progress, error mapping (an
+exception or a NaN/Inf inside a component becomes a `ComponentError` naming the instance, the call
+or port, and the time) and the guarantee that the recorder is flushed and every component is
+terminated, whatever happens.
+"""
+from __future__ import annotations
+
+import math
+import time
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twmr.core.errors import ComponentError, CosimError
+from twmr.master.algorithm import NonFinite, Schedule, generate
+from twmr.master.recorder import Recorder
+from twmr.scenario.system import System
+
+
+class Pacer:
+    """Holds step n until wall time start + n h (sleep, then spin for the last 0.3 ms)."""
+
+    def __init__(self, h: float, spin: float = 3e-4):
+        self.h = h
+        self.spin = spin
+        self.t0 = time.perf_counter()
+        self.overruns = 0
+        self.max_lag = 0.0
+
+    def __call__(self, n: int) -> None:
+        target = self.t0 + n * self.h
+        now = time.perf_counter()
+        if now >= target:
+            self.overruns += now > target + self.h
+            self.max_lag = max(self.max_lag, now - target)
+            return
+        if target - now > self.spin:
+            time.sleep(target - now - self.spin)
+        while time.perf_counter() < target:
+            pass
+
+
+@dataclass
+class RunInfo:
+    """What a run did: steps, wall time [s], real-time factor, pacing overruns, error if any."""
+
+    n_steps: int = 0
+    steps_done: int = 0
+    wall_time: float = 0.0
+    realtime_factor: float = 0.0
+    overruns: int = 0
+    error: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class Execution:
+    """One run of `system`. `run()` returns the recorded structured array; `info` tells the rest."""
+
+    def __init__(self, system: System, result_path: str | Path | None = None,
+                 progress: bool = False, check_finite: bool = True, chunk_steps: int = 20000):
+        self.system = system
+        self.recorder = Recorder(system, result_path)
+        self.progress = progress
+        self.chunk_steps = chunk_steps
+        exp = system.experiment
+        self.pacer = Pacer(exp.step) if exp.realtime else None
+        self.schedule: Schedule = generate(system, exp.algorithm, self.recorder.signals,
+                                           self.recorder.decimation, check_finite, self.pacer)
+        self.info = RunInfo(n_steps=exp.n_steps)
+        self._n = 0
+
+    def run(self) -> np.ndarray:
+        """Set up, initialize, step to the stop time, terminate. Raises `ComponentError` (results
+        up to the failure are on disk in `recorder.path`)."""
+        exp = self.system.experiment
+        rows = self.recorder.rows
+        bar = _progress_bar(exp.n_steps) if self.progress else None
+        wall0 = time.perf_counter()
+        try:
+            self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
+            self._lifecycle("initialize", lambda c: c.initialize())
+            if self.pacer is not None:
+                self.pacer.t0 = time.perf_counter()
+            while self._n < exp.n_steps:
+                n1 = min(exp.n_steps, self._n + self.chunk_steps)
+                self._guarded(self.schedule.run, self._n, n1, rows)
+                if bar is not None:
+                    bar.update(n1 - self._n)
+                self._n = n1
+                self.recorder.flush()
+            self._guarded(self.schedule.finish, exp.n_steps, rows)
+        except CosimError as err:
+            self.info.error = str(err)
+            raise
+        finally:
+            self.info.steps_done = self._n
+            self.info.wall_time = time.perf_counter() - wall0
+            simulated = self._n * exp.step
+            self.info.realtime_factor = simulated / self.info.wall_time if self.info.wall_time else 0
+            self.info.overruns = self.pacer.overruns if self.pacer else 0
+            self.recorder.close()
+            if bar is not None:
+                bar.close()
+            self._terminate_all()
+        return self.recorder.result()
+
+    # -- helpers -----------------------------------------------------------------------------
+    def _lifecycle(self, call: str, fn: Any) -> None:
+        t = self.system.experiment.start
+        for name in self.system.order:
+            comp = self.system.components[name]
+            try:
+                fn(comp)
+            except CosimError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - every component failure is reported
+                raise ComponentError(name, t, f"{call}() raised {type(exc).__name__}: {exc}. "
+                                     f"Fix: check the parameters of '{name}'.") from exc
+
+    def _guarded(self, fn: Any, *args: Any) -> None:
+        try:
+            fn(*args)
+        except NonFinite as nf:
+            self._n = self._step_of(nf.t)
+            raise self._nonfinite_error(nf.t) from None
+        except CosimError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            name, call, t = self._locate(exc)
+            self._n = self._step_of(t)
+            raise ComponentError(
+                name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
+                f"inputs and parameters at that time (the results up to it are saved)."
+            ) from exc
+
+    def _step_of(self, t: float) -> int:
+        exp = self.system.experiment
+        return int(round((t - exp.start) / exp.step))
+
+    def _locate(self, exc: BaseException) -> tuple[str, str, float]:
+        """The instance and call on the generated line where `exc` passed, and the time."""
+        owner, t = ("?", "a call"), math.nan
+        for frame, lineno in traceback.walk_tb(exc.__traceback__):
+            if frame.f_code.co_filename == self.schedule.filename:
+                owner = self.schedule.line_owner.get(lineno, owner)
+                t = frame.f_locals.get("t", t)
+        name, what = owner
+        call = {"input": "writing its inputs", "evaluate": "evaluate()",
+                "do_step": "do_step()"}.get(what, what)
+        return name, call, t
+
+    def _nonfinite_error(self, t: float) -> ComponentError:
+        for name in self.system.order:
+            comp = self.system.components[name]
+            for port, var in comp.outputs.items():
+                value = comp.__dict__[port]
+                values = value if isinstance(value, tuple) else (value,)
+                for i, v in enumerate(values):
+                    if isinstance(v, float) and not math.isfinite(v):
+                        label = port if var.size is None else f"{port}[{i + 1}]"
+                        return ComponentError(
+                            name, t, f"output '{label}' is {v} (not finite). Fix: check the "
+                            f"inputs of '{name}' just before this time in the saved results, its "
+                            f"parameters, or reduce the step.")
+        return ComponentError("?", t, "an output became NaN or Inf")
+
+    def _terminate_all(self) -> None:
+        for name in self.system.order:
+            try:
+                self.system.components[name].terminate()
+            except Exception:  # noqa: BLE001 - terminate every component even if one fails
+                pass
+
+
+def _progress_bar(total: int) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="step", unit_scale=True, mininterval=0.5, leave=False,
+                disable=None)
