@@ -12,7 +12,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -59,11 +59,16 @@ class RunInfo:
 
 
 class Execution:
-    """One run of `system`. `run()` returns the recorded structured array; `info` tells the rest."""
+    """One run of `system`. `run()` returns the recorded structured array; `info` tells the rest.
+
+    The steps run in chunks of `chunk_steps`; after each the recorder flushes to disk, the progress
+    bar moves and `on_chunk(n)` (if given) is called with the number of steps done."""
 
     def __init__(self, system: System, result_path: str | Path | None = None,
-                 progress: bool = False, check_finite: bool = True, chunk_steps: int = 20000):
+                 progress: bool = False, check_finite: bool = True, chunk_steps: int = 20000,
+                 on_chunk: Callable[[int], None] | None = None):
         self.system = system
+        self.on_chunk = on_chunk
         self.recorder = Recorder(system, result_path)
         self.progress = progress
         self.chunk_steps = chunk_steps
@@ -93,6 +98,8 @@ class Execution:
                     bar.update(n1 - self._n)
                 self._n = n1
                 self.recorder.flush()
+                if self.on_chunk is not None:
+                    self.on_chunk(n1)
             self._guarded(self.schedule.finish, exp.n_steps, rows)
         except CosimError as err:
             self.info.error = str(err)
