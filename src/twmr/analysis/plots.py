@@ -1,0 +1,64 @@
+"""PNG plots of recorded signals: one figure per recorded port (vector elements together), and an
+XY plot for every recorded planar position (a port with 2 or 3 elements in m, m[, rad])."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+
+def _pyplot():  # matplotlib without a screen
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def group_ports(names: list[str]) -> dict[str, list[str]]:
+    """Columns grouped by port: 'a.p[1]', 'a.p[2]' -> {'a.p': [...]}; time left out."""
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        if n == "time":
+            continue
+        groups.setdefault(re.sub(r"\[\d+\]$", "", n), []).append(n)
+    return groups
+
+
+def plot_result(data: np.ndarray, units: dict[str, str], out_dir: str | Path,
+                title: str = "") -> list[Path]:
+    """Write one PNG per port (and XY plots) into `out_dir`; the paths written."""
+    plt = _pyplot()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t = np.asarray(data["time"])
+    written = []
+    for port, cols in group_ports(list(data.dtype.names or ())).items():
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        for c in cols:
+            ax.plot(t, data[c], label=f"{c} [{units.get(c, '')}]")
+        ax.set_xlabel("time [s]")
+        ax.set_title(f"{title} {port}".strip())
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        path = out / f"{port.replace('.', '_')}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        written.append(path)
+        if len(cols) in (2, 3) and all(units.get(c) == "m" for c in cols[:2]):
+            fig, ax = plt.subplots(figsize=(5, 5))
+            ax.plot(data[cols[0]], data[cols[1]])
+            ax.set_xlabel(f"{cols[0]} [m]")
+            ax.set_ylabel(f"{cols[1]} [m]")
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.grid(True, alpha=0.3)
+            ax.set_title(f"{title} {port} (XY)".strip())
+            fig.tight_layout()
+            path = out / f"{port.replace('.', '_')}_xy.png"
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+            written.append(path)
+    return written
