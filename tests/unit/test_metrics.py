@@ -1,0 +1,37 @@
+"""Table III metrics on signals whose figures are known in closed form."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twmr.analysis.metrics import peak_error, settling_time, tracking_metrics
+
+
+def test_settling_time_of_an_exponential() -> None:
+    t = np.linspace(0.0, 10.0, 100001)
+    e = np.exp(-t)
+    # |e| <= 0.05 from t = ln 20 on
+    assert settling_time(t, e, 0.05) == pytest.approx(math.log(20.0), abs=1e-4)
+
+
+def test_peak_error_is_the_overshoot_after_the_first_crossing() -> None:
+    t = np.linspace(0.0, 10.0, 100001)
+    e = np.exp(-0.5 * t) * np.cos(2.0 * t)  # first crossing at pi/4; next extremum at atan...
+    expected = np.max(np.abs(e[t > math.pi / 4]))
+    assert peak_error(e) == pytest.approx(expected)
+    assert peak_error(np.exp(-t)) == 0.0
+
+
+def test_mse_and_column_lookup() -> None:
+    n = 5
+    data = np.zeros(n, dtype=[("time", "f8"), ("ref.position[1]", "f8"), ("ref.position[2]", "f8"),
+                              ("plant.pose[1]", "f8"), ("plant.pose[2]", "f8"),
+                              ("plant.pose[3]", "f8")])
+    data["time"] = np.arange(n)
+    data["ref.position[1]"] = 1.0
+    data["plant.pose[2]"] = [0, 1, 2, 3, 4]
+    m = tracking_metrics(data)
+    assert m["mse_x"] == pytest.approx(1.0)
+    assert m["mse_y"] == pytest.approx((0 + 1 + 4 + 9 + 16) / 5)
