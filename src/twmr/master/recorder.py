@@ -45,6 +45,7 @@ class Recorder:
         self.columns, self.units_list = columns_of(system, self.signals)
         self.units = dict(zip(self.columns, self.units_list))
         self.dtype = np.dtype([(c, "<f8") for c in self.columns])
+        self.temporary = path is None
         if path is None:
             fd, tmp = tempfile.mkstemp(prefix="twmr-", suffix=".npy")
             os.close(fd)
@@ -89,8 +90,13 @@ class Recorder:
         self._file.close()
 
     def result(self) -> np.ndarray:
-        """The recorded structured array, memory-mapped from the file (read-only)."""
+        """The recorded structured array: memory-mapped from the file (read-only), or loaded and
+        the file deleted when no path was given."""
         self.close()
         if self.count == 0:
             return np.zeros(0, dtype=self.dtype)
+        if self.temporary:
+            data = np.load(self.path)
+            self.path.unlink(missing_ok=True)
+            return data
         return np.load(self.path, mmap_mode="r")
