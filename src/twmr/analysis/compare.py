@@ -1,0 +1,128 @@
+"""`twmr compare A.yaml B.yaml ...`: run scenarios, print Table III side by side, save figures.
+
+Figures (PNG, in `results/compare/` unless `--out`): XY paths of every run against the reference,
+x and y tracking errors over time, wheel torques, and the adaptive estimate d_hat where recorded.
+"""
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from twmr.analysis.metrics import DEFINITIONS, errors, tracking_metrics
+from twmr.analysis.plots import _pyplot
+from twmr.core.errors import CosimError
+
+METRICS = ("settling_time_x", "settling_time_y", "peak_error_x", "peak_error_y", "mse_x", "mse_y")
+UNITS = {"settling_time": "s", "peak_error": "m", "mse": "m2"}
+
+
+def run_scenario(path: Path, out: Path, overrides: Sequence[str] = ()) -> np.ndarray:
+    """Load and run one scenario, results in `out/<stem>/result.npy`; the recorded array."""
+    from twmr.master import Execution
+    from twmr.scenario import load
+
+    system = load(path, overrides)
+    ex = Execution(system, out / path.stem / "result.npy", progress=True)
+    print(f"running {path} ...", file=sys.stderr)
+    return np.array(ex.run())
+
+
+def table(results: dict[str, dict[str, float]]) -> str:
+    """Table III as text: one row per metric, one column per scenario."""
+    names = list(results)
+    width = max(14, *(len(n) for n in names))
+    lines = ["metric".ljust(22) + "".join(n.rjust(width + 2) for n in names)]
+    for m in METRICS:
+        unit = UNITS[m.rsplit("_", 1)[0]]
+        row = f"{m} [{unit}]".ljust(22)
+        row += "".join(f"{results[n].get(m, float('nan')):>{width + 2}.4g}" for n in names)
+        lines.append(row)
+    lines.append("")
+    lines += [f"{k}: {v}" for k, v in DEFINITIONS.items()]
+    return "\n".join(lines)
+
+
+def _columns(data: np.ndarray, port: str) -> list[str]:
+    return [n for n in data.dtype.names or () if re.search(rf"\.{port}\[\d+\]$", n)]
+
+
+def figures(runs: dict[str, np.ndarray], out: Path) -> list[Path]:
+    """XY paths, x/y errors, torques and d_hat of every run; the PNG paths written."""
+    plt = _pyplot()
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    fig, ax = plt.subplots(figsize=(6, 6))
+    first = next(iter(runs.values()))
+    ref = _columns(first, "position")
+    if ref:
+        ax.plot(first[ref[0]], first[ref[1]], "k-", lw=2, label="reference")
+    for name, data in runs.items():
+        pose = _columns(data, "pose")
+        if pose:
+            ax.plot(data[pose[0]], data[pose[1]], "--", label=name)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    written.append(out / "xy.png")
+    fig.savefig(written[-1], dpi=110)
+    plt.close(fig)
+    for axis, k in (("x", 1), ("y", 2)):
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        for name, data in runs.items():
+            e = errors(data)
+            if e is not None:
+                ax.plot(e[0], e[k], label=name)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(f"e_{axis} [m]")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        written.append(out / f"error_{axis}.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    for port, label in (("torque", "torque [N.m]"), ("d_hat", "d_hat")):
+        if not any(_columns(d, port) for d in runs.values()):
+            continue
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        for name, data in runs.items():
+            for c in _columns(data, port):
+                ax.plot(data["time"], data[c], label=f"{name}: {c}", lw=0.8)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        written.append(out / f"{port}.png")
+        fig.savefig(written[-1], dpi=110)
+        plt.close(fig)
+    return written
+
+
+def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
+            overrides: Sequence[str] = ()) -> int:
+    """Run every scenario, print the table (or JSON keyed by scenario, then metric), save figures."""
+    out = out or Path("results") / "compare"
+    runs = {p.stem: run_scenario(p, out, overrides) for p in paths}
+    results: dict[str, dict[str, Any]] = {}
+    for name, data in runs.items():
+        m = tracking_metrics(data)
+        if not m:
+            raise CosimError(f"{name}: the result has no reference position and pose to compare. "
+                             f"Fix: record the trajectory's `position` and the plant's `pose`.")
+        results[name] = m
+    written = figures(runs, out)
+    (out / "table.json").write_text(json.dumps(results, indent=2) + "\n")
+    if as_json:
+        print(json.dumps(results))
+    else:
+        print(table(results))
+        print(f"\nfigures: {', '.join(str(p) for p in written)}")
+    return 0
