@@ -1,0 +1,65 @@
+"""Text for `twmr check` (a built System) and `twmr components` (the known kinds)."""
+from __future__ import annotations
+
+from twmr.core.component import Component
+from twmr.registry import kinds, lookup
+from twmr.scenario.system import System
+
+
+def describe(system: System) -> str:
+    """Components, execution order, wires with units and conversions, open inputs, experiment."""
+    exp = system.experiment
+    lines = [f"scenario {system.source}",
+             f"experiment: {exp.start:g} .. {exp.stop:g} s, step {exp.step:g} s "
+             f"({exp.n_steps} steps), {exp.algorithm}{', real time' if exp.realtime else ''}",
+             "components (execution order):"]
+    for i, name in enumerate(system.order, 1):
+        comp = system.components[name]
+        mult = system.multiple(name)
+        ft = " feedthrough" if comp.has_feedthrough else ""
+        lines.append(f"  {i}. {name}: {type(comp).__name__}{ft}"
+                     f"{f', every {mult} steps' if mult != 1 else ''}")
+    lines.append("connections:")
+    driven = set()
+    for c in system.connections:
+        a = system.components[c.src].variables[c.src_port]
+        b = system.components[c.dst].variables[c.dst_port]
+        conv = "" if (c.gain, c.offset) == (1.0, 0.0) else \
+            f"  (converted: x {c.gain:g}{f' + {c.offset:g}' if c.offset else ''})"
+        lines.append(f"  {c}  [{a.unit_text} -> {b.unit_text}]{conv}")
+        driven.add((c.dst, c.dst_port))
+    opened = [f"{n}.{p} = {v.start!r}" for n, comp in system.components.items()
+              for p, v in comp.inputs.items() if (n, p) not in driven]
+    if opened:
+        lines.append("open inputs (start values): " + ", ".join(opened))
+    rec = ", ".join(f"{n}.{p}" for n, p in system.record.signals)
+    lines.append(f"recorded every {system.record.decimation} step(s): {rec}")
+    return "\n".join(lines)
+
+
+def _kind_text(name: str, cls: type[Component]) -> list[str]:
+    doc = (cls.__doc__ or "").strip().splitlines()
+    out = [f"{name}: {cls.__module__}.{cls.__name__} — {doc[0] if doc else ''}"]
+    for var in cls.declared().values():
+        size = "" if var.size is None else f"[{var.size or 'n'}]"
+        rng = ""
+        if var.min is not None or var.max is not None:
+            rng = f" in [{var.min}, {var.max}]"
+        dep = f" depends_on {', '.join(var.depends_on)}" if getattr(var, "depends_on", ()) else ""
+        desc = f" — {var.description}" if var.description else ""
+        out.append(f"    {var.kind:9s} {var.name}{size} [{var.unit_text}] {var.type} "
+                   f"= {var.start!r}{rng}{dep}{desc}")
+    return out
+
+
+def kinds_table(selected: list[str] | None = None) -> str:
+    """Every known kind (or the selected ones) with ports, parameters, states and units."""
+    lines: list[str] = []
+    for name in sorted(selected or kinds()):
+        try:
+            lines += _kind_text(name, lookup(name))
+        except KeyError as err:
+            lines.append(f"{name}: {err.args[0]}")
+        except Exception as err:  # noqa: BLE001 - a kind that cannot load is listed, not fatal
+            lines.append(f"{name}: cannot be loaded ({type(err).__name__}: {err})")
+    return "\n".join(lines)
