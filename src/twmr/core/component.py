@@ -63,7 +63,9 @@ class Component:
 
     @property
     def outputs(self) -> dict[str, Output]:
-        return self._of("output")  # type: ignore[return-value]
+        """Outputs and states: every variable another component may read."""
+        return {n: v for n, v in self.variables.items()  # type: ignore[misc]
+                if v.kind in ("output", "state")}
 
     @property
     def parameters(self) -> dict[str, Parameter]:

@@ -134,7 +134,8 @@ class Parameter(Variable):
 
 
 @dataclass
-class State(Variable):
-    """A continuous or discrete state; its start is settable from the scenario's `initial:`."""
+class State(Output):
+    """A continuous or discrete state, visible as an output (it can drive inputs and be recorded);
+    its start is settable from the scenario's `initial:`. It never depends directly on inputs."""
 
     kind = "state"

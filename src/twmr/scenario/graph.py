@@ -83,13 +83,13 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
     if a is None or b is None:
         return []
     fix_dir = "write it as '<output> -> <input>'."
-    if a.kind != "output":
+    if a.kind not in ("output", "state"):
         what = "an input" if a.kind == "input" else f"a {a.kind}"
         problems.append(Problem(loc, f"'{src.text}' is {what} of '{src.comp}', so it cannot drive "
                                 f"'{dst.text}': a wire starts at an output.", fix_dir))
         return []
-    if b.kind not in ("input",):
-        what = "an output" if b.kind == "output" else f"a {b.kind}"
+    if b.kind != "input":
+        what = "an output" if b.kind in ("output", "state") else f"a {b.kind}"
         problems.append(Problem(loc, f"'{dst.text}' is {what} of '{dst.comp}': outputs cannot be "
                                 f"driven (output-to-output).", fix_dir))
         return []

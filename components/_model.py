@@ -1,0 +1,145 @@
+"""The TWMR model of the paper in scalar arithmetic, compiled with numba when it is installed.
+
+Shared by the plant (eqs 1-8, 11) and the controllers (eqs 9-33). Everything is written with plain
+floats — the 2x2 algebra spelled out — so one compiled call does a whole step.
+"""
+from __future__ import annotations
+
+import math
+
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a dependency; this keeps the model importable
+    def njit(*args, **kwargs):  # type: ignore[no-untyped-def]
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+def inertia(a: float, I_G: float, I_D: float, I_W: float, r: float, b: float, m_W: float,
+            m_G: float) -> tuple[float, float, float, float]:
+    """(m11, m12, q1, q2) of eq. (8), exactly as printed (m11 with 2 m_W r^2)."""
+    k = r * r / (4.0 * b * b)
+    m11 = m_G * (r * r / 4.0 + a * a * r * r / (4.0 * b * b)) + k * (I_G + 2.0 * I_D) \
+        + 2.0 * m_W * r * r + I_W  # eq. (8), m11
+    m12 = m_G * (r * r / 4.0 - a * a * r * r / (4.0 * b * b)) - k * (I_G + 2.0 * I_D)  # m12
+    q1 = m_G * r / 4.0 * (1.0 + a * a / (b * b)) + r / (4.0 * b) * (I_G + 2.0 * I_D)  # q1
+    q2 = m_G * r / 4.0 * (1.0 - a * a / (b * b)) - r / (4.0 * b) * (I_G + 2.0 * I_D)  # q2
+    return m11, m12, q1, q2
+
+
+@njit(cache=True)
+def derivative(x: float, y: float, th: float, wR: float, wL: float,
+               tR: float, tL: float, muR: float, muL: float, dl: float,
+               muR2: float, muL2: float, dl2: float, tdR: float, tdL: float,
+               m11: float, m12: float, q1: float, q2: float, m_G: float, a: float, r: float,
+               b: float) -> tuple[float, float, float, float, float]:
+    """State derivative (x_M', y_M', theta', phi_R'', phi_L'') of the plant.
+
+    Inputs: wheel torques tR, tL [N.m]; slip rates muR, muL, dl = mu_R', mu_L', delta' [m/s];
+    slip accelerations muR2, muL2, dl2 [m/s2]; disturbance tdR, tdL [N.m]."""
+    beta = r * (wR + wL) / 2.0 + (muR + muL) / 2.0  # eq. (2)
+    varpi = r * (wR - wL) / (2.0 * b) + (muR - muL) / (2.0 * b)  # eq. (3)
+    c, s = math.cos(th), math.sin(th)
+    dx = beta * c - dl * s  # eq. (11)
+    dy = beta * s + dl * c
+    bc = m_G * r * r / (2.0 * b) * varpi  # B = bc [[0, 1], [-1, 0]], eq. (8)
+    cc = m_G * r / 2.0 * varpi  # C = cc [1, 1]
+    gc = m_G * a * r / (2.0 * b)  # G = gc [1, -1]
+    # eq. (8): M nu' = tau - B nu - Q mu'' - C delta' - G delta'' - tau_d
+    fR = tR - bc * wL - (q1 * muR2 + q2 * muL2) - cc * dl - gc * dl2 - tdR
+    fL = tL + bc * wR - (q2 * muR2 + q1 * muL2) - cc * dl + gc * dl2 - tdL
+    det = m11 * m11 - m12 * m12
+    return dx, dy, varpi, (m11 * fR - m12 * fL) / det, (m11 * fL - m12 * fR) / det
+
+
+@njit(cache=True)
+def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
+        tR: float, tL: float, muR: float, muL: float, dl: float, muR2: float, muL2: float,
+        dl2: float, tdR: float, tdL: float, m11: float, m12: float, q1: float, q2: float,
+        m_G: float, a: float, r: float, b: float) -> tuple[float, float, float, float, float]:
+    """`n` classical RK4 steps of size `hs` [s] with the inputs held (zero-order hold)."""
+    for _ in range(n):
+        k1 = derivative(x, y, th, wR, wL, tR, tL, muR, muL, dl, muR2, muL2, dl2, tdR, tdL,
+                        m11, m12, q1, q2, m_G, a, r, b)
+        k2 = derivative(x + hs / 2 * k1[0], y + hs / 2 * k1[1], th + hs / 2 * k1[2],
+                        wR + hs / 2 * k1[3], wL + hs / 2 * k1[4], tR, tL, muR, muL, dl, muR2,
+                        muL2, dl2, tdR, tdL, m11, m12, q1, q2, m_G, a, r, b)
+        k3 = derivative(x + hs / 2 * k2[0], y + hs / 2 * k2[1], th + hs / 2 * k2[2],
+                        wR + hs / 2 * k2[3], wL + hs / 2 * k2[4], tR, tL, muR, muL, dl, muR2,
+                        muL2, dl2, tdR, tdL, m11, m12, q1, q2, m_G, a, r, b)
+        k4 = derivative(x + hs * k3[0], y + hs * k3[1], th + hs * k3[2], wR + hs * k3[3],
+                        wL + hs * k3[4], tR, tL, muR, muL, dl, muR2, muL2, dl2, tdR, tdL,
+                        m11, m12, q1, q2, m_G, a, r, b)
+        x += hs / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        y += hs / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        th += hs / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
+        wR += hs / 6 * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3])
+        wL += hs / 6 * (k1[4] + 2 * k2[4] + 2 * k3[4] + k4[4])
+    return x, y, th, wR, wL
+
+
+@njit(cache=True)
+def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float, yT: float,
+                 vxT: float, vyT: float, dR: float, dL: float,
+                 m11: float, m12: float, m_G: float, r: float, b: float,
+                 lam: float, vth: float, k: float, L: float, eps: float, phi: float
+                 ) -> tuple[float, float, float, float, float, float]:
+    """The sliding-mode law of eqs (9)-(32): (tau_R, tau_L, s_1, s_2, e_p1, e_p2).
+
+    x1 is the error of a look-ahead point L [m] on the body axis (x1 = e_p - [L, 0]); kappa uses
+    e_p of M (it is the same matrix for that point); |e_p1| in kappa is kept >= eps [m] with its
+    sign. x1' is estimated without the unmeasured slip: kappa nu + R(theta) p_T' (eq. 15 with the
+    slip terms of xi_1 dropped). d_hat = (dR, dL) is the adaptive term (0 for plain SMC);
+    phi > 0 replaces sgn(s) by sat(s / phi)."""
+    c, s_ = math.cos(th), math.sin(th)
+    ex, ey = xT - x, yT - y
+    e1 = c * ex + s_ * ey  # eq. (9)
+    e2 = -s_ * ex + c * ey
+    e1k = e1 if abs(e1) >= eps else (eps if e1 >= 0.0 else -eps)  # singularity guard
+    # eq. (15): kappa
+    k11 = (e2 / b - 1.0) * r / 2.0
+    k12 = -(e2 / b + 1.0) * r / 2.0
+    k21 = -e1k * r / (2.0 * b)
+    k22 = e1k * r / (2.0 * b)
+    # x1 and x1' (eq. 16 without the slip part of xi_1)
+    x11, x12 = e1 - L, e2
+    d11 = k11 * wR + k12 * wL + c * vxT + s_ * vyT
+    d12 = k21 * wR + k22 * wL - s_ * vxT + c * vyT
+    x21, x22 = d11 + lam * x11, d12 + lam * x12  # x2 = x1' + lambda x1
+    s1, s2 = vth * x11 + x21, vth * x12 + x22  # eq. (25)
+    # M^-1
+    det_m = m11 * m11 - m12 * m12
+    i11, i12 = m11 / det_m, -m12 / det_m
+    # B (eq. 8) with varpi estimated without slip: omega = r (phi_R' - phi_L') / (2 b)
+    bc = m_G * r * r / (2.0 * b) * (r * (wR - wL) / (2.0 * b))
+    # Z = kappa M^-1 (eq. 21)
+    z11 = k11 * i11 + k12 * i12
+    z12 = k11 * i12 + k12 * i11
+    z21 = k21 * i11 + k22 * i12
+    z22 = k21 * i12 + k22 * i11
+    # E1 = -kappa M^-1 B = -Z B, B = bc [[0, 1], [-1, 0]]
+    e1_11, e1_12 = z12 * bc, -z11 * bc
+    e1_21, e1_22 = z22 * bc, -z21 * bc
+    # kappa^-1
+    det_k = k11 * k22 - k12 * k21
+    ki11, ki12, ki21, ki22 = k22 / det_k, -k12 / det_k, -k21 / det_k, k11 / det_k
+    # E = E1 kappa^-1 (eq. 23)
+    E11 = e1_11 * ki11 + e1_12 * ki21
+    E12 = e1_11 * ki12 + e1_12 * ki22
+    E21 = e1_21 * ki11 + e1_22 * ki21
+    E22 = e1_21 * ki12 + e1_22 * ki22
+    # (vartheta I + E)(x2 - lambda x1) + d_hat + k sgn(s)
+    w1, w2 = x21 - lam * x11, x22 - lam * x12
+    if phi > 0.0:
+        g1, g2 = min(1.0, max(-1.0, s1 / phi)), min(1.0, max(-1.0, s2 / phi))
+    else:
+        g1 = 1.0 if s1 > 0 else (-1.0 if s1 < 0 else 0.0)
+        g2 = 1.0 if s2 > 0 else (-1.0 if s2 < 0 else 0.0)
+    v1 = (vth + E11) * w1 + E12 * w2 + dR + k * g1
+    v2 = E21 * w1 + (vth + E22) * w2 + dL + k * g2
+    # tau = -Z^-1 v (eq. 32), Z^-1 = M kappa^-1
+    det_z = z11 * z22 - z12 * z21
+    tR = -(z22 * v1 - z12 * v2) / det_z
+    tL = -(-z21 * v1 + z11 * v2) / det_z
+    return tR, tL, s1, s2, e1, e2

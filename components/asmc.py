@@ -1,0 +1,33 @@
+"""Adaptive sliding-mode controller (ASMC) of the paper, eqs (9)-(33), Table II gains.
+
+tau = -Z^-1 [(vartheta I + E)(x2 - lambda x1) + d_hat + k sgn(s)]   (eq. 32)
+d_hat' = eta s                                                       (eq. 33)
+with Z = kappa M^-1, E = -kappa M^-1 B kappa^-1 from the nominal model. How x2 is formed and how
+the singularity of kappa is handled: see `_tracking` (x1' without slip; look-ahead point L and a
+clamp of |e_p1|). d_hat is integrated exactly for s held over the step: d_hat += eta s h.
+"""
+from __future__ import annotations
+
+from twmr.components._tracking import TrackingController
+from twmr.core import Output, Parameter
+
+
+class AsmcController(TrackingController):
+    """ASMC, paper eqs (9)-(33): sliding-mode law with the adaptive estimate d_hat of eq. (33)."""
+
+    kind = "asmc"
+    eta = Parameter(7.0, min=0.0, description="adaptation gain, eq. (33)")
+    d_hat0 = Parameter((0.0, 0.0), size=2, description="initial adaptive estimate d_hat(0)")
+    d_hat = Output(size=2, description="adaptive estimate of d, eq. (33)")
+
+    def initialize(self) -> None:
+        self.d_hat = tuple(self.d_hat0)
+        super().initialize()
+
+    def adaptive_term(self) -> tuple[float, float]:
+        return self.d_hat
+
+    def do_step(self, t: float, h: float) -> None:
+        s1, s2 = self.s
+        d1, d2 = self.d_hat
+        self.d_hat = (d1 + self.eta * s1 * h, d2 + self.eta * s2 * h)  # eq. (33)

@@ -1,0 +1,74 @@
+"""The three-wheeled mobile robot with wheel slip: kinematics eqs (1)-(4), (11), dynamics eq. (8).
+
+State: pose of the rear-axle midpoint M (x_M, y_M, theta) and wheel speeds nu = (phi_R', phi_L').
+Inputs held over a step (zero-order hold); the model is integrated by classical RK4 with
+ceil(h / internal_step) equal substeps, compiled with numba (`_model.rk4`).
+
+Implemented exactly as printed in the paper (see ../shared/paper/NOTES.md): B has no factor a and
+m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta), y_G = y_M + a sin(theta)
+(eq. 4 minus eq. 11). `scale` multiplies every mass and inertia (m_G, m_W, I_G, I_D, I_W): the
+paper runs the plant at +25 % (scale 1.25) against the controller's nominal values.
+"""
+from __future__ import annotations
+
+import math
+
+from twmr.components._model import inertia, rk4
+from twmr.core import Component, Input, Output, Parameter, State
+
+
+class TwmrPlant(Component):
+    """TWMR with wheel slip and disturbance torque, paper eqs (1)-(8), (11); Table I defaults."""
+
+    kind = "twmr_plant"
+    a = Parameter(0.3, unit="m", min=0.0, description="distance M to G (Table I)")
+    I_G = Parameter(15.625, unit="kg.m2", min=0.0, description="platform inertia")
+    I_D = Parameter(0.0025, unit="kg.m2", min=0.0, description="wheel inertia, diameter axis")
+    I_W = Parameter(0.1, unit="kg.m2", min=0.0, description="wheel inertia, rotation axis")
+    r = Parameter(0.15, unit="m", min=1e-6, description="wheel radius")
+    b = Parameter(0.75, unit="m", min=1e-6, description="half track width (wheel to M)")
+    m_W = Parameter(1.0, unit="kg", min=0.0, description="mass of each wheel")
+    m_G = Parameter(30.0, unit="kg", min=1e-6, description="platform mass")
+    scale = Parameter(1.0, min=1e-6, description="factor on every mass and inertia")
+    internal_step = Parameter(1e-4, unit="s", min=1e-9, description="largest RK4 substep")
+
+    torque = Input(size=2, unit="N.m", description="wheel torques (tau_R, tau_L)")
+    slip_rate = Input(size=3, unit="m/s", description="(mu_R', mu_L', delta')")
+    slip_accel = Input(size=3, unit="m/s2", description="(mu_R'', mu_L'', delta'')")
+    disturbance = Input(size=2, unit="N.m", description="external disturbance tau_d")
+
+    pose = State((0.0, 0.0, 0.0), size=3, unit=("m", "m", "rad"), description="(x_M, y_M, theta)")
+    wheel_speed = State((0.0, 0.0), size=2, unit="rad/s", description="(phi_R', phi_L')")
+    com = Output(size=2, unit="m", description="centre of mass (x_G, y_G), eq. (4)")
+
+    def initialize(self) -> None:
+        k = self.scale
+        self.m11, self.m12, self.q1, self.q2 = inertia(
+            self.a, k * self.I_G, k * self.I_D, k * self.I_W, self.r, self.b, k * self.m_W,
+            k * self.m_G)
+        self.mG = k * self.m_G
+        self._com()
+
+    @property
+    def coefficients(self) -> tuple[float, ...]:
+        """(m11, m12, q1, q2, m_G, a, r, b) as used by the model, after `scale`."""
+        return (self.m11, self.m12, self.q1, self.q2, self.mG, self.a, self.r, self.b)
+
+    def _com(self) -> None:
+        x, y, th = self.pose
+        self.com = (x + self.a * math.cos(th), y + self.a * math.sin(th))
+
+    def do_step(self, t: float, h: float) -> None:
+        n = max(1, math.ceil(h / self.internal_step - 1e-9))
+        x, y, th = self.pose
+        wR, wL = self.wheel_speed
+        tR, tL = self.torque
+        muR, muL, dl = self.slip_rate
+        muR2, muL2, dl2 = self.slip_accel
+        tdR, tdL = self.disturbance
+        x, y, th, wR, wL = rk4(n, h / n, x, y, th, wR, wL, tR, tL, muR, muL, dl, muR2, muL2, dl2,
+                               tdR, tdL, self.m11, self.m12, self.q1, self.q2, self.mG, self.a,
+                               self.r, self.b)
+        self.pose = (x, y, th)
+        self.wheel_speed = (wR, wL)
+        self.com = (x + self.a * math.cos(th), y + self.a * math.sin(th))

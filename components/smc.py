@@ -1,0 +1,16 @@
+"""The plain sliding-mode controller the paper compares against (its ref. [53] is not given).
+
+What it is here: the same sliding surface s = vartheta x1 + x2 (eq. 25), the same equivalent
+control and switching term as eq. (32), with the adaptive term removed (d_hat = 0) — i.e. the
+ASMC with eta = 0. Same gains (Table II) and the same look-ahead/clamp remedy, so the comparison
+isolates the adaptation.
+"""
+from __future__ import annotations
+
+from twmr.components._tracking import TrackingController
+
+
+class SmcController(TrackingController):
+    """Sliding-mode controller without adaptation: eq. (32) with d_hat = 0."""
+
+    kind = "smc"
