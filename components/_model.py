@@ -57,8 +57,10 @@ def derivative(x: float, y: float, th: float, wR: float, wL: float,
 def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
         tR: float, tL: float, muR: float, muL: float, dl: float, muR2: float, muL2: float,
         dl2: float, tdR: float, tdL: float, m11: float, m12: float, q1: float, q2: float,
-        m_G: float, a: float, r: float, b: float) -> tuple[float, float, float, float, float]:
-    """`n` classical RK4 steps of size `hs` [s] with the inputs held (zero-order hold)."""
+        m_G: float, a: float, r: float, b: float
+        ) -> tuple[float, float, float, float, float, float, float]:
+    """`n` classical RK4 steps of size `hs` [s] with the inputs held (zero-order hold); returns
+    the new state and the centre of mass G (eq. 4 minus eq. 11: G = M + a (cos, sin))."""
     for _ in range(n):
         k1 = derivative(x, y, th, wR, wL, tR, tL, muR, muL, dl, muR2, muL2, dl2, tdR, tdL,
                         m11, m12, q1, q2, m_G, a, r, b)
@@ -76,7 +78,7 @@ def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
         th += hs / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
         wR += hs / 6 * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3])
         wL += hs / 6 * (k1[4] + 2 * k2[4] + 2 * k3[4] + k4[4])
-    return x, y, th, wR, wL
+    return x, y, th, wR, wL, x + a * math.cos(th), y + a * math.sin(th)
 
 
 @njit(cache=True)

@@ -53,6 +53,8 @@ class TrackingController(Component):
     def initialize(self) -> None:
         self.m11, self.m12, _, _ = inertia(self.a, self.I_G, self.I_D, self.I_W, self.r, self.b,
                                            self.m_W, self.m_G)
+        self._gains = (self.m11, self.m12, self.m_G, self.r, self.b, self.lam, self.vartheta,
+                       self.k, self.lookahead, self.eps_singular, self.phi)
         self.evaluate(self.start_time)
 
     def adaptive_term(self) -> tuple[float, float]:
@@ -60,14 +62,9 @@ class TrackingController(Component):
         return 0.0, 0.0
 
     def evaluate(self, t: float) -> None:
-        x, y, th = self.pose
-        wR, wL = self.wheel_speed
-        xT, yT = self.ref_position
-        vx, vy = self.ref_velocity
-        dR, dL = self.adaptive_term()
         tR, tL, s1, s2, e1, e2 = tracking_law(
-            x, y, th, wR, wL, xT, yT, vx, vy, dR, dL, self.m11, self.m12, self.m_G, self.r,
-            self.b, self.lam, self.vartheta, self.k, self.lookahead, self.eps_singular, self.phi)
+            *self.pose, *self.wheel_speed, *self.ref_position, *self.ref_velocity,
+            *self.adaptive_term(), *self._gains)
         lim = self.torque_limit
         if lim > 0.0:
             tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))

@@ -30,7 +30,7 @@ class TwmrPlant(Component):
     m_W = Parameter(1.0, unit="kg", min=0.0, description="mass of each wheel")
     m_G = Parameter(30.0, unit="kg", min=1e-6, description="platform mass")
     scale = Parameter(1.0, min=1e-6, description="factor on every mass and inertia")
-    internal_step = Parameter(1e-4, unit="s", min=1e-9, description="largest RK4 substep")
+    internal_step = Parameter(1e-3, unit="s", min=1e-9, description="largest RK4 substep")
 
     torque = Input(size=2, unit="N.m", description="wheel torques (tau_R, tau_L)")
     slip_rate = Input(size=3, unit="m/s", description="(mu_R', mu_L', delta')")
@@ -47,6 +47,8 @@ class TwmrPlant(Component):
             self.a, k * self.I_G, k * self.I_D, k * self.I_W, self.r, self.b, k * self.m_W,
             k * self.m_G)
         self.mG = k * self.m_G
+        self._coef = self.coefficients
+        self._h = 0.0
         self._com()
 
     @property
@@ -59,16 +61,12 @@ class TwmrPlant(Component):
         self.com = (x + self.a * math.cos(th), y + self.a * math.sin(th))
 
     def do_step(self, t: float, h: float) -> None:
-        n = max(1, math.ceil(h / self.internal_step - 1e-9))
-        x, y, th = self.pose
-        wR, wL = self.wheel_speed
-        tR, tL = self.torque
-        muR, muL, dl = self.slip_rate
-        muR2, muL2, dl2 = self.slip_accel
-        tdR, tdL = self.disturbance
-        x, y, th, wR, wL = rk4(n, h / n, x, y, th, wR, wL, tR, tL, muR, muL, dl, muR2, muL2, dl2,
-                               tdR, tdL, self.m11, self.m12, self.q1, self.q2, self.mG, self.a,
-                               self.r, self.b)
+        if h != self._h:  # substeps for this step size
+            self._n = max(1, math.ceil(h / self.internal_step - 1e-9))
+            self._hs, self._h = h / self._n, h
+        x, y, th, wR, wL, xg, yg = rk4(self._n, self._hs, *self.pose, *self.wheel_speed,
+                                       *self.torque, *self.slip_rate, *self.slip_accel,
+                                       *self.disturbance, *self._coef)
         self.pose = (x, y, th)
         self.wheel_speed = (wR, wL)
-        self.com = (x + self.a * math.cos(th), y + self.a * math.sin(th))
+        self.com = (xg, yg)

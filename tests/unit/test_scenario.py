@@ -62,6 +62,8 @@ def test_out_of_range_parameter() -> None:
 def test_parameter_with_unit_is_converted() -> None:
     system = loads(GOOD.replace("{height: 1.0, time: 0.1}", "{height: 1.0, time: 100 ms}"))
     assert system.components["ref"].time == pytest.approx(0.1)
+    system = loads(GOOD.replace("{height: 1.0, time: 0.1}", "{height: 1.0, time: 1e-1}"))
+    assert system.components["ref"].time == 0.1  # YAML 1.1 reads 1e-1 as text
 
 
 def test_missing_port_output_to_output_and_double_driver() -> None:

@@ -145,6 +145,10 @@ def generate(system: System, algorithm: str, record: list[tuple[str, str]], deci
         return out
 
     mult = {name: system.multiple(name) for name in order}
+    # outputs that are read (wired or recorded): a NaN elsewhere cannot spread or be seen
+    watched = list(dict.fromkeys([(c.src, c.src_port) for c in system.connections] +
+                                 [s for s in record if comps[s[0]].variables[s[1]].kind
+                                  in ("output", "state")]))
     w = _Writer()
     w.add(0, "def run(n0, n1, rows):")
     w.add(1, "for n in range(n0, n1):")
@@ -152,7 +156,7 @@ def generate(system: System, algorithm: str, record: list[tuple[str, str]], deci
     _point(w, 2, order, comps, mult, ids, algorithm, system.connections, assignments,
            port_expr)
     if check_finite:
-        _finite_check(w, 2, order, comps, port_expr)
+        _finite_check(w, 2, watched, comps, port_expr)
     _record(w, 2, record, decimation, comps, port_expr)
     for name in order:
         i = ids[name]
@@ -172,7 +176,7 @@ def generate(system: System, algorithm: str, record: list[tuple[str, str]], deci
     _point(w, 1, order, comps, {k: 1 for k in order}, ids, algorithm, system.connections,
            assignments, port_expr)
     if check_finite:
-        _finite_check(w, 1, order, comps, port_expr)
+        _finite_check(w, 1, watched, comps, port_expr)
     _record(w, 1, record, 1, comps, port_expr)
     source = "\n".join(w.lines) + "\n"
     env.update(start=exp.start, h=exp.step, nonfinite=_nonfinite, pace=pace)
@@ -215,16 +219,16 @@ def _point(w: _Writer, ind: int, order: list[str], comps: dict[str, Any], mult: 
             w.add(body, f"ev{ids[name]}(t)", (name, "evaluate"))
 
 
-def _finite_check(w: _Writer, ind: int, order: list[str], comps: dict[str, Any],
+def _finite_check(w: _Writer, ind: int, watched: list[tuple[str, str]], comps: dict[str, Any],
                   port_expr: Callable[[str, str], str]) -> None:
-    """One sum over every Real output; a NaN or Inf anywhere makes `x - x` non-zero."""
+    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero."""
     terms = []
-    for name in order:
-        for port, var in comps[name].outputs.items():
-            if var.type != "Real":
-                continue
-            terms.append(f"sum({port_expr(name, port)})" if var.size is not None
-                         else port_expr(name, port))
+    for name, port in watched:
+        var = comps[name].variables[port]
+        if var.type != "Real":
+            continue
+        terms.append(f"sum({port_expr(name, port)})" if var.size is not None
+                     else port_expr(name, port))
     if terms:
         w.add(ind, "x = " + " + ".join(terms))
         w.add(ind, "if x - x != 0.0: nonfinite(t)")

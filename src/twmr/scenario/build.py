@@ -224,6 +224,10 @@ class _Builder:
         """A number with a unit ('30 cm') converted to the variable's unit; other values as is."""
         if var.type == STRING or not isinstance(value, str):
             return value
+        try:
+            return float(value)  # YAML 1.1 reads '1e-4' (no dot) as text
+        except ValueError:
+            pass
         m = _QUANTITY.match(value)
         if not m:
             raise ValueError(f"cannot read '{value}' as a number with a unit")
