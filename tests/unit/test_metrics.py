@@ -16,12 +16,13 @@ def test_settling_time_of_an_exponential() -> None:
     assert settling_time(t, e, 0.05) == pytest.approx(math.log(20.0), abs=1e-4)
 
 
-def test_peak_error_is_the_overshoot_after_the_first_crossing() -> None:
+def test_peak_error_excludes_the_initial_approach() -> None:
     t = np.linspace(0.0, 10.0, 100001)
-    e = np.exp(-0.5 * t) * np.cos(2.0 * t)  # first crossing at pi/4; next extremum at atan...
-    expected = np.max(np.abs(e[t > math.pi / 4]))
-    assert peak_error(e) == pytest.approx(expected)
-    assert peak_error(np.exp(-t)) == 0.0
+    e = np.exp(-0.5 * t) * np.cos(2.0 * t)
+    first_in = np.argmax(np.abs(e) <= 0.15)
+    assert peak_error(e, 0.15) == pytest.approx(np.max(np.abs(e[first_in:])))
+    assert peak_error(e, 0.15) < 0.5  # the initial 1.0 is not counted
+    assert peak_error(2.0 + np.sin(t), 0.15) == pytest.approx(3.0, abs=1e-6)  # never enters
 
 
 def test_mse_and_column_lookup() -> None:
