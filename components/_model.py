@@ -28,7 +28,7 @@ def inertia(a: float, I_G: float, I_D: float, I_W: float, r: float, b: float, m_
     return m11, m12, q1, q2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def derivative(x: float, y: float, th: float, wR: float, wL: float,
                tR: float, tL: float, muR: float, muL: float, dl: float,
                muR2: float, muL2: float, dl2: float, tdR: float, tdL: float,
@@ -53,7 +53,7 @@ def derivative(x: float, y: float, th: float, wR: float, wL: float,
     return dx, dy, varpi, (m11 * fR - m12 * fL) / det, (m11 * fL - m12 * fR) / det
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
         tR: float, tL: float, muR: float, muL: float, dl: float, muR2: float, muL2: float,
         dl2: float, tdR: float, tdL: float, m11: float, m12: float, q1: float, q2: float,
@@ -81,7 +81,7 @@ def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
     return x, y, th, wR, wL, x + a * math.cos(th), y + a * math.sin(th)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float, yT: float,
                  vxT: float, vyT: float, dR: float, dL: float,
                  m11: float, m12: float, m_G: float, r: float, b: float,

@@ -31,7 +31,7 @@ def test_mat_file_is_readable_by_scipy_with_units(tmp_path) -> None:
     save_mat(data, units, tmp_path / "r.mat")
     m = scipy.io.loadmat(tmp_path / "r.mat")
     np.testing.assert_array_equal(np.ravel(m["i_y"]), data["i.y"])
-    assert [str(np.ravel(u)[0]) for u in np.ravel(m["units"])][0] == "s"
+    assert [str(np.ravel(u)[0]) if np.size(u) else "" for u in np.ravel(m["units"])][0] == "s"
     back, _ = load_result(tmp_path / "r.mat")
     np.testing.assert_array_equal(back["s.y"], data["s.y"])
 

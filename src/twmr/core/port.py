@@ -20,11 +20,12 @@ class Variable:
     """Base descriptor; `kind` is 'input', 'output', 'parameter' or 'state'.
 
     size None is a scalar, n > 0 a vector of n elements, 0 a vector of any length (nested lists,
-    e.g. a matrix given row by row, are flattened row-major)."""
+    e.g. a matrix given row by row, are flattened row-major). unit '' means unspecified (generic
+    blocks): it connects to any unit without conversion; '1' means dimensionless."""
 
     start: Any = None
     size: int | None = None
-    unit: str | tuple[str, ...] = "1"
+    unit: str | tuple[str, ...] = ""
     type: str = REAL
     min: float | None = None
     max: float | None = None

@@ -151,7 +151,7 @@ class _Builder:
                 var = lookup(spec["kind"]).declared().get(name)
                 if var is not None and var.kind in ("state", "input"):
                     section = "initial"
-            except (KeyError, ImportError):
+            except Exception:  # noqa: BLE001 - unknown kinds are reported when components are built
                 pass
             spec.setdefault(section, {})[name] = parsed
             self.lines.lines[("components", comp, section, name)] = 0
@@ -178,9 +178,9 @@ class _Builder:
             try:
                 comp = cls.create(name, self.base_dir, **construction)
             except CosimError as err:
-                self.problems.append(Problem(self.at("components", name), str(err),
-                                             "fix the construction parameters "
-                                             f"({', '.join(cls.construction_parameters)})."))
+                where = next((("components", name, "parameters", k) for k in construction),
+                             ("components", name))
+                self.problems.append(Problem(self.at(*where), str(err)))
                 continue
             except (TypeError, ValueError, OSError) as err:
                 self.problems.append(Problem(self.at("components", name),

@@ -107,6 +107,9 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
     gains = []
     for i, j in zip(sidx, didx):
         su, du = a.element_unit(i), b.element_unit(j)
+        if not su or not du:  # unspecified on one side (a generic block): no check, no scale
+            gains.append((1.0, 0.0))
+            continue
         try:
             gains.append(conversion(su, du))
         except UnitError:

@@ -1,0 +1,317 @@
+"""`FmuComponent`: an FMU (FMI 2.0 or 3.0 co-simulation) as a component, through fmpy.
+
+Ports come from the modelDescription: causality input/output -> `Input`/`Output`, parameters
+(fixed or tunable) -> `Parameter`, with type, unit (the variable's or its declaredType's), start,
+min/max and description. Modelica array names `x[1]..x[n]` are grouped into a vector port `x` of
+size n. Direct feedthrough comes from ModelStructure (an output without dependency information
+depends on every input, as the standard says).
+
+Each step is one set call per type for all inputs, `doStep`, and one get call for all outputs.
+Every FMI call that fails raises `FmuError` naming the instance, the FMU, the call and the time.
+"""
+from __future__ import annotations
+
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from twmr.core.component import Component
+from twmr.core.errors import FmuError
+from twmr.core.port import BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, Variable
+
+_ARRAY = re.compile(r"^(.*)\[(\d+)\]$")
+_TYPES = {"Real": REAL, "Float64": REAL, "Float32": REAL, "Integer": INTEGER, "Int32": INTEGER,
+          "Int64": INTEGER, "Int16": INTEGER, "Int8": INTEGER, "UInt32": INTEGER,
+          "UInt16": INTEGER, "UInt8": INTEGER, "UInt64": INTEGER, "Enumeration": INTEGER,
+          "Boolean": BOOLEAN, "String": STRING}
+
+
+@dataclass
+class _Port:
+    """One port and the FMU variables behind it (value references, in element order)."""
+
+    name: str
+    kind: str
+    type: str
+    vrs: list[int]
+    scalar: bool
+
+
+def _unit(v: Any) -> str:
+    unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
+    return unit or ""
+
+
+def _start(v: Any, type_: str) -> Any:
+    raw = getattr(v, "start", None)
+    if raw is None:
+        return None
+    if type_ == STRING:
+        return str(raw)
+    if type_ == BOOLEAN:
+        return str(raw).strip().lower() in ("true", "1")
+    try:
+        return float(raw) if type_ == REAL else int(float(raw))
+    except ValueError:
+        return None
+
+
+def read_description(path: Path, instance: str = "fmu") -> Any:
+    """fmpy's ModelDescription of `path`, with every failure as an FmuError."""
+    from fmpy import read_model_description
+
+    if not path.exists():
+        raise FmuError(instance, None, f"FMU file '{path}' not found. Fix: check `path:` (relative "
+                       f"paths are taken from the scenario's folder).")
+    try:
+        md = read_model_description(str(path), validate=False)
+    except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds (zip, XML, schema)
+        raise FmuError(instance, None, f"'{path}' is not a readable FMU ({type(exc).__name__}: "
+                       f"{exc}). Fix: check the file is an FMU (a zip with modelDescription.xml)."
+                       ) from None
+    if md.fmiVersion.startswith("1."):
+        raise FmuError(instance, None, f"'{path}' is an FMI 1.0 FMU, which is not supported. Fix: "
+                       f"export it as FMI 2.0 or 3.0 co-simulation.")
+    if md.coSimulation is None:
+        raise FmuError(instance, None, f"'{path}' is a model-exchange-only FMU; only co-simulation "
+                       f"FMUs run here so far. Fix: export it with the co-simulation interface.")
+    return md
+
+
+def ports_of(md: Any) -> tuple[list[_Port], dict[str, Variable]]:
+    """Ports (grouped arrays) and their Variable descriptors from a ModelDescription."""
+    groups: dict[tuple[str, str], list[tuple[int, Any]]] = {}
+    order: list[tuple[str, str]] = []
+    for v in md.modelVariables:
+        if v.causality == "input":
+            kind = "input"
+        elif v.causality == "output":
+            kind = "output"
+        elif v.causality == "parameter" and v.variability in ("fixed", "tunable"):
+            kind = "parameter"
+        else:
+            continue
+        m = _ARRAY.match(v.name)
+        key = (m.group(1), kind) if m else (v.name, kind)
+        idx = int(m.group(2)) if m else 0
+        if key not in groups:
+            groups[key] = []
+            order.append(key)
+        groups[key].append((idx, v))
+    ports: list[_Port] = []
+    variables: dict[str, Variable] = {}
+    inputs_by_var: dict[int, str] = {}
+    for key in order:
+        name, kind = key
+        items = sorted(groups[key], key=lambda x: x[0])
+        scalar = len(items) == 1 and items[0][0] == 0
+        if not scalar and [i for i, _ in items] != list(range(1, len(items) + 1)):
+            # not a complete 1..n array: keep every element as its own scalar port
+            for i, v in items:
+                _add(ports, variables, f"{name}_{i}", kind, [v], True)
+            continue
+        _add(ports, variables, name, kind, [v for _, v in items], scalar)
+        if kind == "input":
+            for _, v in items:
+                inputs_by_var[id(v)] = name
+    all_inputs = tuple(p.name for p in ports if p.kind == "input")
+    deps: dict[str, set[str]] = {}
+    for unknown in getattr(md, "outputs", []) or []:
+        m = _ARRAY.match(unknown.variable.name)
+        port = m.group(1) if m else unknown.variable.name
+        if unknown.dependencies is None:
+            deps.setdefault(port, set()).update(all_inputs)
+        else:
+            deps.setdefault(port, set()).update(
+                inputs_by_var[id(d)] for d in unknown.dependencies if id(d) in inputs_by_var)
+    for p in ports:
+        if p.kind == "output":
+            var = variables[p.name]
+            assert isinstance(var, Output)
+            var.depends_on = tuple(sorted(deps.get(p.name, set(all_inputs))))
+    return ports, variables
+
+
+def _add(ports: list[_Port], variables: dict[str, Variable], name: str, kind: str,
+         vs: list[Any], scalar: bool) -> None:
+    type_ = _TYPES.get(vs[0].type, REAL)
+    units = tuple(_unit(v) for v in vs)
+    starts = [_start(v, type_) for v in vs]
+    cls = {"input": Input, "output": Output, "parameter": Parameter}[kind]
+    kwargs: dict[str, Any] = {"type": type_, "description": vs[0].description or ""}
+    if type_ != STRING:
+        kwargs["unit"] = units[0] if len(set(units)) == 1 else units
+    if scalar:
+        start = starts[0]
+        if start is None:
+            start = "" if type_ == STRING else (False if type_ == BOOLEAN else 0)
+        var = cls(start=start, **kwargs)
+    else:
+        kwargs["size"] = len(vs)
+        var = cls(start=tuple(0 if s is None else s for s in starts), **kwargs)
+    var.name = name
+    variables[name] = var
+    ports.append(_Port(name, kind, type_, [v.valueReference for v in vs], scalar))
+
+
+class FmuComponent(Component):
+    """An FMU (FMI 2.0/3.0 co-simulation) stepped through fmpy; ports from its modelDescription."""
+
+    kind = "fmu"
+    construction_parameters = ("path",)
+
+    def __init__(self, name: str = "", path: str | Path = "", **parameters: Any):
+        self.path = Path(path)
+        self.md = read_description(self.path, name or "fmu")
+        self.ports, self._variables = ports_of(self.md)
+        self.fmi3 = self.md.fmiVersion.startswith("3.")
+        self._slave: Any = None
+        self._unzipped: str | None = None
+        self._t = 0.0
+        super().__init__(name)
+        self.variables = dict(self._variables)
+        for var in self.variables.values():
+            self.__dict__[var.name] = var.start
+        for key, value in parameters.items():
+            self.set_parameter(key, value)
+
+    @classmethod
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> "FmuComponent":
+        path = construction.get("path")
+        if not path:
+            raise FmuError(name, None, "a component of kind 'fmu' needs `path:` under "
+                           "`parameters:`. Fix: give the FMU file, e.g. path: fmus/plant.fmu")
+        p = Path(str(path))
+        return cls(name, p if p.is_absolute() else base_dir / p)
+
+    # -- FMI calls --------------------------------------------------------------------------
+    def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
+        try:
+            return fn(*args)
+        except Exception as exc:  # noqa: BLE001 - fmpy's FMICallException and OSError alike
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
+                           f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
+                           f"inputs and parameters at this time.") from exc
+
+    def _accessors(self, type_: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
+        s = self._slave
+        if self.fmi3:
+            return {REAL: (s.getFloat64, s.setFloat64), INTEGER: (s.getInt32, s.setInt32),
+                    BOOLEAN: (s.getBoolean, s.setBoolean), STRING: (s.getString, s.setString)
+                    }[type_]
+        return {REAL: (s.getReal, s.setReal), INTEGER: (s.getInteger, s.setInteger),
+                BOOLEAN: (s.getBoolean, s.setBoolean), STRING: (s.getString, s.setString)}[type_]
+
+    def setup(self, start: float, stop: float | None) -> None:
+        super().setup(start, stop)
+        from fmpy import extract
+
+        self._t = start
+        self._unzipped = self._call("extract", extract, str(self.path),
+                                    tempfile.mkdtemp(prefix="twmr-fmu-"))
+        cs = self.md.coSimulation
+        if self.fmi3:
+            from fmpy.fmi3 import FMU3Slave
+
+            self._slave = FMU3Slave(guid=self.md.instantiationToken,
+                                    unzipDirectory=self._unzipped,
+                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
+            self._call("fmi3InstantiateCoSimulation", self._slave.instantiate)
+        else:
+            from fmpy.fmi2 import FMU2Slave
+
+            self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self._unzipped,
+                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
+            self._call("fmi2Instantiate", self._slave.instantiate)
+            self._call("fmi2SetupExperiment", self._slave.setupExperiment, None, start)
+
+    def initialize(self) -> None:
+        s = self._slave
+        if self.fmi3:
+            self._call("fmi3EnterInitializationMode", s.enterInitializationMode, None,
+                       self.start_time)
+        else:
+            self._call("fmi2EnterInitializationMode", s.enterInitializationMode)
+        self._write([p for p in self.ports if p.kind in ("parameter", "input")])
+        self._call("ExitInitializationMode", s.exitInitializationMode)
+        self._inputs = [p for p in self.ports if p.kind == "input"]
+        self._outputs = [p for p in self.ports if p.kind == "output"]
+        self._plan = self._group(self._inputs), self._group(self._outputs)
+        self._read()
+
+    def _group(self, ports: list[_Port]) -> list[tuple[str, list[int], list[_Port]]]:
+        """Ports by type, with their value references concatenated: one FMI call per type."""
+        by: dict[str, list[_Port]] = {}
+        for p in ports:
+            by.setdefault(p.type, []).append(p)
+        return [(t, [vr for p in ps for vr in p.vrs], ps) for t, ps in by.items()]
+
+    def _write(self, ports: list[_Port]) -> None:
+        d = self.__dict__
+        for type_, vrs, ps in self._group(ports):
+            values: list[Any] = []
+            for p in ps:
+                v = d[p.name]
+                values.extend((v,) if p.scalar else v)
+            if type_ == STRING:
+                values = [str(v).encode() if not self.fmi3 else str(v) for v in values]
+            self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
+
+    def _write_inputs(self) -> None:
+        d = self.__dict__
+        for type_, vrs, ps in self._plan[0]:
+            values: list[Any] = []
+            for p in ps:
+                v = d[p.name]
+                values.extend((v,) if p.scalar else v)
+            self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
+
+    def _read(self) -> None:
+        d = self.__dict__
+        for type_, vrs, ps in self._plan[1]:
+            values = self._call(f"get {type_}", self._accessors(type_)[0], vrs)
+            k = 0
+            for p in ps:
+                n = len(p.vrs)
+                d[p.name] = values[k] if p.scalar else tuple(values[k:k + n])
+                k += n
+
+    def evaluate(self, t: float) -> None:
+        self._t = t
+        self._write_inputs()
+        self._read()
+
+    def do_step(self, t: float, h: float) -> None:
+        self._t = t
+        self._write_inputs()
+        result = self._call("doStep", self._slave.doStep, t, h)
+        if self.fmi3 and result is not None and result[1]:
+            raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
+                           f"simulation (fmi3DoStep terminateSimulation).")
+        self._read()
+
+    def get_state(self) -> Any:
+        if not getattr(self.md.coSimulation, "canGetAndSetFMUstate", False):
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}' cannot save its state "
+                           f"(canGetAndSetFMUstate is false).")
+        return self._call("getFMUState", self._slave.getFMUState), dict(self.__dict__)
+
+    def set_state(self, state: Any) -> None:
+        fmu_state, values = state
+        self._call("setFMUState", self._slave.setFMUState, fmu_state)
+        self.__dict__.update(values)
+
+    def terminate(self) -> None:
+        if self._slave is not None:
+            try:
+                self._slave.terminate()
+                self._slave.freeInstance()
+            except Exception:  # noqa: BLE001 - terminating after an error must not mask it
+                pass
+            self._slave = None
+        if self._unzipped:
+            shutil.rmtree(self._unzipped, ignore_errors=True)
+            self._unzipped = None
