@@ -24,7 +24,8 @@ def lag2(tmp_path_factory) -> str:
 def test_ports_units_and_feedthrough_from_model_description(lag2) -> None:
     c = FmuComponent("lag", lag2)
     assert c.variables["u"].size == 2 and c.variables["u"].unit == "m"
-    assert c.variables["y"].kind == "output" and c.variables["y"].depends_on == ()
+    assert c.variables["y"].kind == "state"  # an output with initial="exact": its start is settable
+    assert c.variables["y"].depends_on == ()
     assert c.variables["T"].kind == "parameter" and c.variables["T"].unit == "s"
     assert c.T == 0.5 and c.k == 2.0
     assert not c.has_feedthrough

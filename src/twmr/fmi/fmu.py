@@ -20,7 +20,9 @@ from typing import Any, Callable
 
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
-from twmr.core.port import BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, Variable
+from twmr.core.port import (
+    BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, State, Variable,
+)
 
 _ARRAY = re.compile(r"^(.*)\[(\d+)\]$")
 _TYPES = {"Real": REAL, "Float64": REAL, "Float32": REAL, "Integer": INTEGER, "Int32": INTEGER,
@@ -89,7 +91,7 @@ def ports_of(md: Any) -> tuple[list[_Port], dict[str, Variable]]:
         if v.causality == "input":
             kind = "input"
         elif v.causality == "output":
-            kind = "output"
+            kind = "state" if getattr(v, "initial", None) == "exact" else "output"
         elif v.causality == "parameter" and v.variability in ("fixed", "tunable"):
             kind = "parameter"
         else:
@@ -122,16 +124,19 @@ def ports_of(md: Any) -> tuple[list[_Port], dict[str, Variable]]:
     for unknown in getattr(md, "outputs", []) or []:
         m = _ARRAY.match(unknown.variable.name)
         port = m.group(1) if m else unknown.variable.name
+        if getattr(unknown.variable, "initial", None) == "exact":
+            continue  # a state: never depends directly on inputs
         if unknown.dependencies is None:
             deps.setdefault(port, set()).update(all_inputs)
         else:
             deps.setdefault(port, set()).update(
                 inputs_by_var[id(d)] for d in unknown.dependencies if id(d) in inputs_by_var)
     for p in ports:
-        if p.kind == "output":
+        if p.kind in ("output", "state"):
             var = variables[p.name]
             assert isinstance(var, Output)
-            var.depends_on = tuple(sorted(deps.get(p.name, set(all_inputs))))
+            var.depends_on = () if p.kind == "state" else \
+                tuple(sorted(deps.get(p.name, set(all_inputs))))
     return ports, variables
 
 
@@ -140,7 +145,7 @@ def _add(ports: list[_Port], variables: dict[str, Variable], name: str, kind: st
     type_ = _TYPES.get(vs[0].type, REAL)
     units = tuple(_unit(v) for v in vs)
     starts = [_start(v, type_) for v in vs]
-    cls = {"input": Input, "output": Output, "parameter": Parameter}[kind]
+    cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter}[kind]
     kwargs: dict[str, Any] = {"type": type_, "description": vs[0].description or ""}
     if type_ != STRING:
         kwargs["unit"] = units[0] if len(set(units)) == 1 else units
@@ -235,10 +240,10 @@ class FmuComponent(Component):
                        self.start_time)
         else:
             self._call("fmi2EnterInitializationMode", s.enterInitializationMode)
-        self._write([p for p in self.ports if p.kind in ("parameter", "input")])
+        self._write([p for p in self.ports if p.kind in ("parameter", "input", "state")])
         self._call("ExitInitializationMode", s.exitInitializationMode)
         self._inputs = [p for p in self.ports if p.kind == "input"]
-        self._outputs = [p for p in self.ports if p.kind == "output"]
+        self._outputs = [p for p in self.ports if p.kind in ("output", "state")]
         self._plan = self._group(self._inputs), self._group(self._outputs)
         self._read()
 
@@ -257,7 +262,7 @@ class FmuComponent(Component):
                 v = d[p.name]
                 values.extend((v,) if p.scalar else v)
             if type_ == STRING:
-                values = [str(v).encode() if not self.fmi3 else str(v) for v in values]
+                values = [str(v) for v in values]
             self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
 
     def _write_inputs(self) -> None:
@@ -297,18 +302,24 @@ class FmuComponent(Component):
         if not getattr(self.md.coSimulation, "canGetAndSetFMUstate", False):
             raise FmuError(self.name, self._t, f"FMU '{self.path.name}' cannot save its state "
                            f"(canGetAndSetFMUstate is false).")
-        return self._call("getFMUState", self._slave.getFMUState), dict(self.__dict__)
+        get = getattr(self._slave, "getFMUState", None) or self._slave.getFMUstate
+        return self._call("getFMUstate", get), dict(self.__dict__)
 
     def set_state(self, state: Any) -> None:
         fmu_state, values = state
-        self._call("setFMUState", self._slave.setFMUState, fmu_state)
+        set_ = getattr(self._slave, "setFMUState", None) or self._slave.setFMUstate
+        self._call("setFMUstate", set_, fmu_state)
         self.__dict__.update(values)
 
     def terminate(self) -> None:
         if self._slave is not None:
             try:
-                self._slave.terminate()
-                self._slave.freeInstance()
+                if not (self.md.generationTool or "").startswith("PythonFMU"):
+                    self._slave.terminate()
+                    self._slave.freeInstance()
+                # pythonfmu 0.7 FMUs run in this interpreter; their fmi2Terminate/FreeInstance
+                # release Python objects they do not own and crash a later garbage collection
+                # (seen with several instances in one process), so they are left to process exit
             except Exception:  # noqa: BLE001 - terminating after an error must not mask it
                 pass
             self._slave = None

@@ -2,11 +2,12 @@
 
 At every communication point t_n = start + n h (n an integer; h the base step):
 
-- **Gauss-Seidel**: components are visited in the execution order (topological over the direct
-  feedthrough edges). Each acting component gets its inputs from the outputs as they are now, then
-  `evaluate(t_n)` recomputes its feedthrough outputs, so a chain of feedthrough blocks sees every
-  value at the same t_n: exact for a static cascade. Then every acting component runs
-  `do_step(t_n, m h)`.
+- **Gauss-Seidel**: components with direct feedthrough are visited in the execution order
+  (topological over the feedthrough edges); each gets its inputs from the outputs as they are now,
+  then `evaluate(t_n)` recomputes its feedthrough outputs, so a chain of feedthrough blocks sees
+  every value at the same t_n: exact for a static cascade. Then the components without
+  feedthrough get their inputs, so every input holds its source's value at t_n. Then every acting
+  component runs `do_step(t_n, m h)`.
 - **Jacobi**: every input is taken from one snapshot of the outputs taken at t_n before any
   evaluation; feedthrough outputs are therefore those computed at the previous point, one step late
   along each feedthrough edge. The order of calls does not matter (the components could run in
@@ -204,7 +205,10 @@ def _point(w: _Writer, ind: int, order: list[str], comps: dict[str, Any], mult: 
 
         def source_of(c: Connection) -> str:
             return snap[(c.src, c.src_port)]
-    for name in order:
+    # feedthrough components first, in order, each reading the values just computed; then the
+    # inputs of the others, which therefore see every output at t whatever their place
+    late = [n for n in order if not comps[n].has_feedthrough]
+    for name in [n for n in order if comps[n].has_feedthrough] + late:
         lines = assignments(name, source_of)
         ev = comps[name].has_feedthrough
         if not lines and not ev:

@@ -45,7 +45,7 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
     Inst *i = (Inst *)c;
     for (size_t j = 0; j < n; j++) {
-        if (vr[j] >= NV || vr[j] >= 4) return bad_vr(i);
+        if (vr[j] >= NV) return bad_vr(i); /* outputs: initial="exact", settable before init */
         if (vr[j] == 1 && !(value[j] > 0)) return fmi2Error; /* T must be positive */
         i->v[vr[j]] = value[j];
     }
