@@ -1,0 +1,144 @@
+"""ODrive "CAN Simple" frames: pure encode/decode, no I/O, SI units at the edges.
+
+11-bit identifiers are node_id << 5 | cmd_id. The per-period path uses precompiled `struct`
+formats (cantools costs ~8 us a frame); `check_layout` verifies those formats against the DBC of
+the firmware in use (0.5.x and 0.6.x differ in the heartbeat) with cantools at start-up.
+
+Units: the drive works in motor turns (rev, rev/s) and motor N.m; the ports are wheel rad, rad/s
+and wheel N.m, through the gear ratio N (motor turns per wheel turn).
+"""
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+# command ids (both firmware lines)
+HEARTBEAT, ESTOP, SET_AXIS_STATE, GET_ENCODER_ESTIMATES = 0x01, 0x02, 0x07, 0x09
+SET_CONTROLLER_MODE, SET_INPUT_TORQUE, SET_LIMITS, CLEAR_ERRORS = 0x0B, 0x0E, 0x0F, 0x18
+# axis states and modes
+AXIS_IDLE, AXIS_CLOSED_LOOP = 1, 8
+CONTROL_TORQUE, INPUT_PASSTHROUGH = 1, 1
+
+_F32 = struct.Struct("<f4x")  # the DBC gives these frames 8 bytes
+_2F32 = struct.Struct("<ff")
+_U32 = struct.Struct("<I4x")
+_2U32 = struct.Struct("<II")
+_HEARTBEAT = {"0.5": struct.Struct("<IBBBB"), "0.6": struct.Struct("<IBBBx")}
+DBC = {"0.5": "odrive-cansimple_v0.5.6.dbc", "0.6": "odrive-cansimple-0.6.10.dbc"}
+# axis error bits that differ between the firmware lines (from the DBCs' value tables)
+WATCHDOG_TIMER_EXPIRED = {"0.5": 0x800, "0.6": 0x1000000}
+ESTOP_REQUESTED = {"0.5": 0x4000, "0.6": 0x2000000}
+TWO_PI = 2.0 * math.pi
+
+
+def can_id(node: int, cmd: int) -> int:
+    """Arbitration id of command `cmd` for axis `node`."""
+    return (node << 5) | cmd
+
+
+def split_id(arbitration_id: int) -> tuple[int, int]:
+    """(node, cmd) of an arbitration id."""
+    return arbitration_id >> 5, arbitration_id & 0x1F
+
+
+@dataclass(frozen=True)
+class Heartbeat:
+    """Axis error bits, axis state, and (0.6) procedure result."""
+
+    axis_error: int
+    axis_state: int
+    extra: int = 0
+
+
+def firmware_line(version: str) -> str:
+    """'0.6.10' -> '0.6'; only 0.5 and 0.6 are known."""
+    line = ".".join(str(version).split(".")[:2])
+    if line not in DBC:
+        raise ValueError(f"ODrive firmware {version!r} is not supported (use 0.5.x or 0.6.x)")
+    return line
+
+
+def dbc_path(version: str) -> Path:
+    """The DBC shipped for this firmware line."""
+    return Path(str(resources.files("twmr.hw").joinpath("data", DBC[firmware_line(version)])))
+
+
+def encode_torque(node: int, wheel_torque: float, gear: float) -> tuple[int, bytes]:
+    """Set_Input_Torque: wheel torque [N.m] -> motor torque [N.m] = wheel / N."""
+    return can_id(node, SET_INPUT_TORQUE), _F32.pack(wheel_torque / gear)
+
+
+def decode_torque(data: bytes, gear: float) -> float:
+    """Wheel torque [N.m] of a Set_Input_Torque payload."""
+    return _F32.unpack_from(data)[0] * gear
+
+
+def encode_axis_state(node: int, state: int) -> tuple[int, bytes]:
+    return can_id(node, SET_AXIS_STATE), _U32.pack(state)
+
+
+def encode_controller_mode(node: int, control: int = CONTROL_TORQUE,
+                           input_mode: int = INPUT_PASSTHROUGH) -> tuple[int, bytes]:
+    return can_id(node, SET_CONTROLLER_MODE), _2U32.pack(control, input_mode)
+
+
+def encode_encoder(node: int, wheel_angle: float, wheel_speed: float,
+                   gear: float) -> tuple[int, bytes]:
+    """Get_Encoder_Estimates from wheel angle [rad] and speed [rad/s] (motor rev, rev/s)."""
+    return can_id(node, GET_ENCODER_ESTIMATES), _2F32.pack(wheel_angle * gear / TWO_PI,
+                                                            wheel_speed * gear / TWO_PI)
+
+
+def decode_encoder(data: bytes, gear: float) -> tuple[float, float]:
+    """(wheel angle [rad], wheel speed [rad/s]) of a Get_Encoder_Estimates payload."""
+    pos, vel = _2F32.unpack_from(data)
+    return pos * TWO_PI / gear, vel * TWO_PI / gear
+
+
+def encode_heartbeat(node: int, hb: Heartbeat, version: str) -> tuple[int, bytes]:
+    """Heartbeat: 0.5.x carries motor/encoder/controller error flags after the state, 0.6.x the
+    procedure result and the trajectory-done flag."""
+    line = firmware_line(version)
+    tail = (hb.extra, 0, 0) if line == "0.5" else (hb.extra, 0)
+    return can_id(node, HEARTBEAT), _HEARTBEAT[line].pack(hb.axis_error, hb.axis_state, *tail)
+
+
+def error_bit(name: str, version: str) -> int:
+    """An axis error bit ('watchdog' | 'estop') for the firmware line."""
+    table = {"watchdog": WATCHDOG_TIMER_EXPIRED, "estop": ESTOP_REQUESTED}[name]
+    return table[firmware_line(version)]
+
+
+def decode_heartbeat(data: bytes, version: str) -> Heartbeat:
+    values = _HEARTBEAT[firmware_line(version)].unpack_from(data)
+    return Heartbeat(values[0], values[1], values[2])
+
+
+def check_layout(version: str, path: Path | None = None) -> None:
+    """Raise ValueError when the DBC's layout of the frames used here differs from ours."""
+    import cantools
+
+    db = cantools.database.load_file(str(path or dbc_path(version)))
+    expect = {SET_INPUT_TORQUE: [(0, 32, True)], GET_ENCODER_ESTIMATES: [(0, 32, True),
+                                                                       (32, 32, True)],
+              SET_AXIS_STATE: [(0, 32, False)], SET_CONTROLLER_MODE: [(0, 32, False),
+                                                                      (32, 32, False)],
+              HEARTBEAT: [(0, 32, False), (32, 8, False)]}
+    line = firmware_line(version)
+    for cmd, fields in expect.items():
+        msg = db.get_message_by_frame_id(cmd)
+        if msg.length != 8:
+            raise ValueError(f"{msg.name}: {msg.length} bytes in the DBC, 8 expected")
+        got = sorted((s.start, s.length, s.is_float) for s in msg.signals)
+        for f in fields:
+            if f not in got or msg.signals[0].byte_order != "little_endian":
+                raise ValueError(f"{msg.name}: layout {got} in the DBC does not hold {f}")
+    choices = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error").choices or {}
+    names = {str(v): int(k) for k, v in choices.items()}
+    for bit, table in (("WATCHDOG_TIMER_EXPIRED", WATCHDOG_TIMER_EXPIRED),
+                       ("ESTOP_REQUESTED", ESTOP_REQUESTED)):
+        if names.get(bit, table[line]) != table[line]:
+            raise ValueError(f"{bit} is 0x{names[bit]:x} in the DBC, 0x{table[line]:x} here")
