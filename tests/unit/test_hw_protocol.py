@@ -50,7 +50,7 @@ def test_state_and_mode_frames(fw) -> None:
     assert db.decode_message(ident - (1 << 5), data, decode_choices=False)["Axis_Requested_State"] == 8
     ident, data = p.encode_controller_mode(0)
     m = db.decode_message(ident, data)
-    assert (m["Control_Mode"], m["Input_Mode"]) == (1, 1)
+    assert (str(m["Control_Mode"]), str(m["Input_Mode"])) == ("TORQUE_CONTROL", "PASSTHROUGH")
 
 
 def test_heartbeat_layout_per_firmware(fw) -> None:
