@@ -197,9 +197,7 @@ class FmuComponent(Component):
         try:
             return fn(*args)
         except Exception as exc:  # noqa: BLE001 - fmpy's FMICallException and OSError alike
-            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
-                           f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
-                           f"inputs and parameters at this time.") from exc
+            raise self._error(what, exc) from exc
 
     def _accessors(self, type_: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
         s = self._slave
@@ -245,7 +243,11 @@ class FmuComponent(Component):
         self._inputs = [p for p in self.ports if p.kind == "input"]
         self._outputs = [p for p in self.ports if p.kind in ("output", "state")]
         self._plan = self._group(self._inputs), self._group(self._outputs)
-        self._read()
+        self._compile()
+        try:
+            self._read()
+        except Exception as exc:  # noqa: BLE001
+            raise self._error("reading the outputs after initialization", exc) from exc
 
     def _group(self, ports: list[_Port]) -> list[tuple[str, list[int], list[_Port]]]:
         """Ports by type, with their value references concatenated: one FMI call per type."""
@@ -265,38 +267,64 @@ class FmuComponent(Component):
                 values = [str(v) for v in values]
             self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
 
+    def _compile(self) -> None:
+        """Per type: the bound fmpy setter/getter, the value references, and the ports, so a step
+        is one set call per input type, doStep, one get call per output type."""
+        def plan(groups: list[tuple[str, list[int], list[_Port]]], which: int) -> list[Any]:
+            return [(self._accessors(t)[which], vrs, [(q.name, q.scalar, len(q.vrs)) for q in ps])
+                    for t, vrs, ps in groups]
+
+        self._set_plan = plan(self._plan[0], 1)
+        self._get_plan = plan(self._plan[1], 0)
+
     def _write_inputs(self) -> None:
         d = self.__dict__
-        for type_, vrs, ps in self._plan[0]:
+        for setter, vrs, ports in self._set_plan:
+            if len(ports) == 1:
+                name, scalar, _ = ports[0]
+                setter(vrs, (d[name],) if scalar else d[name])
+                continue
             values: list[Any] = []
-            for p in ps:
-                v = d[p.name]
-                values.extend((v,) if p.scalar else v)
-            self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
+            for name, scalar, _ in ports:
+                if scalar:
+                    values.append(d[name])
+                else:
+                    values.extend(d[name])
+            setter(vrs, values)
 
     def _read(self) -> None:
         d = self.__dict__
-        for type_, vrs, ps in self._plan[1]:
-            values = self._call(f"get {type_}", self._accessors(type_)[0], vrs)
+        for getter, vrs, ports in self._get_plan:
+            values = getter(vrs)
             k = 0
-            for p in ps:
-                n = len(p.vrs)
-                d[p.name] = values[k] if p.scalar else tuple(values[k:k + n])
+            for name, scalar, n in ports:
+                d[name] = values[k] if scalar else tuple(values[k:k + n])
                 k += n
 
     def evaluate(self, t: float) -> None:
         self._t = t
-        self._write_inputs()
-        self._read()
+        try:
+            self._write_inputs()
+            self._read()
+        except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            raise self._error("get/set of inputs and outputs", exc) from exc
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
-        self._write_inputs()
-        result = self._call("doStep", self._slave.doStep, t, h)
+        try:
+            self._write_inputs()
+            result = self._slave.doStep(t, h)
+            self._read()
+        except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            raise self._error("doStep", exc) from exc
         if self.fmi3 and result is not None and result[1]:
             raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
                            f"simulation (fmi3DoStep terminateSimulation).")
-        self._read()
+
+    def _error(self, what: str, exc: BaseException) -> FmuError:
+        return FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
+                        f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
+                        f"inputs and parameters at this time.")
 
     def get_state(self) -> Any:
         if not getattr(self.md.coSimulation, "canGetAndSetFMUstate", False):
