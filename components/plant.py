@@ -49,6 +49,8 @@ class TwmrPlant(Component):
         self.mG = k * self.m_G
         self._coef = self.coefficients
         self._h = 0.0
+        rk4(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            *self._coef)  # load the compiled kernel now, not in the first (maybe paced) step
         self._com()
 
     @property

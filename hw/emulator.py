@@ -13,6 +13,7 @@ does with its axis watchdog enabled.
 from __future__ import annotations
 
 import math
+from collections import deque
 import threading
 import time
 from dataclasses import dataclass, field
@@ -53,7 +54,7 @@ class OdriveEmulator:
         self.bus = can.Bus(interface=interface, channel=channel, bitrate=bitrate)
         self.lock = threading.Lock()
         self.silent = False  # stops answering (a dead drive) when set
-        self.received: list[can.Message] = []
+        self.received: deque[can.Message] = deque(maxlen=1000)  # the latest frames, for tests
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="odrive-emulator", daemon=True)
         self._thread.start()

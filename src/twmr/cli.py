@@ -27,6 +27,11 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     scenario = Path(args.scenario)
     system = load(scenario, args.set)
+    if args.realtime or any(type(c).__module__.startswith("twmr.hw")
+                            for c in system.components.values()):
+        from dataclasses import replace
+
+        system.experiment = replace(system.experiment, realtime=True)
     out = _out_dir(args, scenario)
     out.mkdir(parents=True, exist_ok=True)
     ex = Execution(system, out / "result.npy", progress=not args.quiet)
@@ -47,7 +52,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         "start": exp.start, "stop": exp.stop, "step": exp.step, "steps_done": ex.info.steps_done,
         "wall_time_s": round(ex.info.wall_time, 4),
         "realtime_factor": round(ex.info.realtime_factor, 2), "error": ex.info.error,
-        "units": units, "signals": summary(data, units),
+        "units": units, "signals": summary(data, units), "pacing": ex.info.extra,
     }
     metrics = _tracking_metrics(data)
     if metrics:
@@ -63,6 +68,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise error
     print(f"done: {ex.info.steps_done} steps in {ex.info.wall_time:.2f} s "
           f"({ex.info.realtime_factor:.1f}x real time); results in {out}/", file=sys.stderr)
+    if ex.info.extra:
+        print("pacing: " + ", ".join(f"{k} {v:.4g}" for k, v in ex.info.extra.items()),
+              file=sys.stderr)
     if metrics:
         print(json.dumps(metrics))
     return 0
@@ -156,6 +164,8 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--plot", action="store_true", help="write PNG plots of the recorded signals")
     r.add_argument("--format", default="csv,mat", help="extra result files: csv,mat (default)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--realtime", action="store_true",
+                   help="pace steps to the wall clock (automatic with hardware components)")
     r.set_defaults(fn=cmd_run)
     c = sub.add_parser("check", help="validate a scenario and print its graph, order and units")
     c.add_argument("scenario")

@@ -23,26 +23,43 @@ from twmr.scenario.system import System
 
 
 class Pacer:
-    """Holds step n until wall time start + n h (sleep, then spin for the last 0.3 ms)."""
+    """Holds step n until wall time t0 + n h: sleep, then spin on perf_counter_ns for the last
+    `spin` seconds. Records each step's lateness (how far past its deadline it was released)."""
 
     def __init__(self, h: float, spin: float = 3e-4):
         self.h = h
-        self.spin = spin
-        self.t0 = time.perf_counter()
+        self.h_ns = int(round(h * 1e9))
+        self.spin_ns = int(spin * 1e9)
+        self.t0 = time.perf_counter_ns()
+        self.lateness_ns: list[int] = []
         self.overruns = 0
-        self.max_lag = 0.0
+
+    def start(self) -> None:
+        self.t0 = time.perf_counter_ns()
 
     def __call__(self, n: int) -> None:
-        target = self.t0 + n * self.h
-        now = time.perf_counter()
-        if now >= target:
-            self.overruns += now > target + self.h
-            self.max_lag = max(self.max_lag, now - target)
-            return
-        if target - now > self.spin:
-            time.sleep(target - now - self.spin)
-        while time.perf_counter() < target:
+        target = self.t0 + n * self.h_ns
+        now = time.perf_counter_ns()
+        if target - now > self.spin_ns:
+            time.sleep((target - now - self.spin_ns) * 1e-9)
+        while (now := time.perf_counter_ns()) < target:
             pass
+        late = now - target
+        self.lateness_ns.append(late)
+        if late > self.h_ns:
+            self.overruns += 1
+
+    def stats(self) -> dict[str, float]:
+        """Lateness p50/p99/max [us] and missed deadlines (released more than one step late)."""
+        if not self.lateness_ns:
+            return {}
+        import numpy as np
+
+        late = np.asarray(self.lateness_ns) / 1e3
+        return {"lateness_p50_us": float(np.percentile(late, 50)),
+                "lateness_p99_us": float(np.percentile(late, 99)),
+                "lateness_max_us": float(late.max()), "missed_deadlines": self.overruns,
+                "paced_steps": len(late)}
 
 
 @dataclass
@@ -90,7 +107,7 @@ class Execution:
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize())
             if self.pacer is not None:
-                self.pacer.t0 = time.perf_counter()
+                self.pacer.start()
             while self._n < exp.n_steps:
                 n1 = min(exp.n_steps, self._n + self.chunk_steps)
                 self._guarded(self.schedule.run, self._n, n1, rows)
@@ -110,6 +127,8 @@ class Execution:
             simulated = self._n * exp.step
             self.info.realtime_factor = simulated / self.info.wall_time if self.info.wall_time else 0
             self.info.overruns = self.pacer.overruns if self.pacer else 0
+            if self.pacer is not None:
+                self.info.extra.update(self.pacer.stats())
             self.recorder.close()
             if bar is not None:
                 bar.close()
