@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import platform
+import re
 import shutil
 import subprocess
 import zipfile
@@ -18,16 +19,22 @@ def fmi_platform() -> str:
     return fmpy.platform
 
 
-def build_c_fmu(name: str, out_dir: Path) -> Path:
-    """Compile tests/fmus/<name>/<name>.c into a shared library and zip the FMU."""
+def build_c_fmu(name: str, out_dir: Path, fmi3: bool = False) -> Path:
+    """Compile tests/fmus/<name>/<name>.c into a shared library and zip the FMU (FMI 3.0 binary
+    folders are platform tuples such as x86_64-linux)."""
+    from fmpy.fmi3 import platform_tuple
+
     src = SOURCES / name
     headers = Path(fmpy.__file__).parent / "c-code"
     work = out_dir / f"{name}_build"
-    binaries = work / "binaries" / fmi_platform()
+    binaries = work / "binaries" / (platform_tuple if fmi3 else fmi_platform())
     binaries.mkdir(parents=True, exist_ok=True)
     ext = {"Windows": ".dll", "Darwin": ".dylib"}.get(platform.system(), ".so")
     cc = os.environ.get("CC", "cc")
-    subprocess.run([cc, "-shared", "-fPIC", "-O2", f"-I{headers}", str(src / f"{name}.c"),
+    sources = [str(src / f"{name}.c")]
+    if fmi3:  # fmpy binds every FMI 3.0 function at load: the unused ones return fmi3Error
+        sources.append(str(_fmi3_stubs(src / f"{name}.c", headers, work)))
+    subprocess.run([cc, "-shared", "-fPIC", "-O2", f"-I{headers}", *sources,
                     "-o", str(binaries / f"{name}{ext}"), "-lm"], check=True)
     shutil.copy(src / "modelDescription.xml", work / "modelDescription.xml")
     fmu = out_dir / f"{name}.fmu"
@@ -36,3 +43,15 @@ def build_c_fmu(name: str, out_dir: Path) -> Path:
             if path.is_file():
                 z.write(path, path.relative_to(work).as_posix())
     return fmu
+
+
+def _fmi3_stubs(source: Path, headers: Path, work: Path) -> Path:
+    """A C file defining every FMI 3.0 function the model source does not, each returning
+    fmi3Error (3); compiled without the FMI headers, so no prototypes clash."""
+    declared = re.findall(r"FMI3_Export\s+fmi3\w+TYPE\s+(fmi3\w+)\s*;",
+                          (headers / "fmi3Functions.h").read_text())
+    defined = set(re.findall(r"\b(fmi3\w+)\s*\(", source.read_text()))
+    stubs = work / "fmi3_stubs.c"
+    stubs.write_text("".join(f"int {f}(void) {{ return 3; }}\n" for f in declared
+                             if f not in defined))
+    return stubs

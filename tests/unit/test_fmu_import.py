@@ -103,3 +103,31 @@ def test_state_can_be_saved_and_restored(lag2) -> None:
     assert c.y == after
     c.terminate()
     assert math.isfinite(after[0])
+
+
+@pytest.fixture(scope="session")
+def lag3(tmp_path_factory) -> str:
+    return str(build_c_fmu("lag3", tmp_path_factory.mktemp("fmus3"), fmi3=True))
+
+
+def test_fmi3_fmu_runs_and_matches_fmpy(lag3) -> None:
+    c = FmuComponent("lag", lag3)
+    assert c.fmi3 and c.variables["u"].size == 2 and c.variables["T"].unit == "s"
+    r = simulate(loads(SCENARIO % lag3, source="fmu3.yaml"))
+    expected = 2.0 * 1.5 * (1.0 - np.exp(-r["time"] / 0.25))
+    np.testing.assert_allclose(r["lag.y[1]"], expected, atol=1e-12)
+    t = np.asarray(r["time"])
+    signals = np.zeros(len(t), dtype=[("time", float), ("u[1]", float), ("u[2]", float)])
+    signals["time"], signals["u[1]"], signals["u[2]"] = t, 1.5, 1.5
+    ref = simulate_fmu(lag3, start_time=0.0, stop_time=1.0, output_interval=0.01,
+                       start_values={"T": 0.25}, input=signals, output=["y[2]"])
+    np.testing.assert_allclose(r["lag.y[2]"], ref["y[2]"], rtol=0, atol=1e-14)
+
+
+def test_inspect_describes_ports_platform_and_usage(lag2, lag3) -> None:
+    from twmr.fmi import describe_fmu
+
+    text = describe_fmu(lag2)
+    assert "FMI 2.0 (co-simulation)" in text and "can run it" in text
+    assert "input     u[2] [m] Real" in text and "parameter T [s]" in text
+    assert "FMI 3.0" in describe_fmu(lag3)
