@@ -128,6 +128,18 @@ def test_inspect_describes_ports_platform_and_usage(lag2, lag3) -> None:
     from twmr.fmi import describe_fmu
 
     text = describe_fmu(lag2)
-    assert "FMI 2.0 (co-simulation)" in text and "can run it" in text
+    assert "FMI 2.0 (co-simulation, model exchange)" in text and "can run it" in text
     assert "input     u[2] [m] Real" in text and "parameter T [s]" in text
     assert "FMI 3.0" in describe_fmu(lag3)
+
+
+def test_model_exchange_interface_is_integrated_by_rk4(lag2) -> None:
+    """The same FMU through its model-exchange interface: RK4 error ~ (h/T)^5 per step."""
+    text = (SCENARIO % lag2).replace("T: 0.25}", "T: 0.25, interface: model_exchange, "
+                                                 "solver_step: 0.01}")
+    system = loads(text, source="me.yaml")
+    assert system.components["lag"].me
+    r = simulate(system)
+    expected = 2.0 * 1.5 * (1.0 - np.exp(-r["time"] / 0.25))
+    err = np.max(np.abs(r["lag.y[1]"] - expected))
+    assert 0 < err < 1e-7

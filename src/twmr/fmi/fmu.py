@@ -1,4 +1,5 @@
-"""`FmuComponent`: an FMU (FMI 2.0 or 3.0 co-simulation) as a component, through fmpy.
+"""`FmuComponent`: an FMU (FMI 2.0 or 3.0 co-simulation, FMI 2.0 model exchange integrated here by
+RK4) as a component, through fmpy.
 
 Ports come from the modelDescription: causality input/output -> `Input`/`Output`, parameters
 (fixed or tunable) -> `Parameter`, with type, unit (the variable's or its declaredType's), start,
@@ -77,9 +78,10 @@ def read_description(path: Path, instance: str = "fmu") -> Any:
     if md.fmiVersion.startswith("1."):
         raise FmuError(instance, None, f"'{path}' is an FMI 1.0 FMU, which is not supported. Fix: "
                        f"export it as FMI 2.0 or 3.0 co-simulation.")
-    if md.coSimulation is None:
-        raise FmuError(instance, None, f"'{path}' is a model-exchange-only FMU; only co-simulation "
-                       f"FMUs run here so far. Fix: export it with the co-simulation interface.")
+    if md.coSimulation is None and (md.modelExchange is None or md.fmiVersion != "2.0"):
+        raise FmuError(instance, None, f"'{path}' has neither a co-simulation interface nor an "
+                       f"FMI 2.0 model-exchange one. Fix: export it as FMI 2.0/3.0 co-simulation "
+                       f"or FMI 2.0 model exchange.")
     return md
 
 
@@ -166,11 +168,24 @@ class FmuComponent(Component):
     """An FMU (FMI 2.0/3.0 co-simulation) stepped through fmpy; ports from its modelDescription."""
 
     kind = "fmu"
-    construction_parameters = ("path",)
+    construction_parameters = ("path", "interface", "solver_step")
 
-    def __init__(self, name: str = "", path: str | Path = "", **parameters: Any):
+    def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
+                 solver_step: float = 1e-3, **parameters: Any):
+        """`interface`: auto (co-simulation when the FMU has it) | co_simulation |
+        model_exchange (FMI 2.0: integrated here by RK4 with steps of at most `solver_step` [s],
+        inputs held over each communication step; time and state events are not handled)."""
         self.path = Path(path)
         self.md = read_description(self.path, name or "fmu")
+        if interface not in ("auto", "co_simulation", "model_exchange"):
+            raise FmuError(name, None, f"interface '{interface}' is unknown. Fix: use auto, "
+                           f"co_simulation or model_exchange.")
+        self.me = interface == "model_exchange" or (interface == "auto" and
+                                                     self.md.coSimulation is None)
+        if (self.me and self.md.modelExchange is None) or (not self.me and
+                                                           self.md.coSimulation is None):
+            raise FmuError(name, None, f"'{self.path.name}' has no {interface} interface.")
+        self.solver_step = float(solver_step)
         self.ports, self._variables = ports_of(self.md)
         self.fmi3 = self.md.fmiVersion.startswith("3.")
         self._slave: Any = None
@@ -190,7 +205,8 @@ class FmuComponent(Component):
             raise FmuError(name, None, "a component of kind 'fmu' needs `path:` under "
                            "`parameters:`. Fix: give the FMU file, e.g. path: fmus/plant.fmu")
         p = Path(str(path))
-        return cls(name, p if p.is_absolute() else base_dir / p)
+        rest = {k: v for k, v in construction.items() if k != "path"}
+        return cls(name, p if p.is_absolute() else base_dir / p, **rest)
 
     # -- FMI calls --------------------------------------------------------------------------
     def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
@@ -215,8 +231,15 @@ class FmuComponent(Component):
         self._t = start
         self._unzipped = self._call("extract", extract, str(self.path),
                                     tempfile.mkdtemp(prefix="twmr-fmu-"))
-        cs = self.md.coSimulation
-        if self.fmi3:
+        cs = self.md.modelExchange if self.me else self.md.coSimulation
+        if self.me:
+            from fmpy.fmi2 import FMU2Model
+
+            self._slave = FMU2Model(guid=self.md.guid, unzipDirectory=self._unzipped,
+                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
+            self._call("fmi2Instantiate", self._slave.instantiate)
+            self._call("fmi2SetupExperiment", self._slave.setupExperiment, None, start)
+        elif self.fmi3:
             from fmpy.fmi3 import FMU3Slave
 
             self._slave = FMU3Slave(guid=self.md.instantiationToken,
@@ -240,6 +263,8 @@ class FmuComponent(Component):
             self._call("fmi2EnterInitializationMode", s.enterInitializationMode)
         self._write([p for p in self.ports if p.kind in ("parameter", "input", "state")])
         self._call("ExitInitializationMode", s.exitInitializationMode)
+        if self.me:
+            self._me_start()
         self._inputs = [p for p in self.ports if p.kind == "input"]
         self._outputs = [p for p in self.ports if p.kind in ("output", "state")]
         self._plan = self._group(self._inputs), self._group(self._outputs)
@@ -309,11 +334,55 @@ class FmuComponent(Component):
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
             raise self._error("get/set of inputs and outputs", exc) from exc
 
+    def _me_start(self) -> None:
+        """Event iteration after initialization, then continuous-time mode (model exchange)."""
+        import numpy as np
+
+        s = self._slave
+        while self._call("fmi2NewDiscreteStates", s.newDiscreteStates)[0]:
+            pass  # iterate until no new discrete states are needed
+        self._call("fmi2EnterContinuousTimeMode", s.enterContinuousTimeMode)
+        self._nx = self.md.numberOfContinuousStates
+        self._x = np.zeros(self._nx)
+        self._dx = np.zeros(self._nx)
+
+    def _me_step(self, t: float, h: float) -> None:
+        """RK4 over [t, t + h] with the inputs held, substeps of at most `solver_step`."""
+        from ctypes import POINTER, c_double
+
+        s, x, dx, nx = self._slave, self._x, self._dx, self._nx
+        xp, dxp = x.ctypes.data_as(POINTER(c_double)), dx.ctypes.data_as(POINTER(c_double))
+
+        def f(time: float, state: Any) -> Any:
+            x[:] = state
+            s.setTime(time)
+            s.setContinuousStates(xp, nx)
+            s.getDerivatives(dxp, nx)
+            return dx.copy()
+
+        s.getContinuousStates(xp, nx)
+        n = max(1, int(-(-h // self.solver_step)))
+        hs = h / n
+        y = x.copy()
+        for k in range(n):
+            tk = t + k * hs
+            k1 = f(tk, y)
+            k2 = f(tk + hs / 2, y + hs / 2 * k1)
+            k3 = f(tk + hs / 2, y + hs / 2 * k2)
+            k4 = f(tk + hs, y + hs * k3)
+            y = y + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        x[:] = y
+        s.setTime(t + h)
+        s.setContinuousStates(xp, nx)
+        enter_event, terminate = s.completedIntegratorStep()
+        if terminate:
+            raise FmuError(self.name, t + h, f"FMU '{self.path.name}' asked to terminate.")
+
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         try:
             self._write_inputs()
-            result = self._slave.doStep(t, h)
+            result = self._me_step(t, h) if self.me else self._slave.doStep(t, h)
             self._read()
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
             raise self._error("doStep", exc) from exc

@@ -1,4 +1,4 @@
-/* Two first-order lags y' = (k u - y) / T as an FMI 2.0 co-simulation FMU.
+/* Two first-order lags y' = (k u - y) / T as an FMI 2.0 FMU for co-simulation and model exchange.
  * Written for twmr-cosim's tests; built at test time against the FMI headers fmpy ships.
  * doStep advances exactly for inputs held over the step: y += (k u - y) (1 - exp(-h / T)). */
 #include <math.h>
@@ -6,7 +6,7 @@
 #include <string.h>
 #include "fmi2Functions.h"
 
-#define NV 6
+#define NV 8
 typedef struct { double v[NV]; double time; fmi2CallbackFunctions cb; fmi2String name; } Inst;
 typedef struct { double v[NV]; double time; } State;
 
@@ -39,13 +39,14 @@ fmi2Status fmi2Reset(fmi2Component c) { Inst *i = (Inst *)c; memset(i->v, 0, siz
 
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real value[]) {
     Inst *i = (Inst *)c;
+    for (int j = 0; j < 2; j++) i->v[6 + j] = (i->v[0] * i->v[2 + j] - i->v[4 + j]) / i->v[1];
     for (size_t j = 0; j < n; j++) { if (vr[j] >= NV) return bad_vr(i); value[j] = i->v[vr[j]]; }
     return fmi2OK;
 }
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
     Inst *i = (Inst *)c;
     for (size_t j = 0; j < n; j++) {
-        if (vr[j] >= NV) return bad_vr(i); /* outputs: initial="exact", settable before init */
+        if (vr[j] >= 6) return bad_vr(i); /* outputs: initial="exact", settable before init */
         if (vr[j] == 1 && !(value[j] > 0)) return fmi2Error; /* T must be positive */
         i->v[vr[j]] = value[j];
     }
@@ -90,3 +91,31 @@ fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *v) { return fmi2Error; }
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v) { return fmi2Error; }
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *v) { return fmi2Error; }
+
+/* model exchange: states y[1], y[2]; no events */
+fmi2Status fmi2EnterEventMode(fmi2Component c) { return fmi2OK; }
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
+    e->newDiscreteStatesNeeded = fmi2False; e->terminateSimulation = fmi2False;
+    e->nominalsOfContinuousStatesChanged = fmi2False; e->valuesOfContinuousStatesChanged = fmi2False;
+    e->nextEventTimeDefined = fmi2False; e->nextEventTime = 0; return fmi2OK;
+}
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { return fmi2OK; }
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSet, fmi2Boolean *enter, fmi2Boolean *term) {
+    *enter = fmi2False; *term = fmi2False; return fmi2OK;
+}
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((Inst *)c)->time = t; return fmi2OK; }
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n) {
+    Inst *i = (Inst *)c; for (size_t j = 0; j < n && j < 2; j++) i->v[4 + j] = x[j]; return fmi2OK;
+}
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t n) {
+    Inst *i = (Inst *)c;
+    for (size_t j = 0; j < n && j < 2; j++) dx[j] = (i->v[0] * i->v[2 + j] - i->v[4 + j]) / i->v[1];
+    return fmi2OK;
+}
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real z[], size_t n) { return fmi2OK; }
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t n) {
+    Inst *i = (Inst *)c; for (size_t j = 0; j < n && j < 2; j++) x[j] = i->v[4 + j]; return fmi2OK;
+}
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x[], size_t n) {
+    for (size_t j = 0; j < n; j++) x[j] = 1.0; return fmi2OK;
+}
