@@ -116,3 +116,19 @@ def test_overrides_set_parameters_and_report_unknown_components() -> None:
 def test_components_table_lists_ports_and_units() -> None:
     text = kinds_table(["sine", "state_space"])
     assert "frequency [Hz]" in text and "output    y" in text
+
+
+def test_size_mismatch_and_unit_conversion_in_wires() -> None:
+    text = """
+components:
+  plant: {kind: twmr_plant}
+  ref: {kind: trajectory}
+connections:
+  - ref.position -> plant.torque
+experiment: {stop: 1.0, step: 0.1}
+"""
+    msg = error_of(text.replace("ref.position -> plant.torque", "ref.position -> plant.slip_rate"),
+                   WiringError)
+    assert "size mismatch" in msg and "gives 2 value(s)" in msg and "s.yaml:6" in msg
+    msg = error_of(text, WiringError)
+    assert "unit mismatch" in msg and "'m'" in msg and "'N.m'" in msg

@@ -101,8 +101,9 @@ def _annotate(fmu: Path, comp: Any) -> None:
         unknown.set("dependencies", " ".join(str(d) for d in sorted(deps)))
     if outputs is not None and root.find("ModelStructure/InitialUnknowns") is None:
         initial = ET.SubElement(root.find("ModelStructure"), "InitialUnknowns")
-        for unknown in outputs:
-            ET.SubElement(initial, "Unknown", index=unknown.get("index"))
+        for unknown in outputs:  # states (initial="exact") are known, not initial unknowns
+            if comp.variables[names[int(unknown.get("index")) - 1][1]].kind == "output":
+                ET.SubElement(initial, "Unknown", index=unknown.get("index"))
     entries["modelDescription.xml"] = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
         for name, data in entries.items():

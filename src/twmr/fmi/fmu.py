@@ -229,6 +229,14 @@ class FmuComponent(Component):
         from fmpy import extract
 
         self._t = start
+        import fmpy
+
+        platforms = fmpy.supported_platforms(str(self.path))
+        here = fmpy.platform if not self.fmi3 else __import__("fmpy.fmi3").fmi3.platform_tuple
+        if fmpy.platform not in platforms and here not in platforms:
+            raise FmuError(self.name, start, f"FMU '{self.path.name}' has no binary for this "
+                           f"platform ({fmpy.platform}); it has: {', '.join(platforms) or 'none'}"
+                           f". Fix: get a build of the FMU for {fmpy.platform}.")
         self._unzipped = self._call("extract", extract, str(self.path),
                                     tempfile.mkdtemp(prefix="twmr-fmu-"))
         cs = self.md.modelExchange if self.me else self.md.coSimulation
