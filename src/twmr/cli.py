@@ -1,4 +1,5 @@
-"""`twmr` command line: run | check | components | plot | inspect | export | compare.
+"""`twmr` command line: run | check | components | plot | inspect | export | compare |
+emulate-drive.
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
@@ -139,6 +140,27 @@ def cmd_compare(args: argparse.Namespace) -> int:
                    out=Path(args.out) if args.out else None, overrides=args.set)
 
 
+def cmd_emulate_drive(args: argparse.Namespace) -> int:
+    """Emulated ODrive axes answering on a python-can bus until Ctrl-C."""
+    try:
+        from twmr.hw.emulator import OdriveEmulator
+    except ImportError as err:
+        raise CosimError(f"the hardware extra is missing ({err}). Fix: pip install "
+                         f"'twmr-cosim[hw]'.") from None
+    emu = OdriveEmulator(tuple(args.node), args.interface, args.channel, args.firmware,
+                         args.gear, bitrate=args.bitrate)
+    print(f"emulating ODrive {args.firmware} axes {args.node} on {args.interface}:"
+          f"{args.channel}; Ctrl-C stops", file=sys.stderr)
+    try:
+        while True:
+            time.sleep(1.0)
+            states = ", ".join(f"{a.node}: state {a.state} err 0x{a.error:x} "
+                               f"torque {a.torque:.3g}" for a in emu.axes.values())
+            print(states, file=sys.stderr)
+    finally:
+        emu.close()
+
+
 def _parse_set(text: str) -> tuple[str, Any]:
     import yaml
 
@@ -186,6 +208,15 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--out")
     with_set(e)
     e.set_defaults(fn=cmd_export)
+    em = sub.add_parser("emulate-drive", help="emulated ODrive drives on a CAN bus (no hardware)")
+    em.add_argument("--interface", default="virtual")
+    em.add_argument("--channel", default="twmr")
+    em.add_argument("--bitrate", type=int, default=1_000_000)
+    em.add_argument("--firmware", default="0.6.10")
+    em.add_argument("--gear", type=float, default=1.0)
+    em.add_argument("--node", type=int, action="append", default=None,
+                    help="axis node id (repeatable; default 0 and 1)")
+    em.set_defaults(fn=cmd_emulate_drive)
     cp = sub.add_parser("compare", help="run scenarios and print Table III metrics side by side")
     cp.add_argument("scenarios", nargs="+")
     cp.add_argument("--json", action="store_true", help="print the figures as one JSON object")
@@ -197,6 +228,8 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if getattr(args, "command", "") == "emulate-drive" and not args.node:
+        args.node = [0, 1]
     t0 = time.perf_counter()
     try:
         return int(args.fn(args) or 0)
