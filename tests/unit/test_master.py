@@ -122,3 +122,29 @@ def test_every_component_is_terminated_after_an_error(tmp_path) -> None:
     with pytest.raises(ComponentError):
         simulate(sysm, tmp_path / "r.npy")
     assert seen == ["c"]
+
+
+class Degrees(Component):
+    angle = Output(30.0, unit="deg")
+
+
+class Radians(Component):
+    angle = Input(0.0, unit="rad")
+    seen = Output(0.0, unit="rad", depends_on="angle")
+
+    def evaluate(self, t: float) -> None:
+        self.seen = self.angle
+
+
+def test_unit_scale_is_folded_into_the_wire_and_applied() -> None:
+    from twmr.core.errors import Location, Problem
+    from twmr.scenario.graph import parse_end, wire
+
+    comps = {"a": Degrees("a"), "b": Radians("b")}
+    problems: list[Problem] = []
+    conns = wire(comps, parse_end("a.angle"), parse_end("b.angle"), Location(), problems)
+    assert not problems and conns[0].gain == pytest.approx(math.pi / 180)
+    sysm = system(list(comps.values()), [], 0.1, 0.1, record=["b.seen"])
+    sysm.connections = conns
+    r = simulate(sysm)
+    assert r["b.seen"][0] == pytest.approx(math.pi / 6)

@@ -70,6 +70,8 @@ class Variable:
 
         Raises ValueError/TypeError with a plain message when the value does not fit."""
         cast = _CAST[self.type]
+        if value is None:
+            raise TypeError("no value given (null)")
         if self.type == BOOLEAN and not isinstance(value, (bool, int, list, tuple)):
             raise TypeError(f"expected true or false, got {value!r}")
         if self.type in (REAL, INTEGER) and isinstance(value, str):
