@@ -1,4 +1,5 @@
-"""`CanMotorDrive`: two wheel motors on ODrive drives over CAN, with the motor driver's ports.
+"""`CanMotorDrive`: two wheel motors on CAN drives — ODrive (CAN Simple) or CiA 402 (CANopen,
+through `canopen`, see `cia402_link`) — with the motor driver's ports.
 
 Ports are those of `motor_driver` (torque command in; applied torque, measured speed and angle
 out) plus the load `wheel_speed` input, which is forwarded to an in-process emulator when
@@ -22,19 +23,20 @@ import time
 from typing import Any
 
 import can
+import canopen
 
 from twmr.core import BOOLEAN, STRING, Component, HardwareError, Input, Output, Parameter
 from twmr.hw import protocol as p
 
 
 class CanMotorDrive(Component):
-    """Two ODrive axes on a CAN bus (python-can), as the `motor_driver` block."""
+    """Two drive axes on a CAN bus (ODrive CAN Simple or CiA 402), as the `motor_driver` block."""
 
     kind = "can_motor_drive"
     interface = Parameter("virtual", type=STRING, description="python-can interface")
     channel = Parameter("twmr", type=STRING, description="python-can channel")
     bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
-    protocol = Parameter("odrive", type=STRING, description="odrive (CiA 402: not yet)")
+    protocol = Parameter("odrive", type=STRING, description="odrive | cia402")
     firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
     node_ids = Parameter((0, 1), size=2, type="Integer", description="right, left axis node id")
     gear = Parameter(1.0, min=1e-9, description="motor turns per wheel turn")
@@ -42,6 +44,12 @@ class CanMotorDrive(Component):
     feedback_timeout = Parameter(0.05, unit="s", min=0.0, description="encoder watchdog")
     start_timeout = Parameter(1.0, unit="s", min=0.0)
     emulate = Parameter(True, type=BOOLEAN, description="run emulated drives in this process")
+    eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
+                    "shipped maxon EPOS4 EDS)")
+    rated_torque = Parameter(100_000, type="Integer", description="CiA 402: rated torque "
+                             "[mN.m] used when the drive reports 0 in 0x6076")
+    increments_per_rev = Parameter(4096, type="Integer", description="CiA 402: encoder "
+                                   "increments per motor revolution")
     log_file = Parameter("", type=STRING, description="frame log (.asc or .blf); '' = none")
 
     torque_command = Input(size=2, unit="N.m", description="(tau_R, tau_L) requested")
@@ -53,18 +61,22 @@ class CanMotorDrive(Component):
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
-        if self.protocol != "odrive":
-            raise HardwareError(self.name, start, f"protocol '{self.protocol}' is not "
-                                f"implemented yet. Fix: use protocol: odrive.")
+        if self.protocol not in ("odrive", "cia402"):
+            raise HardwareError(self.name, start, f"protocol '{self.protocol}' is unknown. "
+                                f"Fix: use protocol: odrive or cia402.")
+        self._nodes = tuple(int(n) for n in self.node_ids)
+        self._t = start
+        self.emulator = None
+        self.logger = None
+        if self.protocol == "cia402":
+            self._setup_cia402()
+            return
         self._line = p.firmware_line(self.firmware)
         p.check_layout(self.firmware)
-        self._nodes = tuple(int(n) for n in self.node_ids)
         self._lock = threading.Lock()
         self._feedback = {n: (0.0, 0.0, 0.0) for n in self._nodes}  # angle, speed, time
         self._heartbeat = {n: p.Heartbeat(0, 0) for n in self._nodes}
         self._bus_error = ""
-        self._t = start
-        self.emulator = None
         if self.emulate:
             from twmr.hw.emulator import OdriveEmulator
 
@@ -80,6 +92,31 @@ class CanMotorDrive(Component):
         self.logger = can.Logger(self.log_file) if self.log_file else None
         listeners: list[Any] = [self._on_frame] + ([self.logger] if self.logger else [])
         self.notifier = can.Notifier(self.bus, listeners, timeout=0.01)
+
+    def _setup_cia402(self) -> None:
+        from importlib import resources
+
+        from twmr.hw.cia402_emulator import Cia402Emulator
+        from twmr.hw.cia402_link import Cia402Link
+
+        eds = self.eds or str(resources.files("twmr.hw").joinpath(
+            "data", "maxon_epos4_module_50-5.eds"))
+        if self.emulate:
+            self.emulator = [Cia402Emulator(n, eds, self.interface, self.channel, self.gear,
+                                            int(self.rated_torque), int(self.increments_per_rev))
+                             for n in self._nodes]
+        try:
+            self.link = Cia402Link(self._nodes, eds, self.interface, self.channel,
+                                   int(self.bitrate), self.gear, int(self.increments_per_rev),
+                                   int(self.rated_torque))
+            self.link.configure()
+        except (canopen.SdoCommunicationError, canopen.SdoAbortedError, OSError) as err:
+            raise HardwareError(self.name, self._t, f"CiA 402 drives {self._nodes} could not "
+                                f"be configured ({err}). Fix: check node ids, power, the "
+                                f"EDS and the bus.") from err
+        if self.log_file:
+            self.logger = can.Logger(self.log_file)
+            self.link.network.notifier.add_listener(self.logger)
 
     def _on_frame(self, msg: can.Message) -> None:
         if msg.is_error_frame:
@@ -107,6 +144,14 @@ class CanMotorDrive(Component):
             self.logger.on_message_received(msg)
 
     def initialize(self) -> None:
+        if self.protocol == "cia402":
+            if not self.link.enable(self.start_timeout):
+                raise HardwareError(self.name, self.start_time, f"drives {self._nodes} did not "
+                                    f"reach OPERATION ENABLED within {self.start_timeout} s "
+                                    f"(states {self.link.states()}, EMCY {self.link.emcy}). "
+                                    f"Fix: check the drives' faults and power.")
+            self._read_cia402()
+            return
         for node in self._nodes:
             self._send((p.can_id(node, p.CLEAR_ERRORS), b""))
             self._send(p.encode_controller_mode(node))
@@ -151,19 +196,73 @@ class CanMotorDrive(Component):
         self._t = t
         lim = self.torque_limit
         tau = tuple(min(lim, max(-lim, v)) for v in self.torque_command)
+        if self.protocol == "cia402":
+            from twmr.hw import cia402
+
+            self.link.send({n: cia402.ENABLE_OPERATION for n in self._nodes},
+                           dict(zip(self._nodes, tau)))
+            self.torque = tuple(cia402.permille_to_torque(cia402.torque_to_permille(
+                v, self.gear, self.link.rated[n]), self.gear, self.link.rated[n])
+                for n, v in zip(self._nodes, tau))  # what the drive receives (per mille)
+            return
         for node, v in zip(self._nodes, tau):
             self._send(p.encode_torque(node, v, self.gear))
         self.torque = tau
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
+        if self.protocol == "cia402":
+            for emu, w in zip(self.emulator or (), self.wheel_speed):
+                emu.set_load_speed(w)
+            self._read_cia402()
+            return
         if self.emulator is not None:
             for node, w in zip(self._nodes, self.wheel_speed):
                 self.emulator.set_load_speed(node, w)
         self._read()
 
+    def _read_cia402(self) -> None:
+        from twmr.hw.cia402 import State
+
+        now = time.monotonic()
+        if self.link.emcy:
+            node, code = self.link.emcy[0]
+            raise HardwareError(self.name, self._t, f"drive node {node} sent EMCY 0x{code:04x}. "
+                                f"Drives disabled. Fix: read the drive's error history, then "
+                                f"fault-reset.")
+        values = []
+        for node in self._nodes:
+            angle, speed, stamp, state = self.link.read(node)
+            if now - stamp > self.feedback_timeout:
+                raise HardwareError(self.name, self._t, f"drive node {node}: no TPDO for "
+                                    f"{now - stamp:.3f} s (watchdog {self.feedback_timeout} s). "
+                                    f"Drives disabled. Fix: check the drive and the bus.")
+            if now - self.link.beats[node] > max(0.2, 4 * self.feedback_timeout):
+                raise HardwareError(self.name, self._t, f"drive node {node}: heartbeat lost. "
+                                    f"Drives disabled. Fix: check power and wiring.")
+            if state != State.OPERATION_ENABLED:
+                raise HardwareError(self.name, self._t, f"drive node {node} left OPERATION "
+                                    f"ENABLED ({state.value}). Drives disabled.")
+            values.append((angle, speed))
+        self.angle = (values[0][0], values[1][0])
+        self.measured_speed = (values[0][1], values[1][1])
+
     def terminate(self) -> None:
-        """Zero torque and IDLE to every axis, then close everything (also after errors)."""
+        """Zero torque and IDLE (ODrive) / SHUTDOWN (CiA 402) to every axis, then close
+        everything (also after errors)."""
+        link = getattr(self, "link", None)
+        if link is not None:
+            try:
+                link.stop()
+            finally:
+                if self.logger is not None:
+                    self.logger.stop()
+                link.close()
+                self.link = None
+                for emu in self.emulator or ():
+                    emu.close()
+                self.emulator = None
+            return
         bus = getattr(self, "bus", None)
         if bus is not None:
             for node in getattr(self, "_nodes", ()):
