@@ -5,7 +5,8 @@ shutdown, switch on, enable operation); the drive side (`drive_transition`) is t
 state table, used by an emulator and by the tests that check every transition. Torque is sent as
 target torque 0x6071 in per-mille of the motor rated torque 0x6076 (mN.m), speed and position come
 back as 0x606C (velocity units per second-scaled, here rpm by default as on maxon EPOS4) and 0x6064
-(increments). The bus side (canopen nodes, PDOs, SYNC) is not implemented yet.
+(increments). The bus side (canopen nodes, PDOs, SYNC) is `cia402_link`; the drive side of the
+emulator is `cia402_emulator`.
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import math
 from enum import Enum
 
 CONTROLWORD, STATUSWORD, MODES_OF_OPERATION = 0x6040, 0x6041, 0x6060
-TARGET_TORQUE, MOTOR_RATED_TORQUE = 0x6071, 0x6076
+TARGET_TORQUE, MAX_TORQUE, MOTOR_RATED_TORQUE = 0x6071, 0x6072, 0x6076
 VELOCITY_ACTUAL, POSITION_ACTUAL = 0x606C, 0x6064
 CYCLIC_SYNC_TORQUE = 10
 
@@ -98,6 +99,11 @@ def torque_to_permille(wheel_torque: float, gear: float, rated_torque_mNm: int) 
     """Target torque 0x6071 [per mille of 0x6076] for a wheel torque [N.m], clamped to INTEGER16."""
     value = round(1000.0 * (wheel_torque / gear) / (rated_torque_mNm / 1000.0))
     return max(-32768, min(32767, value))
+
+
+def limit_to_permille(wheel_torque: float, gear: float, rated_torque_mNm: int) -> int:
+    """Max torque 0x6072 [per mille of 0x6076, UNSIGNED16] for a wheel torque limit [N.m]."""
+    return max(0, min(65535, round(1000.0 * (wheel_torque / gear) / (rated_torque_mNm / 1000.0))))
 
 
 def permille_to_torque(permille: int, gear: float, rated_torque_mNm: int) -> float:

@@ -1,15 +1,18 @@
-"""A CiA 402 drive emulator on a python-can bus: a canopen `LocalNode` with a real EDS (SDO server
-for configuration), the power state machine driven by the controlword of its RPDOs, TPDOs sent on
-each SYNC as configured by the host, heartbeat producer, EMCY on faults, and a motor model (applied
-torque = target torque, wheel speed fed from outside or integrated from an inertia). A drive-side
-watchdog faults the drive (EMCY 0x8130, lifeguard/heartbeat error) when no SYNC came for
-`sync_timeout` while operation is enabled.
+"""CiA 402 drives emulated on a python-can bus: per node a canopen `LocalNode` with a real EDS/DCF
+(SDO server for the host's configuration), the power state machine driven by the controlword of
+its RPDOs, TPDOs sent on each SYNC as the host mapped them, a heartbeat producer, EMCY on faults,
+and a motor model (applied torque = target torque, limited by max torque 0x6072 when the
+dictionary has it, only in OPERATION ENABLED; wheel speed fed from outside or integrated from an
+inertia). Drive-side watchdog: no SYNC for `sync_timeout` while operation is enabled faults the
+drive with EMCY 0x8130 (heartbeat/life guard error), as a drive with a sync/heartbeat consumer does.
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 from pathlib import Path
+from typing import Any, Mapping
 
 import canopen
 
@@ -17,20 +20,19 @@ from twmr.hw import cia402 as c
 from twmr.hw.cia402 import State
 
 
-class Cia402Emulator:
-    """One emulated CiA 402 axis (node `node_id`) on `channel`; `close()` stops it."""
+class Cia402Axis:
+    """One emulated drive (node `node_id`) on `network`."""
 
-    def __init__(self, node_id: int, eds: str | Path, interface: str = "virtual",
-                 channel: str = "twmr", gear: float = 1.0, rated_torque_mNm: int = 1000,
-                 increments_per_rev: int = 4096, inertia: float = 0.05,
-                 sync_timeout: float = 0.25, heartbeat_ms: int = 50):
+    def __init__(self, network: canopen.Network, node_id: int, eds: str | Path, gear: float,
+                 rated_torque_mNm: int, increments_per_rev: int, inertia: float):
         self.node_id, self.gear, self.inertia = node_id, gear, inertia
-        self.increments_per_rev, self.sync_timeout = increments_per_rev, sync_timeout
-        self.network = canopen.Network()
-        self.network.connect(interface=interface, channel=channel)
+        self.increments_per_rev = increments_per_rev
         self.node = canopen.LocalNode(node_id, canopen.import_od(str(eds), node_id))
-        self.network.add_node(self.node)
+        network.add_node(self.node)
         self.node.sdo[c.MOTOR_RATED_TORQUE].raw = rated_torque_mNm
+        self.has_max = c.MAX_TORQUE in self.node.object_dictionary
+        if self.has_max:
+            self.node.sdo[c.MAX_TORQUE].raw = 65535
         self.lock = threading.Lock()
         self.state = State.SWITCH_ON_DISABLED
         self.control = 0
@@ -38,38 +40,28 @@ class Cia402Emulator:
         self.speed = 0.0
         self.angle = 0.0
         self.external_speed: float | None = None
-        self.last_sync = time.monotonic()
-        self.last_time = time.monotonic()
+        self.last_sync = self.last_time = time.monotonic()
         self._publish_status()
-        self.network.subscribe(0x000, self._on_nmt)
-        self.network.subscribe(0x080, self._on_sync)
-        self.node.nmt.start_heartbeat(heartbeat_ms)
-        self._stop = threading.Event()
-        self._watch = threading.Thread(target=self._watchdog, daemon=True)
-        self._watch.start()
-
-    def set_load_speed(self, wheel_speed: float) -> None:
-        with self.lock:
-            self.external_speed = wheel_speed
 
     def inject_fault(self, code: int = 0x2310) -> None:
-        """A drive fault (default: overcurrent): FAULT state and an EMCY frame."""
+        """A drive fault (default: overcurrent): an EMCY frame, then FAULT with zero torque."""
+        self.node.emcy.send(code, 0x01)
         with self.lock:
             self.state = State.FAULT
+            self.torque = 0.0
             self._publish_status()
-        self.node.emcy.send(code, 0x01)
 
     def _publish_status(self) -> None:
         self.node.sdo[c.STATUSWORD].raw = c.statusword(self.state)
 
-    def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        if data and data[0] == 0x01 and data[1] in (0, self.node_id):  # start: PDO config is final
-            self.node.rpdo.read()
-            self.node.tpdo.read()
-            for m in self.node.rpdo.map.values():
-                if m.enabled:
-                    m.add_callback(self._on_rpdo)
-            self.node.rpdo.subscribe()
+    def start(self) -> None:
+        """NMT start: the PDO configuration written by the host is final."""
+        self.node.rpdo.read()
+        self.node.tpdo.read()
+        for m in self.node.rpdo.map.values():
+            if m.enabled:
+                m.add_callback(self._on_rpdo)
+        self.node.rpdo.subscribe()
 
     def _on_rpdo(self, pdo: canopen.pdo.PdoMap) -> None:
         with self.lock:
@@ -81,11 +73,13 @@ class Cia402Emulator:
                 self._publish_status()
             if c.TARGET_TORQUE in by_index:
                 rated = self.node.sdo[c.MOTOR_RATED_TORQUE].raw
-                self.torque = c.permille_to_torque(int(by_index[c.TARGET_TORQUE].raw),
-                                                   self.gear, rated)
+                permille = int(by_index[c.TARGET_TORQUE].raw)
+                if self.has_max:
+                    top = int(self.node.sdo[c.MAX_TORQUE].raw)
+                    permille = max(-top, min(top, permille))
+                self.torque = c.permille_to_torque(permille, self.gear, rated)
 
-    def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        now = time.monotonic()
+    def on_sync(self, now: float) -> None:
         with self.lock:
             self.last_sync = now
             dt, self.last_time = now - self.last_time, now
@@ -95,8 +89,8 @@ class Cia402Emulator:
             else:
                 self.speed += applied / self.inertia * dt
             self.angle += self.speed * dt
-            rpm = round(self.speed * self.gear * 60.0 / (2 * 3.141592653589793))
-            inc = round(self.angle / (2 * 3.141592653589793) * self.gear * self.increments_per_rev)
+            rpm = round(self.speed * self.gear * 60.0 / (2 * math.pi))
+            inc = round(self.angle / (2 * math.pi) * self.gear * self.increments_per_rev)
             values = {c.STATUSWORD: c.statusword(self.state), c.VELOCITY_ACTUAL: rpm,
                       c.POSITION_ACTUAL: inc}
         for m in self.node.tpdo.map.values():
@@ -107,16 +101,59 @@ class Cia402Emulator:
                     var.raw = values[var.index]
             m.transmit()
 
+    def sync_lost(self, now: float, timeout: float) -> bool:
+        with self.lock:
+            return self.state == State.OPERATION_ENABLED and now - self.last_sync > timeout
+
+
+class Cia402Emulator:
+    """CiA 402 drives `node_ids` on the python-can bus `options`; `close()` stops them."""
+
+    def __init__(self, node_ids: tuple[int, ...], eds: str | Path,
+                 options: Mapping[str, Any] | None = None, gear: float = 1.0,
+                 rated_torque_mNm: int = 1000, increments_per_rev: int = 4096,
+                 inertia: float = 0.05, sync_timeout: float = 0.25, heartbeat_ms: int = 50):
+        self.sync_timeout = sync_timeout
+        self.network = canopen.Network()
+        self.network.connect(**dict(options or {"interface": "virtual", "channel": "twmr"}))
+        self.axes = {n: Cia402Axis(self.network, n, eds, gear, rated_torque_mNm,
+                                   increments_per_rev, inertia) for n in node_ids}
+        self.network.subscribe(0x000, self._on_nmt)
+        self.network.subscribe(0x080, self._on_sync)
+        for axis in self.axes.values():
+            axis.node.nmt.start_heartbeat(heartbeat_ms)
+        self._stop = threading.Event()
+        self._watch = threading.Thread(target=self._watchdog, name="cia402-emulator",
+                                       daemon=True)
+        self._watch.start()
+
+    def set_load_speeds(self, speeds: Mapping[int, float]) -> None:
+        """Wheel speeds [rad/s] imposed by a simulated load (the plant), by node."""
+        for node, w in speeds.items():
+            with self.axes[node].lock:
+                self.axes[node].external_speed = w
+
+    def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        if len(data) >= 2 and data[0] == 0x01:
+            for axis in self.axes.values():
+                if data[1] in (0, axis.node_id):
+                    axis.start()
+
+    def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        now = time.monotonic()
+        for axis in self.axes.values():
+            axis.on_sync(now)
+
     def _watchdog(self) -> None:
         while not self._stop.wait(self.sync_timeout / 4):
-            with self.lock:
-                lost = (self.state == State.OPERATION_ENABLED and
-                        time.monotonic() - self.last_sync > self.sync_timeout)
-            if lost:
-                self.inject_fault(0x8130)
+            now = time.monotonic()
+            for axis in self.axes.values():
+                if axis.sync_lost(now, self.sync_timeout):
+                    axis.inject_fault(0x8130)
 
     def close(self) -> None:
         self._stop.set()
         self._watch.join(timeout=1.0)
-        self.node.nmt.stop_heartbeat()
+        for axis in self.axes.values():
+            axis.node.nmt.stop_heartbeat()
         self.network.disconnect()

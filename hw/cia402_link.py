@@ -1,54 +1,124 @@
 """Host side of CiA 402 drives through the `canopen` package: one network, one RemoteNode per axis
-with the object dictionary of its EDS/DCF.
+with the object dictionary of its EDS/DCF (used unchanged).
 
 Configuration (SDO, pre-operational): modes of operation 0x6060 = 10 (cyclic synchronous torque),
-motor rated torque 0x6076 read back, RPDO1 = controlword 0x6040 + target torque 0x6071 (applied at
-once), TPDO1 = statusword 0x6041 + velocity actual 0x606C and TPDO2 = position actual 0x6064 (both
-on every SYNC); then NMT start. Each period: RPDO1 per axis, then one SYNC from the host. The
-heartbeat of each node is consumed and EMCY frames are collected.
+motor rated torque 0x6076 read back, max torque 0x6072 written from the torque limit when the
+dictionary has it, RPDO1 = controlword 0x6040 + target torque 0x6071 (applied at once),
+TPDO1 = statusword 0x6041 + velocity actual 0x606C and TPDO2 = position actual 0x6064 (both on
+every SYNC), with the predefined connection set's COB-IDs (0x200/0x180/0x280 + node); then NMT start and the power state machine to OPERATION ENABLED. Each period: RPDO1
+per axis, then one SYNC; the TPDOs that answer it give the round trip. Heartbeats are consumed,
+EMCY frames and error frames latch a fault, and so does a drive leaving OPERATION ENABLED.
 """
 from __future__ import annotations
 
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
+import can
 import canopen
 
 from twmr.hw import cia402 as c
+from twmr.hw.bus import FrameLog, describe
 from twmr.hw.cia402 import State
+from twmr.hw.safety import Fault, LinkError
+
+_KEYS = {c.STATUSWORD: "status", c.VELOCITY_ACTUAL: "rpm", c.POSITION_ACTUAL: "inc"}
 
 
 class Cia402Link:
-    """CiA 402 axes on one CANopen network (python-can bus underneath)."""
+    """CiA 402 axes `nodes` (wheel order) on one CANopen network over python-can `options`."""
 
-    def __init__(self, node_ids: tuple[int, ...], eds: str | Path, interface: str, channel: str,
-                 bitrate: int, gear: float, increments_per_rev: int, rated_torque_mNm: int):
-        self.gear, self.increments_per_rev = gear, increments_per_rev
+    def __init__(self, nodes: Sequence[int], options: dict[str, Any], eds: str | Path,
+                 gear: float, increments_per_rev: int, rated_torque_mNm: int,
+                 log: FrameLog | None = None):
+        self.nodes, self.gear, self.increments_per_rev = tuple(nodes), gear, increments_per_rev
         self.default_rated = rated_torque_mNm
-        self.network = canopen.Network()
-        self.network.connect(interface=interface, channel=channel, bitrate=bitrate)
+        self.log = log
         self.lock = threading.Lock()
-        self.nodes: dict[int, Any] = {}
-        self.feedback = {n: {"status": 0, "rpm": 0, "inc": 0, "stamp": 0.0} for n in node_ids}
-        self.beats = {n: time.monotonic() for n in node_ids}  # grace until the first one
-        self.emcy: list[tuple[int, int]] = []
-        for n in node_ids:
+        self.values = {n: {"status": 0, "rpm": 0, "inc": 0, "stamp": 0.0} for n in self.nodes}
+        self.beats = {n: time.monotonic() for n in self.nodes}  # grace until the first one
+        self.fault: Fault | None = None
+        self.running = False
+        self.rtt_ns: list[int] = []
+        self._pending: set[tuple[int, int]] = set()
+        self._sync_ns = 0
+        self._replied = threading.Event()
+        self.rx: dict[int, tuple[Any, Any, Any]] = {}  # RPDO1, controlword, target torque
+        self.rated: dict[int, int] = {}  # 0x6076 [mN.m]
+        self.network = canopen.Network()
+        try:
+            self.network.connect(**options)
+        except (can.CanError, OSError, ValueError, ImportError) as err:
+            raise LinkError(Fault(None, f"cannot open {describe(options)} ({err})",
+                                  "check the adapter and the interface/channel/bitrate or "
+                                  "can_config parameters")) from err
+        if log is not None:
+            self.network.notifier.add_listener(log.received)
+            raw_send = self.network.bus.send
+
+            def logged_send(msg: can.Message, timeout: float | None = None) -> None:
+                raw_send(msg, timeout)
+                log.sent(msg)
+
+            self.network.bus.send = logged_send
+        self.network.notifier.add_listener(self._on_frame)
+        self.nodes_od: dict[int, Any] = {}
+        for n in self.nodes:
             node = canopen.RemoteNode(n, canopen.import_od(str(eds), n))
             self.network.add_node(node)
-            node.emcy.add_callback(lambda e, n=n: self.emcy.append((n, e.code)))
-            node.nmt.add_heartbeat_callback(lambda state, n=n: self.beats.__setitem__(
-                n, time.monotonic()))
-            self.nodes[n] = node
+            node.emcy.add_callback(lambda e, n=n: self._latch(Fault(
+                n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error register "
+                f"0x{e.register:02x}", "read the drive's error history 0x1003, then fault-reset")))
+            node.nmt.add_heartbeat_callback(lambda state, n=n: self._on_beat(n))
+            self.nodes_od[n] = node
 
-    def configure(self) -> None:
-        self.rx: dict[int, tuple[Any, Any, Any]] = {}
-        self.rated: dict[int, int] = {}
-        for n, node in self.nodes.items():
+    # -- bus ------------------------------------------------------------------------------------
+    def _on_frame(self, msg: can.Message) -> None:
+        if msg.is_error_frame:
+            self._latch(Fault(None, f"error frame received ({msg.data.hex() or 'no data'})",
+                              "check termination, bitrate and wiring"))
+
+    def _on_beat(self, n: int) -> None:
+        with self.lock:
+            self.beats[n] = time.monotonic()
+
+    def _latch(self, fault: Fault) -> None:
+        with self.lock:
+            if self.fault is None:
+                self.fault = fault
+
+    def _on_tpdo(self, n: int, number: int, pdo: Any) -> None:
+        now_ns = time.perf_counter_ns()
+        with self.lock:
+            fb = self.values[n]
+            for var in pdo.map:
+                key = _KEYS.get(var.index)
+                if key:
+                    fb[key] = int(var.raw)
+            fb["stamp"] = time.monotonic()
+            if (n, number) in self._pending:
+                self._pending.discard((n, number))
+                if not any(m == n for m, _ in self._pending):
+                    self.rtt_ns.append(now_ns - self._sync_ns)
+                if not self._pending:
+                    self._replied.set()
+            state = c.decode_statusword(fb["status"])
+        if self.running and state != State.OPERATION_ENABLED:
+            self._latch(Fault(n, f"left OPERATION ENABLED ({state.value})",
+                              "read the drive's error history 0x1003, then fault-reset"))
+
+    # -- life cycle ------------------------------------------------------------------------------
+    def configure(self, torque_limit: float) -> None:
+        """SDO configuration and PDO mapping of every axis, then NMT start."""
+        for n, node in self.nodes_od.items():
             node.nmt.state = "PRE-OPERATIONAL"
             node.sdo[c.MODES_OF_OPERATION].raw = c.CYCLIC_SYNC_TORQUE
             self.rated[n] = int(node.sdo[c.MOTOR_RATED_TORQUE].raw) or self.default_rated
+            if c.MAX_TORQUE in node.object_dictionary:
+                node.sdo[c.MAX_TORQUE].raw = c.limit_to_permille(torque_limit, self.gear,
+                                                                 self.rated[n])
             node.rpdo.read(from_od=True)
             node.tpdo.read(from_od=True)
             for maps in (node.rpdo, node.tpdo):
@@ -57,73 +127,104 @@ class Cia402Link:
             r = node.rpdo[1]
             r.clear()
             cw, tt = r.add_variable(c.CONTROLWORD), r.add_variable(c.TARGET_TORQUE)
-            r.trans_type, r.enabled = 255, True
+            # the predefined connection set's COB-IDs, written explicitly: a DCF made for one
+            # node (node 1) carries that node's ids, which would clash on a second drive
+            r.cob_id, r.trans_type, r.enabled = 0x200 + n, 255, True
             t1, t2 = node.tpdo[1], node.tpdo[2]
             t1.clear()
             t1.add_variable(c.STATUSWORD)
             t1.add_variable(c.VELOCITY_ACTUAL)
             t2.clear()
             t2.add_variable(c.POSITION_ACTUAL)
-            for t in (t1, t2):
-                t.trans_type, t.enabled = 1, True
+            for t, base in ((t1, 0x180), (t2, 0x280)):
+                t.cob_id, t.trans_type, t.enabled = base + n, 1, True
             node.rpdo.save()
             node.tpdo.save()
-            t1.add_callback(lambda m, n=n: self._on_tpdo(n, m))
-            t2.add_callback(lambda m, n=n: self._on_tpdo(n, m))
+            t1.add_callback(lambda m, n=n: self._on_tpdo(n, 1, m))
+            t2.add_callback(lambda m, n=n: self._on_tpdo(n, 2, m))
             self.rx[n] = (r, cw, tt)
-        for node in self.nodes.values():
+        for node in self.nodes_od.values():
             node.nmt.state = "OPERATIONAL"
 
-    def _on_tpdo(self, n: int, pdo: Any) -> None:
-        with self.lock:
-            fb = self.feedback[n]
-            for var in pdo.map:
-                key = {c.STATUSWORD: "status", c.VELOCITY_ACTUAL: "rpm",
-                       c.POSITION_ACTUAL: "inc"}.get(var.index)
-                if key:
-                    fb[key] = int(var.raw)
-            fb["stamp"] = time.monotonic()
-
-    def states(self) -> dict[int, State]:
-        with self.lock:
-            return {n: c.decode_statusword(fb["status"]) for n, fb in self.feedback.items()}
-
-    def send(self, controls: dict[int, int], torques: dict[int, float]) -> None:
-        """RPDO1 to every axis, then one SYNC."""
-        for n, (pdo, cw, tt) in self.rx.items():
-            cw.raw = controls[n]
-            tt.raw = c.torque_to_permille(torques.get(n, 0.0), self.gear, self.rated[n])
-            pdo.transmit()
-        self.network.sync.transmit()
-
-    def enable(self, timeout: float) -> bool:
-        """Walk every axis to OPERATION ENABLED (fault reset first if needed)."""
+    def start(self, timeout: float, torque_limit: float) -> None:
+        """Configure, then walk every axis to OPERATION ENABLED (fault reset first if needed);
+        `LinkError` when an axis does not answer or is not enabled in time."""
+        try:
+            self.configure(torque_limit)
+        except (canopen.SdoCommunicationError, canopen.SdoAbortedError) as err:
+            raise LinkError(Fault(None, f"SDO configuration of nodes {self.nodes} failed "
+                                  f"({err})", "check node ids, power, the EDS and the bus")
+                            ) from err
         deadline = time.monotonic() + timeout
-        previous: dict[int, int] = {n: 0 for n in self.nodes}
+        previous = {n: 0 for n in self.nodes}
         while time.monotonic() < deadline:
             states = self.states()
             if all(s == State.OPERATION_ENABLED for s in states.values()):
-                return True
+                self.running = True
+                return
             words = {n: c.next_controlword(s) for n, s in states.items()}
             # fault reset acts on a rising edge: send 0 first when it was already high
             words = {n: (0 if w == c.FAULT_RESET and previous[n] == c.FAULT_RESET else w)
                      for n, w in words.items()}
-            self.send(words, {})
+            self._send(words, {})
             previous = words
             time.sleep(0.003)
-        return False
+        late = next(n for n, s in self.states().items() if s != State.OPERATION_ENABLED)
+        raise LinkError(Fault(late, f"not OPERATION ENABLED after {timeout} s "
+                              f"({self.states()[late].value}; EMCY: {self.fault})",
+                              "check the drive's faults and power"))
 
-    def read(self, n: int) -> tuple[float, float, float, State]:
-        """(wheel angle [rad], wheel speed [rad/s], time of the last TPDO, state) of axis n."""
+    def states(self) -> dict[int, State]:
         with self.lock:
-            fb = dict(self.feedback[n])
-        return (c.position_to_si(fb["inc"], self.gear, self.increments_per_rev),
-                c.velocity_to_si(fb["rpm"], self.gear), fb["stamp"],
-                c.decode_statusword(fb["status"]))
+            return {n: c.decode_statusword(v["status"]) for n, v in self.values.items()}
 
-    def stop(self) -> None:
-        """Zero torque with SHUTDOWN (power stage off) to every axis."""
-        self.send({n: c.SHUTDOWN for n in self.nodes}, {})
+    def _send(self, controls: dict[int, int], torques: dict[int, float]) -> None:
+        """RPDO1 to every axis, then one SYNC."""
+        try:
+            for n, (pdo, cw, tt) in self.rx.items():
+                cw.raw = controls[n]
+                tt.raw = c.torque_to_permille(torques.get(n, 0.0), self.gear, self.rated[n])
+                pdo.transmit()
+            with self.lock:
+                self._replied.clear()
+                self._pending = {(n, k) for n in self.nodes for k in (1, 2)}
+                self._sync_ns = time.perf_counter_ns()
+            self.network.sync.transmit()
+        except can.CanError as err:
+            raise LinkError(Fault(None, f"send failed ({err}): bus-off or adapter lost",
+                                  "check wiring, termination and bitrate")) from err
+
+    def command(self, torques: Sequence[float]) -> tuple[float, ...]:
+        """Target torques [N.m] with ENABLE OPERATION, then SYNC; the torques the drives receive
+        (per mille of the rated torque)."""
+        self._send({n: c.ENABLE_OPERATION for n in self.nodes}, dict(zip(self.nodes, torques)))
+        return tuple(c.permille_to_torque(c.torque_to_permille(v, self.gear, self.rated[n]),
+                                          self.gear, self.rated[n])
+                     for n, v in zip(self.nodes, torques))
+
+    def wait_feedback(self, timeout: float) -> bool:
+        """Wait up to `timeout` [s] for the TPDOs answering the last SYNC."""
+        return self._replied.wait(timeout)
+
+    def feedback(self) -> list[tuple[float, float, float]]:
+        """(wheel angle [rad], wheel speed [rad/s], monotonic time of the TPDO) per axis."""
+        with self.lock:
+            vals = [dict(self.values[n]) for n in self.nodes]
+        return [(c.position_to_si(v["inc"], self.gear, self.increments_per_rev),
+                 c.velocity_to_si(v["rpm"], self.gear), v["stamp"]) for v in vals]
+
+    def heartbeats(self) -> dict[int, float]:
+        with self.lock:
+            return dict(self.beats)
+
+    def disable(self, emergency: bool = False) -> None:
+        """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis."""
+        self.running = False
+        word = c.DISABLE_VOLTAGE if emergency else c.SHUTDOWN
+        try:
+            self._send({n: word for n in self.nodes}, {})
+        except LinkError:
+            pass
 
     def close(self) -> None:
         self.network.disconnect()

@@ -1,281 +1,224 @@
-"""`CanMotorDrive`: two wheel motors on CAN drives — ODrive (CAN Simple) or CiA 402 (CANopen,
-through `canopen`, see `cia402_link`) — with the motor driver's ports.
+"""`CanMotorDrive` (kind `can_drive`): two wheel motors on CAN drives with the ports of the
+simulated motor driver, so a scenario swaps one for the other by its `kind:` alone.
 
-Ports are those of `motor_driver` (torque command in; applied torque, measured speed and angle
-out) plus the load `wheel_speed` input, which is forwarded to an in-process emulator when
-`emulate` is true (no hardware) and is otherwise only a plausibility reference.
+Protocols: ODrive CAN Simple (`odrive_link`) or CiA 402 over CANopen (`cia402_link`). The bus is
+python-can's (`interface`, `channel`, `bitrate`, or a python-can config file `can_config`).
 
-Start-up: the DBC of the firmware line is checked against the frame layouts (cantools); each axis
-gets Clear_Errors, Set_Controller_Mode(torque, passthrough) and Set_Axis_State(CLOSED_LOOP), and
-must report CLOSED_LOOP in its heartbeat within `start_timeout`. Each step sends Set_Input_Torque
-(limited to `torque_limit`) for both axes as soon as the command is known (`evaluate`, so the
-torque output depends directly on the command, as for the simulated driver) and publishes the
-latest Get_Encoder_Estimates. Safety:
-no encoder frame for `feedback_timeout`, a heartbeat with an error or out of closed loop, or a
-bus error stops the run with a `HardwareError` naming the drive; `terminate()` — also after any
-error or Ctrl-C — sends zero torque and IDLE to every axis. Every frame sent and received is logged
-to `log_file` (python-can ASC or BLF by suffix) when one is given.
+Each step: `evaluate(t)` limits the torque command to `torque_limit` and sends it at once (the
+torque output depends directly on the command, as for the simulated driver, and is what the drives
+receive after the wire's quantisation); `do_step(t, h)` waits up to `reply_timeout` for the
+feedback that answers this period (polled ODrive estimates, CiA 402 TPDOs after the SYNC) and
+publishes the latest wheel speed and angle. Safety (`safety`): a latched fault (axis error, EMCY,
+error frame, bus-off), feedback older than `watchdog_periods` steps or a heartbeat older than
+`heartbeat_timeout` sends zero torque and disables the drives at once, and stops the run with a
+`HardwareError` naming the block and the node. `terminate()` — after a normal end, an error or
+Ctrl-C — sends zero torque and disables every drive. Every frame is logged (python-can BLF/ASC)
+beside the results unless `log_file: ""`.
 """
 from __future__ import annotations
 
-import threading
+import math
 import time
-from typing import Any
+from importlib import resources
+from pathlib import Path
+from typing import Any, ClassVar
 
-import can
-import canopen
+import numpy as np
 
 from twmr.core import BOOLEAN, STRING, Component, HardwareError, Input, Output, Parameter
-from twmr.hw import protocol as p
+from twmr.hw.bus import FrameLog, bus_options
+from twmr.hw.safety import Fault, LinkError, clamp, stale
+
+SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
 
 
 class CanMotorDrive(Component):
     """Two drive axes on a CAN bus (ODrive CAN Simple or CiA 402), as the `motor_driver` block."""
 
-    kind = "can_motor_drive"
+    kind = "can_drive"
+    needs_realtime: ClassVar[bool] = True
+    construction_parameters = ("eds", "can_config")
+
+    protocol = Parameter("odrive", type=STRING, description="odrive | cia402")
     interface = Parameter("virtual", type=STRING, description="python-can interface")
     channel = Parameter("twmr", type=STRING, description="python-can channel")
     bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
-    protocol = Parameter("odrive", type=STRING, description="odrive | cia402")
-    firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
-    node_ids = Parameter((0, 1), size=2, type="Integer", description="right, left axis node id")
+    can_config = Parameter("", type=STRING, description="python-can config file (INI); replaces "
+                           "interface/channel/bitrate when given")
+    can_context = Parameter("default", type=STRING, description="section of can_config")
+    node_ids = Parameter((0, 1), size=2, type="Integer", description="right, left node id")
     gear = Parameter(1.0, min=1e-9, description="motor turns per wheel turn")
-    torque_limit = Parameter(50.0, unit="N.m", min=0.0, description="|wheel torque| limit")
-    feedback_timeout = Parameter(0.05, unit="s", min=0.0, description="encoder watchdog")
-    start_timeout = Parameter(1.0, unit="s", min=0.0)
-    emulate = Parameter(True, type=BOOLEAN, description="run emulated drives in this process")
+    torque_limit = Parameter(50.0, unit="N.m", min=0.0, description="|wheel torque| limit, "
+                             "host and drive")
+    speed_limit = Parameter(200.0, unit="rad/s", min=0.0, description="ODrive: wheel speed "
+                            "limit (Set_Limits)")
+    torque_constant = Parameter(0.04, unit="N.m/A", min=1e-9, description="ODrive: motor torque "
+                                "constant; current limit = torque_limit / (gear K_t)")
+    firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
+    encoder = Parameter("cyclic", type=STRING, description="ODrive: cyclic | polled estimates")
     eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
                     "shipped maxon EPOS4 EDS)")
     rated_torque = Parameter(100_000, type="Integer", description="CiA 402: rated torque "
                              "[mN.m] used when the drive reports 0 in 0x6076")
     increments_per_rev = Parameter(4096, type="Integer", description="CiA 402: encoder "
                                    "increments per motor revolution")
-    log_file = Parameter("", type=STRING, description="frame log (.asc or .blf); '' = none")
+    watchdog_periods = Parameter(5, type="Integer", min=1, description="host watchdog: steps "
+                                 "without fresh feedback before the drives are disabled")
+    heartbeat_timeout = Parameter(0.5, unit="s", min=0.0, description="heartbeat loss")
+    reply_timeout = Parameter(1e-3, unit="s", min=0.0, description="wait for a period's feedback")
+    start_timeout = Parameter(1.0, unit="s", min=0.0)
+    emulate = Parameter(True, type=BOOLEAN, description="run emulated drives in this process")
+    log_file = Parameter("auto", type=STRING, description="frame log (.blf | .asc); 'auto' = "
+                         "<results>/<name>_frames.blf, '' = none")
 
     torque_command = Input(size=2, unit="N.m", description="(tau_R, tau_L) requested")
     wheel_speed = Input(size=2, unit="rad/s", description="load speed (fed to the emulator)")
     torque = Output(size=2, unit="N.m", depends_on=("torque_command",),
-                    description="torque sent (after the limit)")
+                    description="torque the drives receive (limited, quantised)")
     measured_speed = Output(size=2, unit="rad/s", description="encoder speed (latest frame)")
     angle = Output(size=2, unit="rad", description="encoder angle (latest frame)")
 
+    @classmethod
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> "CanMotorDrive":
+        """Relative `eds` and `can_config` paths resolve against the scenario's folder."""
+        files = {k: str(base_dir / v) if v and not Path(str(v)).is_absolute() else v
+                 for k, v in construction.items()}
+        return cls(name, **files)
+
+    # -- life cycle ------------------------------------------------------------------------------
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
-        if self.protocol not in ("odrive", "cia402"):
-            raise HardwareError(self.name, start, f"protocol '{self.protocol}' is unknown. "
-                                f"Fix: use protocol: odrive or cia402.")
-        self._nodes = tuple(int(n) for n in self.node_ids)
         self._t = start
-        self.emulator = None
-        self.logger = None
-        if self.protocol == "cia402":
-            self._setup_cia402()
-            return
-        self._line = p.firmware_line(self.firmware)
-        p.check_layout(self.firmware)
-        self._lock = threading.Lock()
-        self._feedback = {n: (0.0, 0.0, 0.0) for n in self._nodes}  # angle, speed, time
-        self._heartbeat = {n: p.Heartbeat(0, 0) for n in self._nodes}
-        self._bus_error = ""
-        if self.emulate:
-            from twmr.hw.emulator import OdriveEmulator
-
-            self.emulator = OdriveEmulator(self._nodes, self.interface, self.channel,
-                                           self.firmware, self.gear, bitrate=self.bitrate)
+        self.link: Any = None
+        self.emulators: list[Any] = []
+        self.log: FrameLog | None = None
+        self._tripped = False
+        self._late_replies = 0
+        self._age_max = 0.0
+        self._nodes = tuple(int(n) for n in self.node_ids)
+        if self.protocol not in ("odrive", "cia402"):
+            raise HardwareError(self.name, start, f"protocol '{self.protocol}' is unknown. Fix: "
+                                f"use protocol: odrive or cia402.")
         try:
-            self.bus = can.Bus(interface=self.interface, channel=self.channel,
-                               bitrate=self.bitrate)
-        except (can.CanError, OSError, ValueError) as err:
-            raise HardwareError(self.name, start, f"cannot open CAN bus {self.interface}:"
-                                f"{self.channel} ({err}). Fix: check the adapter and the "
-                                f"interface/channel parameters.") from err
-        self.logger = can.Logger(self.log_file) if self.log_file else None
-        listeners: list[Any] = [self._on_frame] + ([self.logger] if self.logger else [])
-        self.notifier = can.Notifier(self.bus, listeners, timeout=0.01)
+            options = bus_options(self.interface, self.channel, int(self.bitrate),
+                                  self.can_config, self.can_context)
+        except (OSError, ValueError) as err:
+            raise HardwareError(self.name, start, f"bus configuration: {err}. Fix: give an "
+                                f"existing python-can config file or interface and channel."
+                                ) from err
+        path = self._log_path()
+        self.log = FrameLog(path) if path else None
+        if self.emulate:
+            self._start_emulators(options)
+        try:
+            self.link = self._open_link(options)
+        except LinkError as err:
+            raise HardwareError(self.name, start, err.fault.text()) from err
 
-    def _setup_cia402(self) -> None:
-        from importlib import resources
+    def _log_path(self) -> Path | None:
+        if self.log_file == "auto":
+            out = getattr(self, "output_dir", None)
+            return Path(out) / f"{self.name}_frames.blf" if out else None
+        return Path(self.log_file) if self.log_file else None
 
-        from twmr.hw.cia402_emulator import Cia402Emulator
+    def _eds(self) -> str:
+        return self.eds or str(resources.files("twmr.hw").joinpath("data", SHIPPED_EDS))
+
+    def _open_link(self, options: dict[str, Any]) -> Any:
+        if self.protocol == "odrive":
+            from twmr.hw.odrive_link import OdriveLink
+
+            return OdriveLink(self._nodes, options, self.firmware, self.gear, self.encoder,
+                              self.log)
         from twmr.hw.cia402_link import Cia402Link
 
-        eds = self.eds or str(resources.files("twmr.hw").joinpath(
-            "data", "maxon_epos4_module_50-5.eds"))
-        if self.emulate:
-            self.emulator = [Cia402Emulator(n, eds, self.interface, self.channel, self.gear,
-                                            int(self.rated_torque), int(self.increments_per_rev))
-                             for n in self._nodes]
-        try:
-            self.link = Cia402Link(self._nodes, eds, self.interface, self.channel,
-                                   int(self.bitrate), self.gear, int(self.increments_per_rev),
-                                   int(self.rated_torque))
-            self.link.configure()
-        except (canopen.SdoCommunicationError, canopen.SdoAbortedError, OSError) as err:
-            raise HardwareError(self.name, self._t, f"CiA 402 drives {self._nodes} could not "
-                                f"be configured ({err}). Fix: check node ids, power, the "
-                                f"EDS and the bus.") from err
-        if self.log_file:
-            self.logger = can.Logger(self.log_file)
-            self.link.network.notifier.add_listener(self.logger)
+        return Cia402Link(self._nodes, options, self._eds(), self.gear,
+                          int(self.increments_per_rev), int(self.rated_torque), self.log)
 
-    def _on_frame(self, msg: can.Message) -> None:
-        if msg.is_error_frame:
-            self._bus_error = f"error frame {msg}"
-            return
-        node, cmd = p.split_id(msg.arbitration_id)
-        if node not in self._feedback or msg.is_remote_frame:
-            return
-        if cmd == p.GET_ENCODER_ESTIMATES:
-            angle, speed = p.decode_encoder(msg.data, self.gear)
-            with self._lock:
-                self._feedback[node] = (angle, speed, time.monotonic())
-        elif cmd == p.HEARTBEAT:
-            with self._lock:
-                self._heartbeat[node] = p.decode_heartbeat(msg.data, self.firmware)
+    def _start_emulators(self, options: dict[str, Any]) -> None:
+        if self.protocol == "odrive":
+            from twmr.hw.emulator import OdriveEmulator
 
-    def _send(self, ident: tuple[int, bytes]) -> None:
-        msg = can.Message(arbitration_id=ident[0], data=ident[1], is_extended_id=False)
-        try:
-            self.bus.send(msg)
-        except can.CanError as err:
-            raise HardwareError(self.name, self._t, f"CAN send failed ({err}); bus-off or "
-                                f"adapter lost. Fix: check wiring, termination, bitrate.") from err
-        if self.logger is not None:
-            self.logger.on_message_received(msg)
+            self.emulators = [OdriveEmulator(self._nodes, options, self.firmware, self.gear,
+                                             torque_constant=self.torque_constant)]
+        else:
+            from twmr.hw.cia402_emulator import Cia402Emulator
+
+            self.emulators = [Cia402Emulator(self._nodes, self._eds(), options, self.gear,
+                                             int(self.rated_torque),
+                                             int(self.increments_per_rev))]
 
     def initialize(self) -> None:
-        if self.protocol == "cia402":
-            if not self.link.enable(self.start_timeout):
-                raise HardwareError(self.name, self.start_time, f"drives {self._nodes} did not "
-                                    f"reach OPERATION ENABLED within {self.start_timeout} s "
-                                    f"(states {self.link.states()}, EMCY {self.link.emcy}). "
-                                    f"Fix: check the drives' faults and power.")
-            self._read_cia402()
-            return
-        for node in self._nodes:
-            self._send((p.can_id(node, p.CLEAR_ERRORS), b""))
-            self._send(p.encode_controller_mode(node))
-            self._send(p.encode_axis_state(node, p.AXIS_CLOSED_LOOP))
-        deadline = time.monotonic() + self.start_timeout
-        while time.monotonic() < deadline:
-            for node in self._nodes:  # zero torque keeps the drives' command watchdogs fed
-                self._send(p.encode_torque(node, 0.0, self.gear))
-            with self._lock:
-                ready = all(self._heartbeat[n].axis_state == p.AXIS_CLOSED_LOOP and
-                            self._feedback[n][2] > 0 for n in self._nodes)
-            if ready:
-                break
-            time.sleep(0.002)
-        else:
-            raise HardwareError(self.name, self.start_time, f"drives {self._nodes} did not "
-                                f"reach closed loop within {self.start_timeout} s (heartbeats: "
-                                f"{self._heartbeat}). Fix: check power, node ids and errors.")
-        self._read()
-
-    def _read(self) -> None:
-        now = time.monotonic()
-        with self._lock:
-            fb = [self._feedback[n] for n in self._nodes]
-            hb = [self._heartbeat[n] for n in self._nodes]
-        for node, (_, _, stamp), beat in zip(self._nodes, fb, hb):
-            if now - stamp > self.feedback_timeout:
-                raise HardwareError(self.name, self._t, f"drive node {node}: no encoder frame "
-                                    f"for {now - stamp:.3f} s (watchdog {self.feedback_timeout} "
-                                    f"s). Torque set to zero. Fix: check the drive and the bus.")
-            if beat.axis_error or beat.axis_state != p.AXIS_CLOSED_LOOP:
-                raise HardwareError(self.name, self._t, f"drive node {node}: axis error "
-                                    f"0x{beat.axis_error:x}, state {beat.axis_state}. Torque set "
-                                    f"to zero. Fix: read the drive's errors, then Clear_Errors.")
-        if self._bus_error:
-            raise HardwareError(self.name, self._t, f"CAN {self._bus_error}. Fix: check the bus.")
-        self.angle = (fb[0][0], fb[1][0])
-        self.measured_speed = (fb[0][1], fb[1][1])
+        try:
+            if self.protocol == "odrive":
+                current = self.torque_limit / (self.gear * self.torque_constant)
+                self.link.start(self.start_timeout, self.speed_limit, current)
+            else:
+                self.link.start(self.start_timeout, self.torque_limit)
+        except LinkError as err:
+            self._trip(err.fault)
+        self._publish(time.monotonic())
+        self._age_max = 0.0  # measured over the steps
 
     def evaluate(self, t: float) -> None:
-        """Send the (limited) torque command now: the drive applies it over [t, t + h)."""
+        """Send the (limited) torque command now: the drives apply it over [t, t + h)."""
         self._t = t
-        lim = self.torque_limit
-        tau = tuple(min(lim, max(-lim, v)) for v in self.torque_command)
-        if self.protocol == "cia402":
-            from twmr.hw import cia402
-
-            self.link.send({n: cia402.ENABLE_OPERATION for n in self._nodes},
-                           dict(zip(self._nodes, tau)))
-            self.torque = tuple(cia402.permille_to_torque(cia402.torque_to_permille(
-                v, self.gear, self.link.rated[n]), self.gear, self.link.rated[n])
-                for n, v in zip(self._nodes, tau))  # what the drive receives (per mille)
-            return
-        for node, v in zip(self._nodes, tau):
-            self._send(p.encode_torque(node, v, self.gear))
-        self.torque = tau
+        try:
+            self.torque = self.link.command(clamp(self.torque_command, self.torque_limit))
+        except LinkError as err:
+            self._trip(err.fault)
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
-        if self.protocol == "cia402":
-            for emu, w in zip(self.emulator or (), self.wheel_speed):
-                emu.set_load_speed(w)
-            self._read_cia402()
-            return
-        if self.emulator is not None:
-            for node, w in zip(self._nodes, self.wheel_speed):
-                self.emulator.set_load_speed(node, w)
-        self._read()
-
-    def _read_cia402(self) -> None:
-        from twmr.hw.cia402 import State
-
+        for emu in self.emulators:
+            emu.set_load_speeds(dict(zip(self._nodes, self.wheel_speed)))
+        if not self.link.wait_feedback(self.reply_timeout):
+            self._late_replies += 1
         now = time.monotonic()
-        if self.link.emcy:
-            node, code = self.link.emcy[0]
-            raise HardwareError(self.name, self._t, f"drive node {node} sent EMCY 0x{code:04x}. "
-                                f"Drives disabled. Fix: read the drive's error history, then "
-                                f"fault-reset.")
-        values = []
-        for node in self._nodes:
-            angle, speed, stamp, state = self.link.read(node)
-            if now - stamp > self.feedback_timeout:
-                raise HardwareError(self.name, self._t, f"drive node {node}: no TPDO for "
-                                    f"{now - stamp:.3f} s (watchdog {self.feedback_timeout} s). "
-                                    f"Drives disabled. Fix: check the drive and the bus.")
-            if now - self.link.beats[node] > max(0.2, 4 * self.feedback_timeout):
-                raise HardwareError(self.name, self._t, f"drive node {node}: heartbeat lost. "
-                                    f"Drives disabled. Fix: check power and wiring.")
-            if state != State.OPERATION_ENABLED:
-                raise HardwareError(self.name, self._t, f"drive node {node} left OPERATION "
-                                    f"ENABLED ({state.value}). Drives disabled.")
-            values.append((angle, speed))
-        self.angle = (values[0][0], values[1][0])
-        self.measured_speed = (values[0][1], values[1][1])
+        fault = self.link.fault or stale(
+            now, {n: fb[2] for n, fb in zip(self._nodes, self.link.feedback())},
+            self.link.heartbeats(), self.watchdog_periods * h, self.heartbeat_timeout)
+        if fault is not None:
+            self._trip(fault)
+        self._publish(now)
+
+    def _publish(self, now: float) -> None:
+        fb = self.link.feedback()
+        self._age_max = max(self._age_max, max(now - f[2] for f in fb))
+        self.angle = (fb[0][0], fb[1][0])
+        self.measured_speed = (fb[0][1], fb[1][1])
+
+    def _trip(self, fault: Fault) -> None:
+        """Zero torque and drives disabled now, then the run stops."""
+        self._tripped = True
+        if self.link is not None:
+            self.link.disable(emergency=True)
+        raise HardwareError(self.name, self._t, fault.text())
+
+    def report(self) -> dict[str, float]:
+        """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback."""
+        out: dict[str, float] = {"late_replies": self._late_replies,
+                                 "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
+        rtt = np.asarray(getattr(self.link, "rtt_ns", []), dtype=float) / 1e3
+        if rtt.size:
+            out.update(can_rtt_p50_us=float(np.percentile(rtt, 50)),
+                       can_rtt_p99_us=float(np.percentile(rtt, 99)),
+                       can_rtt_max_us=float(rtt.max()), can_rtt_samples=int(rtt.size))
+        return {k: (round(v, 2) if isinstance(v, float) and math.isfinite(v) else v)
+                for k, v in out.items()}
 
     def terminate(self) -> None:
-        """Zero torque and IDLE (ODrive) / SHUTDOWN (CiA 402) to every axis, then close
-        everything (also after errors)."""
-        link = getattr(self, "link", None)
-        if link is not None:
-            try:
-                link.stop()
-            finally:
-                if self.logger is not None:
-                    self.logger.stop()
+        """Zero torque and disable every drive (IDLE / SHUTDOWN, or Estop / DISABLE VOLTAGE after
+        a fault), then close the bus, the log and the emulators."""
+        link, self.link = getattr(self, "link", None), None
+        try:
+            if link is not None:
+                link.disable(emergency=self._tripped)
                 link.close()
-                self.link = None
-                for emu in self.emulator or ():
-                    emu.close()
-                self.emulator = None
-            return
-        bus = getattr(self, "bus", None)
-        if bus is not None:
-            for node in getattr(self, "_nodes", ()):
-                try:
-                    self._send(p.encode_torque(node, 0.0, self.gear))
-                    self._send(p.encode_axis_state(node, p.AXIS_IDLE))
-                except HardwareError:
-                    pass
-            self.notifier.stop()
-            if self.logger is not None:
-                self.logger.stop()
-            bus.shutdown()
-            self.bus = None
-        if getattr(self, "emulator", None) is not None:
-            self.emulator.close()
-            self.emulator = None
+        finally:
+            if getattr(self, "log", None) is not None:
+                self.log.close()
+                self.log = None
+            for emu in getattr(self, "emulators", ()):
+                emu.close()
+            self.emulators = []

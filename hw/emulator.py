@@ -1,69 +1,78 @@
 """An ODrive (CAN Simple) drive emulator that answers on a python-can bus, with a motor behind it.
 
-Per axis it keeps the axis state machine (IDLE <-> CLOSED_LOOP_CONTROL on Set_Axis_State, ESTOP
--> IDLE with an error, Clear_Errors), the controller mode, and the torque command. It sends the
-Heartbeat and Get_Encoder_Estimates cyclically (and answers them when asked by RTR), like the real
-drive's cyclic messages. Motor model: the applied torque follows the command through a first-order
-lag `torque_tau` [s] (zero when not in closed loop); the wheel speed is either fed from outside
-(`set_load_speed`, in a co-simulation where the plant carries the inertia) or integrated from
-J omega' = torque with wheel inertia `inertia` [kg.m2]. A drive-side watchdog drops to IDLE with
-the watchdog error bit when no torque command came for `command_timeout` [s], as a real ODrive
-does with its axis watchdog enabled.
+Per axis it keeps what the real firmware keeps: the axis state machine (IDLE <-> CLOSED_LOOP_CONTROL
+on Set_Axis_State, refused while an error is latched; Estop -> IDLE with ESTOP_REQUESTED;
+Clear_Errors), the controller mode (torque commands count only in TORQUE_CONTROL), the limits of
+Set_Limits, and the torque command. It sends Heartbeat and Get_Encoder_Estimates cyclically
+(`heartbeat_period`, `encoder_period`; 0 turns the encoder messages off) and answers them when asked
+by a remote frame. Drive-side safety as on a real ODrive: the axis watchdog drops to IDLE with
+WATCHDOG_TIMER_EXPIRED when no Set_Input_Torque came for `command_timeout` [s]; the motor torque
+is limited to current_limit * torque_constant, and to zero when the speed is past the velocity
+limit in the torque's direction (the torque-mode velocity limiter).
+
+Motor model: the applied torque follows the command through a first-order current loop lag
+`torque_tau` [s] (zero out of closed loop); the wheel speed is fed from outside
+(`set_load_speeds`, in a co-simulation where the plant carries the inertia) or integrated from
+J omega' = torque with wheel inertia `inertia` [kg.m2].
 """
 from __future__ import annotations
 
 import math
-from collections import deque
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
+from typing import Any, Mapping
 
 import can
 
 from twmr.hw import protocol as p
 
 
-
 @dataclass
 class Axis:
-    """The emulated state of one axis (wheel side values in SI)."""
+    """The emulated state of one axis (wheel-side values in SI)."""
 
     node: int
     state: int = p.AXIS_IDLE
     error: int = 0
+    control_mode: int = 0
     command: float = 0.0
     torque: float = 0.0
     speed: float = 0.0
     angle: float = 0.0
+    speed_limit: float = math.inf  # wheel rad/s
+    current_limit: float = 10.0  # A (the firmware's default)
     last_command: float = field(default_factory=time.monotonic)
     external_speed: float | None = None
 
 
 class OdriveEmulator:
-    """Emulated ODrive axes on `channel` of python-can `interface` (a thread; `close()` stops it)."""
+    """Emulated ODrive axes on the python-can bus `options` (a thread; `close()` stops it)."""
 
-    def __init__(self, node_ids: tuple[int, ...] = (0, 1), interface: str = "virtual",
-                 channel: str = "twmr", firmware: str = "0.6.10", gear: float = 1.0,
-                 period: float = 1e-3, heartbeat_period: float = 0.1, torque_tau: float = 0.0,
-                 inertia: float = 0.05, command_timeout: float = 0.1, bitrate: int = 1_000_000):
-        self.firmware = firmware
-        self.gear = gear
-        self.period, self.heartbeat_period = period, heartbeat_period
+    def __init__(self, node_ids: tuple[int, ...] = (0, 1),
+                 options: Mapping[str, Any] | None = None, firmware: str = "0.6.10",
+                 gear: float = 1.0, encoder_period: float = 1e-3, heartbeat_period: float = 0.1,
+                 torque_tau: float = 0.0, inertia: float = 0.05, command_timeout: float = 0.1,
+                 torque_constant: float = 0.04):
+        self.firmware, self.gear, self.torque_constant = firmware, gear, torque_constant
+        self.encoder_period, self.heartbeat_period = encoder_period, heartbeat_period
         self.torque_tau, self.inertia, self.command_timeout = torque_tau, inertia, command_timeout
         self.axes = {n: Axis(n) for n in node_ids}
-        self.bus = can.Bus(interface=interface, channel=channel, bitrate=bitrate)
+        self.bus = can.Bus(**dict(options or {"interface": "virtual", "channel": "twmr"}))
         self.lock = threading.Lock()
-        self.silent = False  # stops answering (a dead drive) when set
+        self.silent = False  # stops answering and sending (a dead drive) when set
         self.received: deque[can.Message] = deque(maxlen=1000)  # the latest frames, for tests
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="odrive-emulator", daemon=True)
         self._thread.start()
 
     # -- outside world -----------------------------------------------------------------------
-    def set_load_speed(self, node: int, wheel_speed: float) -> None:
-        """Wheel speed [rad/s] imposed by a simulated load (plant) on axis `node`."""
+    def set_load_speeds(self, speeds: Mapping[int, float]) -> None:
+        """Wheel speeds [rad/s] imposed by a simulated load (the plant), by node."""
         with self.lock:
-            self.axes[node].external_speed = wheel_speed
+            for node, w in speeds.items():
+                self.axes[node].external_speed = w
 
     def close(self) -> None:
         self._stop.set()
@@ -76,10 +85,14 @@ class OdriveEmulator:
             self.bus.send(can.Message(arbitration_id=ident[0], data=ident[1],
                                       is_extended_id=False))
 
+    def _heartbeat(self, axis: Axis) -> None:
+        self._send(p.encode_heartbeat(axis.node, p.Heartbeat(axis.error, axis.state),
+                                      self.firmware))
+
     def _handle(self, msg: can.Message) -> None:
         node, cmd = p.split_id(msg.arbitration_id)
         axis = self.axes.get(node)
-        if axis is None or self.silent:
+        if axis is None or self.silent or msg.is_error_frame:
             return
         self.received.append(msg)
         with self.lock:
@@ -87,11 +100,11 @@ class OdriveEmulator:
                 if cmd == p.GET_ENCODER_ESTIMATES:
                     self._send(p.encode_encoder(node, axis.angle, axis.speed, self.gear))
                 elif cmd == p.HEARTBEAT:
-                    self._send(p.encode_heartbeat(node, p.Heartbeat(axis.error, axis.state),
-                                                  self.firmware))
+                    self._heartbeat(axis)
             elif cmd == p.SET_INPUT_TORQUE:
-                axis.command = p.decode_torque(msg.data, self.gear)
-                axis.last_command = time.monotonic()
+                if axis.control_mode == p.CONTROL_TORQUE:
+                    axis.command = p.decode_torque(msg.data, self.gear)
+                axis.last_command = time.monotonic()  # any input feeds the watchdog
             elif cmd == p.SET_AXIS_STATE:
                 requested = int.from_bytes(msg.data[:4], "little")
                 if requested == p.AXIS_CLOSED_LOOP and axis.error == 0:
@@ -99,23 +112,37 @@ class OdriveEmulator:
                     axis.last_command = time.monotonic()
                 elif requested == p.AXIS_IDLE:
                     axis.state = p.AXIS_IDLE
-                self._send(p.encode_heartbeat(node, p.Heartbeat(axis.error, axis.state),
-                                              self.firmware))
+                self._heartbeat(axis)
+            elif cmd == p.SET_CONTROLLER_MODE:
+                axis.control_mode = int.from_bytes(msg.data[:4], "little")
+            elif cmd == p.SET_LIMITS:
+                axis.speed_limit, axis.current_limit = p.decode_limits(msg.data, self.gear)
             elif cmd == p.ESTOP:
                 axis.state = p.AXIS_IDLE
+                axis.command = 0.0
                 axis.error |= p.error_bit("estop", self.firmware)
             elif cmd == p.CLEAR_ERRORS:
                 axis.error = 0
+
+    def _target(self, axis: Axis) -> float:
+        """Wheel torque [N.m] the current loop aims at: the command within the drive's limits."""
+        if axis.state != p.AXIS_CLOSED_LOOP:
+            return 0.0
+        limit = axis.current_limit * self.torque_constant * self.gear
+        tau = min(limit, max(-limit, axis.command))
+        if abs(axis.speed) > axis.speed_limit and tau * axis.speed > 0:
+            return 0.0
+        return tau
 
     def _advance(self, dt: float) -> None:
         now = time.monotonic()
         with self.lock:
             for axis in self.axes.values():
-                if axis.state == p.AXIS_CLOSED_LOOP and now - axis.last_command > \
-                        self.command_timeout:
+                if axis.state == p.AXIS_CLOSED_LOOP and \
+                        now - axis.last_command > self.command_timeout:
                     axis.state = p.AXIS_IDLE
                     axis.error |= p.error_bit("watchdog", self.firmware)
-                target = axis.command if axis.state == p.AXIS_CLOSED_LOOP else 0.0
+                target = self._target(axis)
                 if self.torque_tau > 0:
                     axis.torque += (target - axis.torque) * (1 - math.exp(-dt / self.torque_tau))
                 else:
@@ -128,20 +155,20 @@ class OdriveEmulator:
 
     def _run(self) -> None:
         last = next_tx = next_hb = time.monotonic()
+        poll = min(x for x in (self.encoder_period, self.heartbeat_period, 4e-3) if x > 0) / 4
         while not self._stop.is_set():
-            msg = self.bus.recv(timeout=self.period / 4)
+            msg = self.bus.recv(timeout=poll)
             while msg is not None:
                 self._handle(msg)
                 msg = self.bus.recv(timeout=0)
             now = time.monotonic()
             self._advance(now - last)
             last = now
-            if now >= next_tx:
-                next_tx = now + self.period
+            if self.encoder_period > 0 and now >= next_tx:
+                next_tx = now + self.encoder_period
                 for axis in list(self.axes.values()):
                     self._send(p.encode_encoder(axis.node, axis.angle, axis.speed, self.gear))
             if now >= next_hb:
                 next_hb = now + self.heartbeat_period
                 for axis in list(self.axes.values()):
-                    self._send(p.encode_heartbeat(axis.node, p.Heartbeat(axis.error, axis.state),
-                                                  self.firmware))
+                    self._heartbeat(axis)

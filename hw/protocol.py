@@ -77,7 +77,30 @@ def decode_torque(data: bytes, gear: float) -> float:
 
 
 def encode_axis_state(node: int, state: int) -> tuple[int, bytes]:
+    """Set_Axis_State (IDLE 1, CLOSED_LOOP_CONTROL 8)."""
     return can_id(node, SET_AXIS_STATE), _U32.pack(state)
+
+
+def encode_limits(node: int, wheel_speed_limit: float, current_limit: float,
+                  gear: float) -> tuple[int, bytes]:
+    """Set_Limits: wheel speed limit [rad/s] -> motor velocity limit [rev/s]; current limit [A]."""
+    return can_id(node, SET_LIMITS), _2F32.pack(wheel_speed_limit * gear / TWO_PI, current_limit)
+
+
+def decode_limits(data: bytes, gear: float) -> tuple[float, float]:
+    """(wheel speed limit [rad/s], current limit [A]) of a Set_Limits payload."""
+    vel, current = _2F32.unpack_from(data)
+    return vel * TWO_PI / gear, current
+
+
+def encode_clear_errors(node: int, version: str) -> tuple[int, bytes]:
+    """Clear_Errors: no data on 0.5.x, one `Identify` byte (0) on 0.6.x."""
+    return can_id(node, CLEAR_ERRORS), b"" if firmware_line(version) == "0.5" else b"\x00"
+
+
+def encode_estop(node: int) -> tuple[int, bytes]:
+    """Estop: the axis disarms to IDLE and latches ESTOP_REQUESTED."""
+    return can_id(node, ESTOP), b""
 
 
 def encode_controller_mode(node: int, control: int = CONTROL_TORQUE,
@@ -126,8 +149,13 @@ def check_layout(version: str, path: Path | None = None) -> None:
                                                                        (32, 32, True)],
               SET_AXIS_STATE: [(0, 32, False)], SET_CONTROLLER_MODE: [(0, 32, False),
                                                                       (32, 32, False)],
-              HEARTBEAT: [(0, 32, False), (32, 8, False)]}
+              HEARTBEAT: [(0, 32, False), (32, 8, False)],
+              SET_LIMITS: [(0, 32, True), (32, 32, True)]}
     line = firmware_line(version)
+    clear = db.get_message_by_frame_id(CLEAR_ERRORS)
+    if clear.length != len(encode_clear_errors(0, version)[1]):
+        raise ValueError(f"{clear.name}: {clear.length} bytes in the DBC, "
+                         f"{len(encode_clear_errors(0, version)[1])} sent here")
     for cmd, fields in expect.items():
         msg = db.get_message_by_frame_id(cmd)
         if msg.length != 8:

@@ -28,8 +28,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     scenario = Path(args.scenario)
     system = load(scenario, args.set)
-    if args.realtime or any(type(c).__module__.startswith("twmr.hw")
-                            for c in system.components.values()):
+    if args.realtime:
         from dataclasses import replace
 
         system.experiment = replace(system.experiment, realtime=True)
@@ -141,24 +140,47 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_emulate_drive(args: argparse.Namespace) -> int:
-    """Emulated ODrive axes answering on a python-can bus until Ctrl-C."""
+    """Emulated drives (ODrive or CiA 402) answering on a python-can bus until Ctrl-C."""
     try:
-        from twmr.hw.emulator import OdriveEmulator
+        from twmr.hw.bus import bus_options, describe
     except ImportError as err:
         raise CosimError(f"the hardware extra is missing ({err}). Fix: pip install "
                          f"'twmr-cosim[hw]'.") from None
-    emu = OdriveEmulator(tuple(args.node), args.interface, args.channel, args.firmware,
-                         args.gear, bitrate=args.bitrate)
-    print(f"emulating ODrive {args.firmware} axes {args.node} on {args.interface}:"
-          f"{args.channel}; Ctrl-C stops", file=sys.stderr)
+    try:
+        options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
+                              args.can_context)
+        if args.protocol == "odrive":
+            from twmr.hw.emulator import OdriveEmulator
+
+            emu: Any = OdriveEmulator(tuple(args.node), options, args.firmware, args.gear,
+                                      encoder_period=args.encoder_period,
+                                      torque_constant=args.torque_constant)
+        else:
+            from importlib import resources
+
+            from twmr.hw.cia402_emulator import Cia402Emulator
+
+            eds = args.eds or str(resources.files("twmr.hw").joinpath(
+                "data", "maxon_epos4_module_50-5.eds"))
+            emu = Cia402Emulator(tuple(args.node), eds, options, args.gear)
+    except (OSError, ValueError, ImportError) as err:
+        raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
+                         f"--interface/--channel, --can-config and --eds.") from None
+    print(f"emulating {args.protocol} drives {args.node} on {describe(options)}; Ctrl-C stops",
+          file=sys.stderr)
     try:
         while True:
             time.sleep(1.0)
-            states = ", ".join(f"{a.node}: state {a.state} err 0x{a.error:x} "
-                               f"torque {a.torque:.3g}" for a in emu.axes.values())
-            print(states, file=sys.stderr)
+            print(", ".join(f"{n}: {_axis_text(a)}" for n, a in emu.axes.items()),
+                  file=sys.stderr)
     finally:
         emu.close()
+
+
+def _axis_text(axis: Any) -> str:
+    state = getattr(axis.state, "value", axis.state)
+    error = f" err 0x{axis.error:x}" if getattr(axis, "error", 0) else ""
+    return f"state {state}{error} torque {axis.torque:.3g} N.m"
 
 
 def _parse_set(text: str) -> tuple[str, Any]:
@@ -208,11 +230,18 @@ def parser() -> argparse.ArgumentParser:
     e.add_argument("--out")
     with_set(e)
     e.set_defaults(fn=cmd_export)
-    em = sub.add_parser("emulate-drive", help="emulated ODrive drives on a CAN bus (no hardware)")
+    em = sub.add_parser("emulate-drive", help="emulated drives on a CAN bus (no hardware)")
+    em.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
     em.add_argument("--interface", default="virtual")
     em.add_argument("--channel", default="twmr")
     em.add_argument("--bitrate", type=int, default=1_000_000)
-    em.add_argument("--firmware", default="0.6.10")
+    em.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
+    em.add_argument("--can-context", default="default", help="section of --can-config")
+    em.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
+    em.add_argument("--encoder-period", type=float, default=1e-3,
+                    help="ODrive: cyclic encoder estimates period [s] (0: only on request)")
+    em.add_argument("--torque-constant", type=float, default=0.04, help="ODrive: N.m/A")
+    em.add_argument("--eds", help="CiA 402: EDS/DCF of the drives (default: shipped EPOS4)")
     em.add_argument("--gear", type=float, default=1.0)
     em.add_argument("--node", type=int, action="append", default=None,
                     help="axis node id (repeatable; default 0 and 1)")

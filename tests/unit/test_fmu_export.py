@@ -16,7 +16,7 @@ from twmr.fmi import export_component
 from twmr.fmi.fmu import FmuComponent
 from twmr.registry import kinds
 
-NATIVE = sorted(k for k in kinds() if k not in ("fmu", "can_motor_drive"))
+NATIVE = sorted(k for k in kinds() if k not in ("fmu", "can_drive"))
 
 
 @pytest.mark.parametrize("kind", NATIVE)

@@ -28,6 +28,10 @@ class Component:
     can_get_and_set_state: ClassVar[bool] = True
     #: parameters needed to construct the instance (e.g. an FMU's `path`), given to `create`
     construction_parameters: ClassVar[tuple[str, ...]] = ()
+    #: hardware in the loop: runs are paced to the wall clock unless the scenario says otherwise
+    needs_realtime: ClassVar[bool] = False
+    #: folder of the run's results, set by the master before `setup` (None: not saved)
+    output_dir: Path | None = None
 
     def __init__(self, name: str = "", **parameters: Any):
         self.name = name or type(self).__name__
@@ -109,6 +113,10 @@ class Component:
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
+
+    def report(self) -> dict[str, Any]:
+        """Figures about the run so far (e.g. round-trip times), collected after it ends."""
+        return {}
 
     def get_state(self) -> Any:
         """A snapshot of everything `do_step` changes (FMI fmi2GetFMUstate)."""

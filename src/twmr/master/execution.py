@@ -26,14 +26,15 @@ from twmr.scenario.system import System
 
 class Pacer:
     """Holds step n until wall time t0 + n h: sleep, then spin on perf_counter_ns for the last
-    `spin` seconds. Records each step's lateness (how far past its deadline it was released)."""
+    `spin` seconds. Records each step's release time; lateness is how far past its deadline a
+    step was released, period error how far the interval between two releases was from h."""
 
     def __init__(self, h: float, spin: float = 3e-4):
         self.h = h
         self.h_ns = int(round(h * 1e9))
         self.spin_ns = int(spin * 1e9)
         self.t0 = time.perf_counter_ns()
-        self.lateness_ns: list[int] = []
+        self.released_ns: list[int] = []
         self.overruns = 0
 
     def start(self) -> None:
@@ -46,22 +47,34 @@ class Pacer:
             time.sleep((target - now - self.spin_ns) * 1e-9)
         while (now := time.perf_counter_ns()) < target:
             pass
-        late = now - target
-        self.lateness_ns.append(late)
-        if late > self.h_ns:
+        self.released_ns.append(now)
+        if now - target > self.h_ns:
             self.overruns += 1
 
-    def stats(self) -> dict[str, float]:
-        """Lateness p50/p99/max [us] and missed deadlines (released more than one step late)."""
-        if not self.lateness_ns:
-            return {}
-        import numpy as np
+    def lateness_us(self) -> np.ndarray:
+        """Per paced step: release time past its deadline [us]."""
+        released = np.asarray(self.released_ns, dtype=np.int64)
+        if not released.size:
+            return np.zeros(0)
+        first = int(round((released[0] - self.t0) / self.h_ns))
+        deadlines = self.t0 + (first + np.arange(released.size)) * self.h_ns
+        return (released - deadlines) / 1e3
 
-        late = np.asarray(self.lateness_ns) / 1e3
+    def stats(self) -> dict[str, float]:
+        """Lateness and |period error| p50/p99/max [us], missed deadlines (released more than one
+        step late), paced steps."""
+        if not self.released_ns:
+            return {}
+        late = self.lateness_us()
+        period = np.abs(np.diff(np.asarray(self.released_ns, dtype=np.int64)) - self.h_ns) / 1e3
+        period = period if period.size else np.zeros(1)
         return {"lateness_p50_us": float(np.percentile(late, 50)),
                 "lateness_p99_us": float(np.percentile(late, 99)),
-                "lateness_max_us": float(late.max()), "missed_deadlines": self.overruns,
-                "paced_steps": len(late)}
+                "lateness_max_us": float(late.max()),
+                "period_error_p50_us": float(np.percentile(period, 50)),
+                "period_error_p99_us": float(np.percentile(period, 99)),
+                "period_error_max_us": float(period.max()),
+                "missed_deadlines": self.overruns, "paced_steps": int(late.size)}
 
 
 @dataclass
@@ -92,7 +105,7 @@ class Execution:
         self.progress = progress
         self.chunk_steps = chunk_steps
         exp = system.experiment
-        self.pacer = Pacer(exp.step) if exp.realtime else None
+        self.pacer = Pacer(exp.step) if system.paced else None
         self.schedule: Schedule = generate(system, exp.algorithm, self.recorder.signals,
                                            self.recorder.decimation, check_finite, self.pacer)
         self.info = RunInfo(n_steps=exp.n_steps)
@@ -115,6 +128,9 @@ class Execution:
             switch = sys.getswitchinterval()
             sys.setswitchinterval(2e-4)
         try:
+            if not self.recorder.temporary:
+                for comp in self.system.components.values():
+                    comp.output_dir = Path(self.recorder.path).parent
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize())
             if self.pacer is not None:
@@ -146,6 +162,7 @@ class Execution:
             self.recorder.close()
             if bar is not None:
                 bar.close()
+            self._report_all()
             self._terminate_all()
         return self.recorder.result()
 
@@ -208,6 +225,15 @@ class Execution:
                             f"inputs of '{name}' just before this time in the saved results, its "
                             f"parameters, or reduce the step.")
         return ComponentError("?", t, "an output became NaN or Inf")
+
+    def _report_all(self) -> None:
+        """Each component's own figures, as 'instance.key' in `info.extra`."""
+        for name in self.system.order:
+            try:
+                figures = self.system.components[name].report()
+            except Exception:  # noqa: BLE001 - a report never hides the run's own outcome
+                continue
+            self.info.extra.update({f"{name}.{k}": v for k, v in figures.items()})
 
     def _terminate_all(self) -> None:
         for name in self.system.order:

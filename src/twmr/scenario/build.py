@@ -251,7 +251,7 @@ class _Builder:
                                              f"step = {n:.6g} is not a whole number of steps.",
                                              "choose a step that divides the duration."))
         return Experiment(start, stop, step, e.get("algorithm", "gauss_seidel"),
-                          bool(e.get("realtime", False)))
+                          e.get("realtime"))
 
     def connections(self, comps: dict[str, Component]) -> list[Connection]:
         conns: list[Connection] = []

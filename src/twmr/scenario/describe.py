@@ -11,7 +11,7 @@ def describe(system: System) -> str:
     exp = system.experiment
     lines = [f"scenario {system.source}",
              f"experiment: {exp.start:g} .. {exp.stop:g} s, step {exp.step:g} s "
-             f"({exp.n_steps} steps), {exp.algorithm}{', real time' if exp.realtime else ''}",
+             f"({exp.n_steps} steps), {exp.algorithm}{', real time' if system.paced else ''}",
              "components (execution order):"]
     for i, name in enumerate(system.order, 1):
         comp = system.components[name]

@@ -38,13 +38,14 @@ class Connection:
 
 @dataclass(frozen=True)
 class Experiment:
-    """Start and stop [s], base step h [s], algorithm ('gauss_seidel' | 'jacobi'), pacing."""
+    """Start and stop [s], base step h [s], algorithm ('gauss_seidel' | 'jacobi'), pacing to the
+    wall clock (None: paced when a component needs it, see `System.paced`)."""
 
     start: float = 0.0
     stop: float = 1.0
     step: float = 1e-3
     algorithm: str = "gauss_seidel"
-    realtime: bool = False
+    realtime: bool | None = None
 
     @property
     def n_steps(self) -> int:
@@ -71,6 +72,13 @@ class System:
     record: RecordSpec = field(default_factory=RecordSpec)
     step_multiples: dict[str, int] = field(default_factory=dict)
     source: str = "<scenario>"
+
+    @property
+    def paced(self) -> bool:
+        """Steps paced to the wall clock: as the experiment says, else when hardware is in the loop."""
+        if self.experiment.realtime is not None:
+            return self.experiment.realtime
+        return any(c.needs_realtime for c in self.components.values())
 
     def multiple(self, name: str) -> int:
         """Step multiple of an instance (1 when not set)."""

@@ -1,0 +1,66 @@
+"""Helpers for the CAN bench tests: a drive pair started on a fresh virtual channel, a paced step
+loop (each step at least one period of wall time, like the master's pacer), and a bus monitor."""
+from __future__ import annotations
+
+import time
+import uuid
+from typing import Any
+
+import can
+
+from twmr.hw.drive import CanMotorDrive
+
+H = 2e-3  # host period [s]
+
+
+def channel() -> str:
+    return f"t-{uuid.uuid4().hex[:10]}"
+
+
+def started(protocol: str = "odrive", **kw: Any) -> CanMotorDrive:
+    """A drive pair set up and initialized on its own virtual channel (emulated drives)."""
+    kw.setdefault("channel", channel())
+    kw.setdefault("log_file", "")
+    if protocol == "cia402":
+        kw.setdefault("node_ids", (1, 2))
+    d = CanMotorDrive("motor", protocol=protocol, **kw)
+    d.setup(0.0, None)
+    d.initialize()
+    return d
+
+
+class Paced:
+    """Steps a started drive at period H; `steps` counts the completed ones."""
+
+    def __init__(self, drive: CanMotorDrive):
+        self.drive = drive
+        self.steps = 0
+        self.t0 = time.perf_counter()
+
+    def run(self, n: int, torque: tuple[float, float] = (1.0, -1.0),
+            speed: tuple[float, float] = (2.0, -3.0)) -> None:
+        for _ in range(n):
+            t = self.steps * H
+            wait = self.t0 + t - time.perf_counter()
+            if wait > 0:
+                time.sleep(wait)
+            self.drive.torque_command, self.drive.wheel_speed = torque, speed
+            self.drive.evaluate(t)
+            self.drive.do_step(t, H)
+            self.steps += 1
+
+
+class Monitor:
+    """Every frame on a virtual channel from now on (python-can's virtual bus queues them)."""
+
+    def __init__(self, ch: str):
+        self.bus = can.Bus(interface="virtual", channel=ch)
+
+    def frames(self) -> list[can.Message]:
+        out = []
+        msg = self.bus.recv(timeout=0.05)
+        while msg is not None:
+            out.append(msg)
+            msg = self.bus.recv(timeout=0.05)
+        self.bus.shutdown()
+        return out

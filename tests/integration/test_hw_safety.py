@@ -1,0 +1,210 @@
+"""Every safety path triggered on purpose, on python-can's virtual bus with emulated drives: each
+ends in zero torque with the drives disabled, within the stated number of host periods.
+
+The host watchdog is `watchdog_periods` = 5 periods of H = 2 ms. The paced loop spends at least
+H of wall time per step, so a fault the host detects by time (stale feedback, heartbeat loss)
+trips within N + 1 steps of its cause; a fault the bus reports (EMCY, error frame, bus-off)
+trips at the first step after the frame arrives (asserted: within 2 steps); an ODrive axis error
+is reported by its next heartbeat (every 100 ms: within 52 steps)."""
+from __future__ import annotations
+
+import time
+
+import can
+import pytest
+
+from tests.hw_bench import H, Monitor, Paced, channel, started
+from twmr.core import HardwareError
+from twmr.hw import protocol as p
+from twmr.hw.cia402 import State
+
+N = 5  # watchdog_periods
+
+
+def steps_to_trip(loop: Paced, limit: int = 400) -> tuple[int, HardwareError]:
+    """Steps run until the drive stops the run (HardwareError), and the error."""
+    before = loop.steps
+    with pytest.raises(HardwareError) as info:
+        loop.run(limit)
+    return loop.steps - before + 1, info.value
+
+
+def last_commands(frames: list[can.Message]) -> dict[int, tuple[float, int]]:
+    """Per ODrive node: the last torque sent and the last state-changing command id."""
+    out: dict[int, tuple[float, int]] = {}
+    for m in frames:
+        node, cmd = p.split_id(m.arbitration_id)
+        torque, last = out.get(node, (float("nan"), 0))
+        if cmd == p.SET_INPUT_TORQUE:
+            out[node] = (p.decode_torque(m.data, 1.0), last)
+        elif cmd in (p.ESTOP, p.SET_AXIS_STATE):
+            out[node] = (torque, cmd)
+    return out
+
+
+def test_silent_drive_trips_the_host_watchdog_within_n_plus_one_periods() -> None:
+    ch = channel()
+    d = started(channel=ch, watchdog_periods=N)
+    loop = Paced(d)
+    try:
+        loop.run(20)
+        mon = Monitor(ch)
+        d.emulators[0].silent = True
+        steps, err = steps_to_trip(loop)
+        assert "drive node 0: no feedback frame" in str(err) and "'motor'" in str(err)
+        assert steps <= N + 1, steps
+        assert last_commands(mon.frames()) == {0: (0.0, p.ESTOP), 1: (0.0, p.ESTOP)}
+    finally:
+        d.terminate()
+
+
+def test_heartbeat_loss_is_a_hardware_error_and_disables_the_drives() -> None:
+    d = started(heartbeat_timeout=0.1)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        d.emulators[0].heartbeat_period = 1e9  # estimates go on, heartbeats stop
+        steps, err = steps_to_trip(loop)
+        assert "heartbeat lost" in str(err)
+        assert steps <= (0.1 + 0.1) / H + 1  # timeout plus the last beat's age (<= 100 ms)
+        time.sleep(0.02)
+        for axis in d.emulators[0].axes.values():
+            assert axis.torque == 0.0 and axis.state == p.AXIS_IDLE
+            assert axis.error & p.error_bit("estop", "0.6.10")
+    finally:
+        d.terminate()
+
+
+def test_estop_from_the_bus_is_a_hardware_error() -> None:
+    ch = channel()
+    d = started(channel=ch)
+    other = can.Bus(interface="virtual", channel=ch)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        other.send(can.Message(arbitration_id=p.can_id(1, p.ESTOP), data=b"",
+                               is_extended_id=False))
+        steps, err = steps_to_trip(loop)
+        assert "drive node 1: axis error 0x2000000" in str(err)
+        assert steps <= 0.1 / H + 2  # seen in the next heartbeat (every 100 ms)
+        time.sleep(0.02)
+        assert all(a.torque == 0.0 and a.state == p.AXIS_IDLE
+                   for a in d.emulators[0].axes.values())
+    finally:
+        d.terminate()
+        other.shutdown()
+
+
+@pytest.mark.parametrize("protocol", ["odrive", "cia402"])
+def test_error_frame_on_the_bus_stops_the_run(protocol: str) -> None:
+    ch = channel()
+    d = started(protocol, channel=ch)
+    other = can.Bus(interface="virtual", channel=ch)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        other.send(can.Message(is_error_frame=True, arbitration_id=0x20000004,
+                               data=bytes([0, 0x10, 0, 0, 0, 0, 0, 0])))
+        steps, err = steps_to_trip(loop)
+        assert "the CAN bus: error frame received" in str(err) and steps <= 2
+        time.sleep(0.02)
+        emu = d.emulators[0]
+        if protocol == "odrive":
+            assert all(a.torque == 0.0 and a.state == p.AXIS_IDLE for a in emu.axes.values())
+        else:
+            assert all(a.torque == 0.0 or a.state != State.OPERATION_ENABLED
+                       for a in emu.axes.values())
+            assert all(a.state == State.SWITCH_ON_DISABLED for a in emu.axes.values())
+    finally:
+        d.terminate()
+        other.shutdown()
+
+
+def test_bus_off_stops_the_run_and_the_drives_stop_themselves() -> None:
+    d = started()
+    loop = Paced(d)
+    try:
+        loop.run(10, torque=(2.0, 2.0))
+
+        def bus_off(msg: can.Message, timeout: float | None = None) -> None:
+            raise can.CanOperationError("Bus-off")
+
+        d.link.bus.send = bus_off
+        steps, err = steps_to_trip(loop)
+        assert "send failed (Bus-off): bus-off or adapter lost" in str(err) and steps == 1
+        time.sleep(0.2)  # nothing reaches the drives: their command watchdog (0.1 s) acts
+        for axis in d.emulators[0].axes.values():
+            assert axis.torque == 0.0 and axis.error & p.error_bit("watchdog", "0.6.10")
+    finally:
+        d.terminate()
+
+
+def test_quiet_host_makes_the_odrive_stop_itself() -> None:
+    d = started()
+    try:
+        Paced(d).run(10, torque=(2.0, 2.0))
+        time.sleep(0.3)  # host sends nothing: the drive's own watchdog (0.1 s) must act
+        axis = d.emulators[0].axes[0]
+        assert axis.state == p.AXIS_IDLE and axis.torque == 0.0
+        assert axis.error & p.error_bit("watchdog", "0.6.10")
+    finally:
+        d.terminate()
+
+
+def test_emcy_trips_within_two_periods_and_disables_every_cia402_drive() -> None:
+    d = started("cia402")
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        d.emulators[0].axes[2].inject_fault(0x2310)
+        steps, err = steps_to_trip(loop)
+        assert "drive node 2: EMCY 0x2310" in str(err) and steps <= 2
+        time.sleep(0.02)
+        axes = d.emulators[0].axes
+        assert axes[2].state == State.FAULT and axes[1].state == State.SWITCH_ON_DISABLED
+        assert axes[1].torque == 0.0 and axes[2].torque == 0.0
+    finally:
+        d.terminate()
+
+
+def test_silent_cia402_drive_trips_the_host_watchdog() -> None:
+    d = started("cia402", watchdog_periods=N)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        d.emulators[0].network.unsubscribe(0x080)  # the drives stop answering SYNC
+        steps, err = steps_to_trip(loop)
+        assert "no feedback frame" in str(err) and steps <= N + 1
+    finally:
+        d.terminate()
+
+
+def test_quiet_host_makes_the_cia402_drive_fault_itself() -> None:
+    d = started("cia402")
+    try:
+        Paced(d).run(10)
+        time.sleep(0.6)  # no SYNC: the drive-side watchdog (0.25 s) faults the drive
+        assert d.emulators[0].axes[1].state == State.FAULT
+        assert d.emulators[0].axes[1].torque == 0.0
+        with pytest.raises(HardwareError, match="EMCY 0x8130"):
+            Paced(d).run(10)
+    finally:
+        d.terminate()
+
+
+@pytest.mark.parametrize("protocol", ["odrive", "cia402"])
+def test_terminate_sends_zero_torque_and_disables(protocol: str) -> None:
+    ch = channel()
+    d = started(protocol, channel=ch)
+    Paced(d).run(10, torque=(2.0, 2.0))
+    mon = Monitor(ch)
+    emu = d.emulators[0]
+    d.terminate()
+    frames = mon.frames()
+    if protocol == "odrive":
+        assert last_commands(frames) == {0: (0.0, p.SET_AXIS_STATE), 1: (0.0, p.SET_AXIS_STATE)}
+        idle = [m for m in frames if p.split_id(m.arbitration_id)[1] == p.SET_AXIS_STATE]
+        assert all(int.from_bytes(m.data[:4], "little") == p.AXIS_IDLE for m in idle)
+    else:
+        assert [a.state for a in emu.axes.values()] == [State.READY, State.READY]
+        assert [a.torque for a in emu.axes.values()] == [0.0, 0.0]
