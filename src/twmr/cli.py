@@ -1,5 +1,5 @@
 """`twmr` command line: run | check | components | plot | inspect | export | compare |
-emulate-drive.
+emulate-drive | replay.
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
@@ -38,10 +38,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     exp = system.experiment
     print(f"running {scenario} ({len(system.components)} components, {exp.n_steps} steps of "
           f"{exp.step:g} s, {exp.algorithm}) -> {out}/", file=sys.stderr)
-    error: CosimError | None = None
+    error: CosimError | KeyboardInterrupt | None = None
     try:
         data = ex.run()
-    except CosimError as err:
+    except (CosimError, KeyboardInterrupt) as err:
         error = err
         import numpy as np
 
@@ -177,6 +177,37 @@ def cmd_emulate_drive(args: argparse.Namespace) -> int:
         emu.close()
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    """A run's frame log decoded to SI values (CSV), or played onto a bus."""
+    try:
+        from twmr.hw.bus import bus_options, describe
+        from twmr.hw.replay import Decoder, decode_log, play
+    except ImportError as err:
+        raise CosimError(f"the hardware extra is missing ({err}). Fix: pip install "
+                         f"'twmr-cosim[hw]'.") from None
+    log = Path(args.log)
+    if not log.is_file():
+        raise CosimError(f"{log}: no such frame log. Fix: give the <name>_frames.blf (or .asc) "
+                         f"that `twmr run` wrote beside the results.")
+    if args.play:
+        options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
+                              args.can_context)
+        n = play(log, options, paced=not args.fast)
+        print(f"{n} frames of {log} sent on {describe(options)}", file=sys.stderr)
+        return 0
+    decoder = Decoder(args.protocol, args.firmware, args.gear, args.rated_torque)
+    out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
+    try:
+        out.write("time_s,direction,node,signal,value\n")
+        for d in decode_log(log, decoder):
+            out.write(f"{d.time:.6f},{d.direction},{'' if d.node is None else d.node},"
+                      f"{d.signal},{d.value:.9g}\n")
+    finally:
+        if out is not sys.stdout:
+            out.close()
+    return 0
+
+
 def _axis_text(axis: Any) -> str:
     state = getattr(axis.state, "value", axis.state)
     error = f" err 0x{axis.error:x}" if getattr(axis, "error", 0) else ""
@@ -246,6 +277,21 @@ def parser() -> argparse.ArgumentParser:
     em.add_argument("--node", type=int, action="append", default=None,
                     help="axis node id (repeatable; default 0 and 1)")
     em.set_defaults(fn=cmd_emulate_drive)
+    rp = sub.add_parser("replay", help="decode a run's CAN frame log to CSV, or play it onto a bus")
+    rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
+    rp.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
+    rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
+    rp.add_argument("--gear", type=float, default=1.0, help="motor turns per wheel turn")
+    rp.add_argument("--rated-torque", type=int, default=1000, help="CiA 402 0x6076 [mN.m]")
+    rp.add_argument("--out", help="CSV file (default: standard output)")
+    rp.add_argument("--play", action="store_true", help="send the frames onto a bus instead")
+    rp.add_argument("--fast", action="store_true", help="with --play: no original timing")
+    rp.add_argument("--interface", default="virtual")
+    rp.add_argument("--channel", default="twmr")
+    rp.add_argument("--bitrate", type=int, default=1_000_000)
+    rp.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
+    rp.add_argument("--can-context", default="default")
+    rp.set_defaults(fn=cmd_replay)
     cp = sub.add_parser("compare", help="run scenarios and print Table III metrics side by side")
     cp.add_argument("scenarios", nargs="+")
     cp.add_argument("--json", action="store_true", help="print the figures as one JSON object")

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import gc
 import math
+import signal
 import sys
+import threading
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -148,6 +150,12 @@ class Execution:
         except CosimError as err:
             self.info.error = str(err)
             raise
+        except KeyboardInterrupt as stop:
+            t = self._locate(stop)[2]
+            if math.isfinite(t):
+                self._n = self._step_of(t)
+            self.info.error = f"interrupted (Ctrl-C) at t = {exp.start + self._n * exp.step:g} s"
+            raise
         finally:
             self.info.steps_done = self._n
             self.info.wall_time = time.perf_counter() - wall0
@@ -236,11 +244,19 @@ class Execution:
             self.info.extra.update({f"{name}.{k}": v for k, v in figures.items()})
 
     def _terminate_all(self) -> None:
-        for name in self.system.order:
-            try:
-                self.system.components[name].terminate()
-            except Exception:  # noqa: BLE001 - terminate every component even if one fails
-                pass
+        """Terminate every component, even if one fails; a second Ctrl-C waits until the end (a
+        drive's terminate sends zero torque)."""
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            for name in self.system.order:
+                try:
+                    self.system.components[name].terminate()
+                except Exception:  # noqa: BLE001 - terminate every component even if one fails
+                    pass
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
 
 
 def _progress_bar(total: int) -> Any:
