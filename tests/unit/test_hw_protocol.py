@@ -67,3 +67,39 @@ def test_heartbeat_layout_per_firmware(fw) -> None:
 def test_unknown_firmware_is_refused() -> None:
     with pytest.raises(ValueError, match="not supported"):
         p.firmware_line("0.4.12")
+
+
+def test_limits_frame_decodes_with_the_dbc(fw) -> None:
+    _, db = fw
+    ident, data = p.encode_limits(2, wheel_speed_limit=math.pi, current_limit=12.5, gear=4.0)
+    msg = db.decode_message(ident - (2 << 5), data)
+    assert msg["Velocity_Limit"] == pytest.approx(2.0)  # motor rev/s = wheel rad/s * N / 2 pi
+    assert msg["Current_Limit"] == pytest.approx(12.5)
+    assert p.decode_limits(data, 4.0) == pytest.approx((math.pi, 12.5))
+
+
+def test_clear_errors_and_estop_lengths_follow_the_firmware_dbc(fw) -> None:
+    version, db = fw
+    ident, data = p.encode_clear_errors(0, version)
+    assert len(data) == db.get_message_by_frame_id(ident).length  # 0 bytes on 0.5, 1 on 0.6
+    ident, data = p.encode_estop(0)
+    if version.startswith("0.6"):  # the 0.5.6 DBC does not list Estop (the firmware has it)
+        assert len(data) == db.get_message_by_frame_id(ident).length == 0
+
+
+def test_the_shared_dbcs_pass_the_start_up_check_unchanged() -> None:
+    for version, name in DBCS.items():
+        path = SHARED / name
+        if not path.exists():
+            pytest.skip(f"{path} not present")
+        p.check_layout(version, path)
+
+
+def test_a_dbc_with_another_layout_is_refused(tmp_path) -> None:
+    text = p.dbc_path("0.6.10").read_text()
+    moved = text.replace("SG_ Input_Torque : 0|32@1+", "SG_ Input_Torque : 8|32@1+", 1)
+    assert moved != text
+    path = tmp_path / "odd.dbc"
+    path.write_text(moved)
+    with pytest.raises(ValueError, match="Set_Input_Torque"):
+        p.check_layout("0.6.10", path)

@@ -1,0 +1,59 @@
+"""Bus options (python-can config files), the host watchdog's staleness rule, torque clamping,
+and the CiA 402 frame decoder of the replay against frames built from a real EDS by canopen."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import can
+import canopen
+import pytest
+
+from twmr.hw import cia402 as c
+from twmr.hw.bus import bus_options
+from twmr.hw.replay import Decoder
+from twmr.hw.safety import clamp, stale
+
+EDS = Path(__file__).resolve().parents[2] / "hw" / "data" / "maxon_epos4_module_50-5.eds"
+
+
+def test_bus_options_from_parameters_and_from_a_python_can_file(tmp_path: Path) -> None:
+    assert bus_options("pcan", "PCAN_USBBUS1", 500000) == {
+        "interface": "pcan", "channel": "PCAN_USBBUS1", "bitrate": 500000}
+    ini = tmp_path / "can.ini"
+    ini.write_text("[default]\ninterface = socketcan\nchannel = can0\n\n"
+                   "[bench]\ninterface = kvaser\nchannel = 0\nbitrate = 1000000\n")
+    got = bus_options("virtual", "x", 1, str(ini), "bench")
+    assert (got["interface"], str(got["channel"]), int(got["bitrate"])) == ("kvaser", "0", 1000000)
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        bus_options("virtual", "x", 1, str(tmp_path / "missing.ini"))
+
+
+def test_stale_names_the_first_old_feedback_then_heartbeat() -> None:
+    assert stale(10.0, {0: 9.995, 1: 9.999}, {0: 9.9, 1: 9.9}, 0.01, 0.5) is None
+    fault = stale(10.0, {0: 9.995, 1: 9.98}, {0: 9.9, 1: 9.9}, 0.01, 0.5)
+    assert fault is not None and fault.node == 1 and "20.0 ms" in fault.what
+    fault = stale(10.0, {0: 10.0, 1: 10.0}, {0: 9.9, 1: 9.2}, 0.01, 0.5)
+    assert fault is not None and fault.node == 1 and "heartbeat lost" in fault.what
+    assert "drive node 1" in fault.text() and "Torque set to zero" in fault.text()
+
+
+def test_clamp() -> None:
+    assert clamp((3.0, -7.5, 0.2), 1.0) == (1.0, -1.0, 0.2)
+
+
+def test_cia402_frames_decode_to_si() -> None:
+    od = canopen.import_od(str(EDS), 3)
+    rpdo = od[c.CONTROLWORD].encode_raw(0x0F) + od[c.TARGET_TORQUE].encode_raw(-250)
+    tpdo1 = od[c.STATUSWORD].encode_raw(0x0627) + od[c.VELOCITY_ACTUAL].encode_raw(600)
+    tpdo2 = od[c.POSITION_ACTUAL].encode_raw(8192)
+    dec = Decoder("cia402", gear=10.0, rated_torque=2000, increments_per_rev=4096)
+    frame = lambda ident, data: can.Message(arbitration_id=ident, data=data)  # noqa: E731
+    assert dec(frame(0x203, rpdo)) == [(3, "controlword", 0x0F), (3, "torque_command",
+                                                                  pytest.approx(-5.0))]
+    (_, _, word), (_, _, speed) = dec(frame(0x183, tpdo1))
+    assert c.decode_statusword(int(word)) == c.State.OPERATION_ENABLED
+    assert speed == pytest.approx(2 * math.pi)  # 600 rpm / gear 10 = 1 rev/s
+    assert dec(frame(0x283, tpdo2)) == [(3, "angle", pytest.approx(2 * math.pi / 10 * 2))]
+    assert dec(frame(0x083, bytes([0x10, 0x23, 1, 0, 0, 0, 0, 0]))) == [(3, "emcy", 0x2310)]
+    assert dec(frame(0x080, b"")) == [(None, "sync", 1.0)]
