@@ -21,7 +21,7 @@ def _out_dir(args: argparse.Namespace, scenario: Path) -> Path:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from twmr.analysis.plots import plot_result
+    from twmr.analysis.plots import plot_result, plot_timing
     from twmr.analysis.results import save_csv, save_mat, save_summary, summary
     from twmr.master import Execution
     from twmr.scenario import load
@@ -62,8 +62,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         save_csv(data, units, out / "result.csv")
     if "mat" in args.format:
         save_mat(data, units, out / "result.mat")
+    if ex.pacer is not None and ex.pacer.released_ns:
+        import numpy as np
+
+        np.save(out / "lateness_us.npy", ex.pacer.lateness_us())
     if args.plot:
         plot_result(data, units, out / "plots", title=scenario.stem)
+        if ex.pacer is not None and ex.pacer.released_ns:
+            plot_timing(ex.pacer.lateness_us(), exp.step, out / "plots" / "timing.png",
+                        scenario.stem)
     if error is not None:
         raise error
     print(f"done: {ex.info.steps_done} steps in {ex.info.wall_time:.2f} s "

@@ -27,6 +27,33 @@ def group_ports(names: list[str]) -> dict[str, list[str]]:
     return groups
 
 
+def plot_timing(lateness_us: np.ndarray, period_s: float, path: str | Path,
+                title: str = "") -> Path:
+    """A paced run's step lateness [us] over time and its histogram, the period marked."""
+    plt = _pyplot()
+    late = np.asarray(lateness_us, dtype=float)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.5), gridspec_kw={"width_ratios": [2, 1]})
+    a.plot(np.arange(late.size) * period_s, late, lw=0.6)
+    a.axhline(period_s * 1e6, color="r", lw=0.8, label=f"one period ({period_s * 1e6:g} us)")
+    a.set_xlabel("time [s]")
+    a.set_ylabel("release past deadline [us]")
+    a.set_yscale("symlog", linthresh=10.0)
+    a.legend(fontsize=8)
+    a.grid(True, alpha=0.3)
+    b.hist(late, bins=np.logspace(-2, max(1.0, np.log10(max(late.max(), 1.0)) + 0.1), 60))
+    b.set_xscale("log")
+    b.set_yscale("log")
+    b.set_xlabel("lateness [us]")
+    b.grid(True, alpha=0.3)
+    fig.suptitle(f"{title} pacing: p99 {np.percentile(late, 99):.1f} us, max {late.max():.0f} us"
+                 .strip())
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
 def plot_result(data: np.ndarray, units: dict[str, str], out_dir: str | Path,
                 title: str = "") -> list[Path]:
     """Write one PNG per port (and XY plots) into `out_dir`; the paths written."""
