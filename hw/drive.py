@@ -62,7 +62,7 @@ class CanMotorDrive(Component):
                              "[mN.m] used when the drive reports 0 in 0x6076")
     increments_per_rev = Parameter(4096, type="Integer", description="CiA 402: encoder "
                                    "increments per motor revolution")
-    watchdog_periods = Parameter(5, type="Integer", min=1, description="host watchdog: steps "
+    watchdog_periods = Parameter(10, type="Integer", min=1, description="host watchdog: steps "
                                  "without fresh feedback before the drives are disabled")
     heartbeat_timeout = Parameter(0.5, unit="s", min=0.0, description="heartbeat loss")
     reply_timeout = Parameter(1e-3, unit="s", min=0.0, description="wait for a period's feedback")
