@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twmr.analysis.metrics import errors, tracking_metrics
+from twmr.components.metrics import errors, tracking_metrics
 from twmr.core import CosimError
 from twmr.master import simulate
 from twmr.scenario import load

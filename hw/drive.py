@@ -115,9 +115,12 @@ class CanMotorDrive(Component):
         except LinkError as err:
             raise HardwareError(self.name, start, err.fault.text()) from err
 
+    def prepare(self, run: Any) -> None:
+        self._run_folder = run.folder
+
     def _log_path(self) -> Path | None:
         if self.log_file == "auto":
-            out = getattr(self, "output_dir", None)
+            out = getattr(self, "_run_folder", None)
             return Path(out) / f"{self.name}_frames.blf" if out else None
         return Path(self.log_file) if self.log_file else None
 

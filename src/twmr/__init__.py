@@ -1,2 +1,19 @@
-"""twmr-cosim: co-simulation of wheeled mobile robots (engine)."""
-__version__ = "0.1.0"
+"""twmr-cosim: co-simulation of wheeled mobile robots (engine).
+
+`twmr.load`, `twmr.simulate`, `twmr.read_result` (see `twmr.api`); imported on first use, so
+`import twmr` stays light.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+__version__ = "0.2.0"
+__all__ = ["load", "simulate", "read_result", "Result", "Scenario", "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        from twmr import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'twmr' has no attribute {name!r}")

@@ -1,124 +1,119 @@
-"""`twmr` command line: run | check | components | plot | inspect | export | compare |
-emulate-drive | replay.
+"""`twmr` command line: run | check | components | plot | inspect | export, plus the subcommands
+installed packages register (`twmr.commands` entry points: compare, emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
+Messages go through `logging` (logger `twmr`): `-q` only warnings and errors, `-v` debug too.
+Heavy libraries are imported inside the commands that use them, so `twmr` starts fast.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
 import time
 from pathlib import Path
 from typing import Any, Sequence
 
+from twmr import __version__
 from twmr.core.errors import CosimError
+
+log = logging.getLogger("twmr")
 
 
 def _out_dir(args: argparse.Namespace, scenario: Path) -> Path:
-    return Path(args.out) if args.out else Path("results") / scenario.stem
+    return Path(args.out) if args.out else Path("results") / (scenario.stem or "scenario")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    from twmr.observers.writers import FORMATS
+
+    chosen = tuple(f.strip() for f in text.split(",") if f.strip() and f.strip() != "none")
+    bad = [f for f in chosen if f not in FORMATS]
+    if bad:
+        raise CosimError(f"--format {text}: unknown format(s) {', '.join(bad)}. Fix: use a comma "
+                         f"list of {', '.join(FORMATS)}, or none.")
+    return chosen
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from twmr.analysis.plots import plot_result, plot_timing
-    from twmr.analysis.results import save_csv, save_mat, save_summary, summary
-    from twmr.master import Execution
-    from twmr.scenario import load
+    from twmr import api
 
-    scenario = Path(args.scenario)
-    system = load(scenario, args.set)
-    if args.realtime:
-        from dataclasses import replace
-
-        system.experiment = replace(system.experiment, realtime=True)
-    out = _out_dir(args, scenario)
-    out.mkdir(parents=True, exist_ok=True)
-    ex = Execution(system, out / "result.npy", progress=not args.quiet)
-    exp = system.experiment
-    print(f"running {scenario} ({len(system.components)} components, {exp.n_steps} steps of "
-          f"{exp.step:g} s, {exp.algorithm}) -> {out}/", file=sys.stderr)
-    error: CosimError | KeyboardInterrupt | None = None
+    scenario_path = Path(args.scenario)
+    overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
+    formats = _formats(args.format)
+    metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
+    scenario = api.load(scenario_path, overrides)
+    exp = scenario.system.experiment
+    out = _out_dir(args, scenario_path)
+    log.info("running %s (%d components, %d steps of %g s, %s) -> %s/", scenario_path,
+             len(scenario.system.components), exp.n_steps, exp.step, exp.algorithm, out)
     try:
-        data = ex.run()
+        result = api.simulate(scenario, out, formats=formats, metrics=metrics,
+                              progress=not args.quiet)
     except (CosimError, KeyboardInterrupt) as err:
-        error = err
-        import numpy as np
-
-        data = np.load(out / "result.npy")
-    units = ex.recorder.units
-    info: dict[str, Any] = {
-        "scenario": str(scenario), "overrides": list(args.set), "algorithm": exp.algorithm,
-        "start": exp.start, "stop": exp.stop, "step": exp.step, "steps_done": ex.info.steps_done,
-        "wall_time_s": round(ex.info.wall_time, 4),
-        "realtime_factor": round(ex.info.realtime_factor, 2), "error": ex.info.error,
-        "units": units, "signals": summary(data, units), "pacing": ex.info.extra,
-    }
-    metrics = _tracking_metrics(data)
-    if metrics:
-        info["metrics"] = metrics
-    save_summary(info, out / "summary.json")
-    if "csv" in args.format:
-        save_csv(data, units, out / "result.csv")
-    if "mat" in args.format:
-        save_mat(data, units, out / "result.mat")
-    if ex.pacer is not None and ex.pacer.released_ns:
-        import numpy as np
-
-        np.save(out / "lateness_us.npy", ex.pacer.lateness_us())
+        folder = getattr(err, "partial_results", None)
+        if folder is not None and args.plot:
+            _plots(api.read_result(folder), scenario_path.stem)
+        raise
     if args.plot:
-        plot_result(data, units, out / "plots", title=scenario.stem)
-        if ex.pacer is not None and ex.pacer.released_ns:
-            plot_timing(ex.pacer.lateness_us(), exp.step, out / "plots" / "timing.png",
-                        scenario.stem)
-    if error is not None:
-        raise error
-    print(f"done: {ex.info.steps_done} steps in {ex.info.wall_time:.2f} s "
-          f"({ex.info.realtime_factor:.1f}x real time); results in {out}/", file=sys.stderr)
-    if ex.info.extra:
-        print("pacing: " + ", ".join(f"{k} {v:.4g}" for k, v in ex.info.extra.items()),
-              file=sys.stderr)
-    if metrics:
-        print(json.dumps(metrics))
+        _plots(result, scenario_path.stem)
+    s = result.summary
+    log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
+             s["wall_time_s"], s["realtime_factor"], result.folder)
+    if s.get("pacing"):
+        log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in s["pacing"].items()
+                                          if isinstance(v, (int, float))))
+    if s.get("metrics"):
+        print(json.dumps(s["metrics"]))
     return 0
 
 
-def _tracking_metrics(data: Any) -> dict[str, Any]:
-    """Table III metrics when the result has a tracking error (optional analysis package)."""
-    try:
-        from twmr.analysis.metrics import tracking_metrics
-    except ImportError:
-        return {}
-    return tracking_metrics(data)
+def _plots(result: Any, title: str) -> None:
+    from twmr.plots import plot_result, plot_timing
+
+    folder = result.folder
+    if len(result):
+        plot_result(result.data, result.units, folder / "plots", title=title)
+    lateness = folder / "lateness_us.npy"
+    if lateness.is_file():
+        import numpy as np
+
+        plot_timing(np.load(lateness), float(result.summary.get("step", 0.0)),
+                    folder / "plots" / "timing.png", title)
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from twmr.scenario import describe, load
+    from twmr.api import load
+    from twmr.scenario.listing import describe
 
-    system = load(Path(args.scenario), args.set)
+    system = load(Path(args.scenario), args.set).system
     print(describe(system))
+    if args.schedule:
+        from twmr.master.schedule import schedule_source
+
+        print("generated step loop:")
+        print(schedule_source(system))
     print("OK: the scenario is valid.")
     return 0
 
 
 def cmd_components(args: argparse.Namespace) -> int:
-    from twmr.scenario import kinds_table
+    from twmr.scenario.listing import kinds_table
 
     print(kinds_table(args.kinds or None))
     return 0
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from twmr.analysis.plots import plot_result
-    from twmr.analysis.results import load_result
+    from twmr.plots import plot_result
+    from twmr.result import read_result
 
     path = Path(args.result)
-    if not path.exists():
-        raise CosimError(f"{path}: no such result file or directory. Fix: give the directory "
-                         f"`twmr run` wrote (results/<scenario>) or one of its result files.")
-    data, units = load_result(path)
+    result = read_result(path)
     out = Path(args.out) if args.out else (path if path.is_dir() else path.parent) / "plots"
-    for p in plot_result(data, units, out, title=path.stem):
+    for p in plot_result(result.data, result.units, out, title=path.stem):
         print(p)
     return 0
 
@@ -139,88 +134,6 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_compare(args: argparse.Namespace) -> int:
-    from twmr.analysis.compare import compare
-
-    return compare([Path(s) for s in args.scenarios], as_json=args.json,
-                   out=Path(args.out) if args.out else None, overrides=args.set)
-
-
-def cmd_emulate_drive(args: argparse.Namespace) -> int:
-    """Emulated drives (ODrive or CiA 402) answering on a python-can bus until Ctrl-C."""
-    try:
-        from twmr.hw.bus import bus_options, describe
-    except ImportError as err:
-        raise CosimError(f"the hardware extra is missing ({err}). Fix: pip install "
-                         f"'twmr-cosim[hw]'.") from None
-    try:
-        options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
-                              args.can_context)
-        if args.protocol == "odrive":
-            from twmr.hw.emulator import OdriveEmulator
-
-            emu: Any = OdriveEmulator(tuple(args.node), options, args.firmware, args.gear,
-                                      encoder_period=args.encoder_period,
-                                      torque_constant=args.torque_constant)
-        else:
-            from importlib import resources
-
-            from twmr.hw.cia402_emulator import Cia402Emulator
-
-            eds = args.eds or str(resources.files("twmr.hw").joinpath(
-                "data", "maxon_epos4_module_50-5.eds"))
-            emu = Cia402Emulator(tuple(args.node), eds, options, args.gear)
-    except (OSError, ValueError, ImportError) as err:
-        raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
-                         f"--interface/--channel, --can-config and --eds.") from None
-    print(f"emulating {args.protocol} drives {args.node} on {describe(options)}; Ctrl-C stops",
-          file=sys.stderr)
-    try:
-        while True:
-            time.sleep(1.0)
-            print(", ".join(f"{n}: {_axis_text(a)}" for n, a in emu.axes.items()),
-                  file=sys.stderr)
-    finally:
-        emu.close()
-
-
-def cmd_replay(args: argparse.Namespace) -> int:
-    """A run's frame log decoded to SI values (CSV), or played onto a bus."""
-    try:
-        from twmr.hw.bus import bus_options, describe
-        from twmr.hw.replay import Decoder, decode_log, play
-    except ImportError as err:
-        raise CosimError(f"the hardware extra is missing ({err}). Fix: pip install "
-                         f"'twmr-cosim[hw]'.") from None
-    log = Path(args.log)
-    if not log.is_file():
-        raise CosimError(f"{log}: no such frame log. Fix: give the <name>_frames.blf (or .asc) "
-                         f"that `twmr run` wrote beside the results.")
-    if args.play:
-        options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
-                              args.can_context)
-        n = play(log, options, paced=not args.fast)
-        print(f"{n} frames of {log} sent on {describe(options)}", file=sys.stderr)
-        return 0
-    decoder = Decoder(args.protocol, args.firmware, args.gear, args.rated_torque)
-    out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
-    try:
-        out.write("time_s,direction,node,signal,value\n")
-        for d in decode_log(log, decoder):
-            out.write(f"{d.time:.6f},{d.direction},{'' if d.node is None else d.node},"
-                      f"{d.signal},{d.value:.9g}\n")
-    finally:
-        if out is not sys.stdout:
-            out.close()
-    return 0
-
-
-def _axis_text(axis: Any) -> str:
-    state = getattr(axis.state, "value", axis.state)
-    error = f" err 0x{axis.error:x}" if getattr(axis, "error", 0) else ""
-    return f"state {state}{error} torque {axis.torque:.3g} N.m"
-
-
 def _parse_set(text: str) -> tuple[str, Any]:
     import yaml
 
@@ -230,100 +143,127 @@ def _parse_set(text: str) -> tuple[str, Any]:
     return key.strip(), yaml.safe_load(value)
 
 
+def _common() -> argparse.ArgumentParser:
+    """Options every subcommand accepts, before or after its name."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="show tracebacks and debug messages")
+    common.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,
+                        help="debug messages")
+    common.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                        help="warnings and errors only; no progress bar")
+    return common
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="twmr", description="Co-simulation of wheeled mobile robots.")
-    p.add_argument("--debug", action="store_true", help="show tracebacks")
+    common = _common()
+    p = argparse.ArgumentParser(prog="twmr", parents=[common],
+                                description="Co-simulation of wheeled mobile robots.")
+    p.add_argument("--version", action="version", version=f"twmr-cosim {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     def with_set(sp: argparse.ArgumentParser) -> None:
-        sp.add_argument("--set", action="append", default=[], metavar="COMP.PARAM=VALUE",
-                        help="override a parameter or initial value (repeatable)")
+        sp.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="override: comp.param=value, comp.step_multiple=m, "
+                             "experiment.stop|step|algorithm=value (repeatable)")
 
-    r = sub.add_parser("run", help="run a scenario; save results, summary and plots")
+    r = sub.add_parser("run", parents=[common],
+                       help="run a scenario; save results, summary and plots")
     r.add_argument("scenario")
     with_set(r)
     r.add_argument("--out", help="output directory (default results/<scenario name>)")
     r.add_argument("--plot", action="store_true", help="write PNG plots of the recorded signals")
-    r.add_argument("--format", default="csv,mat", help="extra result files: csv,mat (default)")
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--format", default="csv,mat",
+                   help="exports beside result.arrows: csv,mat,parquet or none (default csv,mat)")
+    r.add_argument("--metrics", action="append", default=[], metavar="NAME",
+                   help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",
                    help="pace steps to the wall clock (automatic with hardware components)")
     r.set_defaults(fn=cmd_run)
-    c = sub.add_parser("check", help="validate a scenario and print its graph, order and units")
+    c = sub.add_parser("check", parents=[common],
+                       help="validate a scenario and print its graph, order and units")
     c.add_argument("scenario")
     with_set(c)
+    c.add_argument("--schedule", action="store_true", help="print the generated step loop")
     c.set_defaults(fn=cmd_check)
-    k = sub.add_parser("components", help="list component kinds with ports, parameters, units")
+    k = sub.add_parser("components", parents=[common],
+                       help="list component kinds with ports, parameters, units")
     k.add_argument("kinds", nargs="*")
     k.set_defaults(fn=cmd_components)
-    pl = sub.add_parser("plot", help="plot a result (directory, .npy, .csv or .mat)")
+    pl = sub.add_parser("plot", parents=[common],
+                        help="plot a result (folder, .arrows, .csv, .mat or .parquet)")
     pl.add_argument("result")
     pl.add_argument("--out")
     pl.set_defaults(fn=cmd_plot)
-    i = sub.add_parser("inspect", help="describe an FMU as a component")
+    i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component")
     i.add_argument("fmu")
     i.set_defaults(fn=cmd_inspect)
-    e = sub.add_parser("export", help="export a native component kind as an FMU 2.0 (CS)")
+    e = sub.add_parser("export", parents=[common],
+                       help="export a native component kind as an FMU 2.0 (CS)")
     e.add_argument("kind")
     e.add_argument("--out")
     with_set(e)
     e.set_defaults(fn=cmd_export)
-    em = sub.add_parser("emulate-drive", help="emulated drives on a CAN bus (no hardware)")
-    em.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
-    em.add_argument("--interface", default="virtual")
-    em.add_argument("--channel", default="twmr")
-    em.add_argument("--bitrate", type=int, default=1_000_000)
-    em.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
-    em.add_argument("--can-context", default="default", help="section of --can-config")
-    em.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
-    em.add_argument("--encoder-period", type=float, default=1e-3,
-                    help="ODrive: cyclic encoder estimates period [s] (0: only on request)")
-    em.add_argument("--torque-constant", type=float, default=0.04, help="ODrive: N.m/A")
-    em.add_argument("--eds", help="CiA 402: EDS/DCF of the drives (default: shipped EPOS4)")
-    em.add_argument("--gear", type=float, default=1.0)
-    em.add_argument("--node", type=int, action="append", default=None,
-                    help="axis node id (repeatable; default 0 and 1)")
-    em.set_defaults(fn=cmd_emulate_drive)
-    rp = sub.add_parser("replay", help="decode a run's CAN frame log to CSV, or play it onto a bus")
-    rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
-    rp.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
-    rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
-    rp.add_argument("--gear", type=float, default=1.0, help="motor turns per wheel turn")
-    rp.add_argument("--rated-torque", type=int, default=1000, help="CiA 402 0x6076 [mN.m]")
-    rp.add_argument("--out", help="CSV file (default: standard output)")
-    rp.add_argument("--play", action="store_true", help="send the frames onto a bus instead")
-    rp.add_argument("--fast", action="store_true", help="with --play: no original timing")
-    rp.add_argument("--interface", default="virtual")
-    rp.add_argument("--channel", default="twmr")
-    rp.add_argument("--bitrate", type=int, default=1_000_000)
-    rp.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
-    rp.add_argument("--can-context", default="default")
-    rp.set_defaults(fn=cmd_replay)
-    cp = sub.add_parser("compare", help="run scenarios and print Table III metrics side by side")
-    cp.add_argument("scenarios", nargs="+")
-    cp.add_argument("--json", action="store_true", help="print the figures as one JSON object")
-    cp.add_argument("--out", help="directory for the comparison figures")
-    with_set(cp)
-    cp.set_defaults(fn=cmd_compare)
+    from twmr.registry import command, commands
+
+    for name in commands():
+        try:
+            command(name)(sub, common)
+        except ImportError as err:
+            sp = sub.add_parser(name, parents=[common], help=f"(unavailable: {err})")
+            sp.set_defaults(fn=_unavailable(name, err))
     return p
+
+
+def _unavailable(name: str, err: ImportError) -> Any:
+    def fn(args: argparse.Namespace) -> int:
+        raise CosimError(f"'twmr {name}' cannot load ({err}). Fix: install what it needs, e.g. "
+                         f"pip install 'twmr-cosim[hw]'.")
+    return fn
+
+
+def _configure_logging(args: argparse.Namespace) -> None:
+    level = logging.INFO
+    if getattr(args, "quiet", False):
+        level = logging.WARNING
+    if getattr(args, "verbose", False) or getattr(args, "debug", False):
+        level = logging.DEBUG
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    log.handlers[:] = [handler]
+    log.setLevel(level)
+    log.propagate = False
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    if getattr(args, "command", "") == "emulate-drive" and not args.node:
-        args.node = [0, 1]
+    args.quiet = getattr(args, "quiet", False)
+    args.debug = getattr(args, "debug", False)
+    _configure_logging(args)
     t0 = time.perf_counter()
     try:
         return int(args.fn(args) or 0)
     except CosimError as err:
         if args.debug:
             raise
-        print(f"error: {err}", file=sys.stderr)
+        log.error("error: %s%s", err, _where(err))
         return 1
-    except KeyboardInterrupt:
-        print(f"interrupted after {time.perf_counter() - t0:.1f} s; results so far are saved.",
-              file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as err:
+        how = getattr(err, "signal_name", "SIGINT")
+        log.error("interrupted (%s) after %.1f s%s", "Ctrl-C" if how == "SIGINT" else how,
+                  time.perf_counter() - t0, _where(err) or ".")
+        return 130 if how == "SIGINT" else 128 + _signal_number(how)
+
+
+def _where(err: BaseException) -> str:
+    folder = getattr(err, "partial_results", None)
+    return f" (the results so far are in {folder}/)" if folder is not None else ""
+
+
+def _signal_number(name: str) -> int:
+    import signal
+
+    return int(getattr(signal, name, signal.SIGTERM))
 
 
 if __name__ == "__main__":

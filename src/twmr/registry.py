@@ -1,7 +1,10 @@
-"""Component kinds by name, found through the ``twmr.components`` entry-point group.
+"""Component kinds, metrics and CLI subcommands by name, found through entry points.
 
-Like python-can's interface registry: names map to ``module:Class`` strings and a module is imported
-only when its kind is used, so hardware libraries load only for scenarios that need them.
+Like python-can's interface registry: names map to ``module:attr`` strings and a module is
+imported only when its entry is used, so robot analysis and hardware libraries load only when a
+scenario or command needs them. Groups: ``twmr.components`` (a `Component` subclass),
+``twmr.metrics`` (a function `Result -> dict[str, float]`), ``twmr.commands`` (a function
+`register(subparsers)` adding one or more subcommands).
 """
 from __future__ import annotations
 
@@ -9,25 +12,45 @@ import difflib
 import importlib
 from functools import lru_cache
 from importlib.metadata import entry_points
-
-from twmr.core.component import Component
+from typing import Any, Callable
 
 GROUP = "twmr.components"
+METRICS = "twmr.metrics"
+COMMANDS = "twmr.commands"
 
 
-@lru_cache(maxsize=1)
+@lru_cache(maxsize=None)
+def _group(group: str) -> dict[str, str]:
+    return {ep.name: ep.value for ep in entry_points(group=group)}
+
+
 def kinds() -> dict[str, str]:
     """All known kinds: name -> 'module:Class'."""
-    return {ep.name: ep.value for ep in entry_points(group=GROUP)}
+    return _group(GROUP)
 
 
-def suggest(name: str, choices: list[str] | tuple[str, ...] | set[str]) -> str:
+def metrics() -> dict[str, str]:
+    """All registered metric sets: name -> 'module:function'."""
+    return _group(METRICS)
+
+
+def commands() -> dict[str, str]:
+    """Subcommands registered by installed packages: name -> 'module:register'."""
+    return _group(COMMANDS)
+
+
+def suggest(name: str, choices: list[str] | tuple[str, ...] | set[str] | dict[str, Any]) -> str:
     """' (did you mean 'x'?)' for the closest choice, or ''."""
     close = difflib.get_close_matches(name, list(choices), n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-def lookup(kind: str) -> type[Component]:
+def _resolve(target: str) -> Any:
+    module, _, attr = target.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def lookup(kind: str) -> Any:
     """The Component class registered as `kind`; KeyError with a suggestion when unknown."""
     target = kinds().get(kind)
     if target is None:
@@ -35,5 +58,20 @@ def lookup(kind: str) -> type[Component]:
             f"unknown component kind '{kind}'{suggest(kind, kinds())}; "
             f"known kinds: {', '.join(sorted(kinds()))}"
         )
-    module, _, attr = target.partition(":")
-    return getattr(importlib.import_module(module), attr)
+    return _resolve(target)
+
+
+def metric(name: str) -> Callable[..., dict[str, Any]]:
+    """The metric function registered as `name`; CosimError naming the known ones."""
+    from twmr.core.errors import CosimError
+
+    target = metrics().get(name)
+    if target is None:
+        raise CosimError(f"unknown metric set '{name}'{suggest(name, metrics())}. Fix: use one "
+                         f"of: {', '.join(sorted(metrics())) or '(none installed)'}.")
+    return _resolve(target)
+
+
+def command(name: str) -> Callable[[Any], None]:
+    """The `register(subparsers)` function of a registered subcommand."""
+    return _resolve(commands()[name])

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tests.hw_bench import Monitor, Paced, channel, started
-from twmr.analysis.metrics import errors
+from twmr.components.metrics import errors
 from twmr.hw import protocol as p
 from twmr.master import simulate
 from twmr.scenario import loads

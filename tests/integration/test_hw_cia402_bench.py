@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tests.hw_bench import Paced, started
-from twmr.analysis.metrics import errors, tracking_metrics
+from twmr.components.metrics import errors, tracking_metrics
 from twmr.hw.cia402 import State
 from twmr.master import simulate
 from twmr.scenario import loads

@@ -10,10 +10,9 @@ import time
 import uuid
 from pathlib import Path
 
-import numpy as np
-
 from twmr.hw import protocol as p
 from twmr.hw.replay import Decoder, decode_log
+from twmr.result import read_result
 
 BENCH = Path(__file__).resolve().parents[2] / "scenarios" / "bench_odrive_trajectory1.yaml"
 
@@ -23,15 +22,17 @@ def test_ctrl_c_zeroes_the_torque_disables_the_drives_and_keeps_the_results(tmp_
     proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "run", str(BENCH), "--quiet",
                              "--out", str(out), "--set", f"motor.channel={uuid.uuid4().hex}"],
                             stderr=subprocess.PIPE, text=True)
-    log = out / "motor_frames.blf"
     deadline = time.monotonic() + 60
-    while not log.exists() and time.monotonic() < deadline:
+    while not list(tmp_path.glob("run.partial-*/motor_frames.blf")) and \
+            time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(1.0)  # in the paced run, the drives under torque
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 130, err
-    assert "interrupted" in err
+    assert "interrupted" in err and "run.incomplete" in err
+    out = tmp_path / "run.incomplete"
+    log = out / "motor_frames.blf"
     decoded = decode_log(log, Decoder())
     for node in (0, 1):
         sent = [d for d in decoded if d.direction == "Tx" and d.node == node
@@ -42,5 +43,5 @@ def test_ctrl_c_zeroes_the_torque_disables_the_drives_and_keeps_the_results(tmp_
                                                             ("requested_state", p.AXIS_IDLE)]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["error"].startswith("interrupted (Ctrl-C)")
-    data = np.load(out / "result.npy")
+    data = read_result(out)
     assert 0 < data["time"][-1] < 10.0 and summary["steps_done"] > 100

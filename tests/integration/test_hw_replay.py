@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from twmr.hw.replay import Decoder, decode_frames, decode_log, play
-from twmr.master import Execution
+from twmr.master import simulate
 from twmr.scenario import loads
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -27,7 +27,7 @@ def bench_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, Pat
         "decimation: 5", "decimation: 1").replace(
         "ctrl.torque,", "ctrl.torque, motor.torque, motor.measured_speed,").replace(
         "channel: bench", f"channel: {uuid.uuid4().hex[:8]}")
-    data = np.array(Execution(loads(text, source="bench.yaml"), out / "result.npy").run())
+    data = np.array(simulate(loads(text, source="bench.yaml"), out))
     return data, out / "motor_frames.blf"
 
 

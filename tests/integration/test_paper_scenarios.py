@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twmr.analysis.metrics import tracking_metrics
+from twmr.components.metrics import tracking_metrics
 from twmr.master import simulate
 from twmr.scenario import load
 

@@ -4,16 +4,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
 from twmr.cli import main
+from twmr.result import read_result
 
 FIXTURE = Path(__file__).parent.parent / "fixtures" / "scenarios" / "loop.yaml"
 
 
 def test_run_writes_results_summary_and_plots(tmp_path, capsys) -> None:
     assert main(["run", str(FIXTURE), "--out", str(tmp_path), "--plot", "--quiet"]) == 0
-    for name in ("result.npy", "result.csv", "result.mat", "summary.json"):
+    for name in ("result.arrows", "result.csv", "result.mat", "summary.json"):
         assert (tmp_path / name).exists(), name
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["steps_done"] == 100 and "plant.y" in summary["signals"]
@@ -38,8 +37,9 @@ def test_failing_component_keeps_partial_results(tmp_path, capsys) -> None:
     assert main(["run", str(scen), "--out", str(tmp_path / "out"), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "component 'ref'" in err and "not finite" in err and "t = 0.5 s" in err
-    saved = np.load(tmp_path / "out" / "result.npy")
-    assert 0 < len(saved) < 51 and (tmp_path / "out" / "result.csv").exists()
+    assert "out.incomplete" in err and not (tmp_path / "out").exists()
+    saved = read_result(tmp_path / "out.incomplete")
+    assert 0 < len(saved) < 51 and (tmp_path / "out.incomplete" / "result.csv").exists()
 
 
 def test_set_override_and_components_listing(tmp_path, capsys) -> None:

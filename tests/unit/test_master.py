@@ -10,6 +10,7 @@ from tests.helpers import system
 from twmr.blocks import Constant, Delay, Gain, Integrator, Sine
 from twmr.core import Component, ComponentError, Input, Output
 from twmr.master import simulate
+from twmr.result import read_result
 
 
 def cascade(algorithm: str):
@@ -92,23 +93,23 @@ class MakesNan(Blows):
 
 
 def test_exception_names_instance_call_and_time_and_keeps_results(tmp_path) -> None:
-    path = tmp_path / "r.npy"
+    path = tmp_path / "run"
     sysm = system([Constant("c"), Blows("bad")], ["c.y -> bad.u"], 1.0, 0.1, record=["bad.y"])
     with pytest.raises(ComponentError) as err:
         simulate(sysm, path)
     text = str(err.value)
     assert "'bad'" in text and "do_step()" in text and "boom" in text and "t = 0.5" in text
-    saved = np.load(path)
+    saved = read_result(path)
     assert len(saved) == 6 and saved["time"][-1] == pytest.approx(0.5)
 
 
 def test_nan_output_names_instance_port_and_time(tmp_path) -> None:
     sysm = system([MakesNan("nanny")], [], 1.0, 0.1, record=["nanny.y"])
     with pytest.raises(ComponentError) as err:
-        simulate(sysm, tmp_path / "r.npy")
+        simulate(sysm, tmp_path / "run")
     text = str(err.value)
     assert "'nanny'" in text and "'y'" in text and "nan" in text and "t = 0.6" in text
-    assert len(np.load(tmp_path / "r.npy")) == 6  # points 0 .. 0.5 were finite
+    assert len(read_result(tmp_path / "run")) == 6  # points 0 .. 0.5 were finite
 
 
 def test_every_component_is_terminated_after_an_error(tmp_path) -> None:
@@ -120,7 +121,7 @@ def test_every_component_is_terminated_after_an_error(tmp_path) -> None:
 
     sysm = system([Tracks("c"), Blows("bad")], ["c.y -> bad.u"], 1.0, 0.1)
     with pytest.raises(ComponentError):
-        simulate(sysm, tmp_path / "r.npy")
+        simulate(sysm, tmp_path / "run")
     assert seen == ["c"]
 
 

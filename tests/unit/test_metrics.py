@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from twmr.analysis.metrics import peak_error, settling_time, tracking_metrics
+from twmr.components.metrics import peak_error, settling_time, tracking_metrics
 
 
 def test_settling_time_of_an_exponential() -> None:

@@ -1,50 +1,93 @@
-"""Result files: CSV and .mat carry every column and its unit and read back exactly."""
+"""Results: the crash-consistent store, exports read by the libraries made for them (pandas,
+scipy, pyarrow), thousands of columns, a re-run that never destroys the previous result."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
 import scipy.io
 
-from tests.helpers import system
-from twmr.analysis.plots import plot_result
-from twmr.analysis.results import load_result, save_csv, save_mat
-from twmr.blocks import Integrator, Sine
-from twmr.master import Execution
+import twmr
+from twmr.observers.store import FILENAME, read_store
+from twmr.plots import plot_result
+
+FIXTURE = Path(__file__).parent.parent / "fixtures" / "scenarios" / "loop.yaml"
 
 
-def _run(tmp_path):
-    ex = Execution(system([Sine("s"), Integrator("i")], ["s.y -> i.u"], 0.5, 0.01,
-                          record=["s.y", "i.y"]), tmp_path / "result.npy")
-    return ex.run(), ex.recorder.units
+@pytest.fixture()
+def run(tmp_path) -> twmr.Result:
+    return twmr.simulate(twmr.load(FIXTURE), tmp_path / "run", formats=("csv", "mat", "parquet"))
 
 
-def test_csv_round_trip_keeps_values_and_units(tmp_path) -> None:
-    data, units = _run(tmp_path)
-    back, back_units = load_result(save_csv(data, units, tmp_path / "r.csv"))
-    assert back.dtype.names == data.dtype.names
-    for n in data.dtype.names:
-        assert np.array_equal(back[n], data[n])
-    assert back_units["time"] == "s"
+def test_csv_reads_with_pandas_as_is_and_units_sit_beside(run) -> None:
+    df = pd.read_csv(run.folder / "result.csv")
+    assert list(df.columns) == ["time", "plant.u", "plant.y", "ctrl.y"]
+    np.testing.assert_array_equal(df["plant.y"].to_numpy(), run["plant.y"])
+    units = json.loads((run.folder / "units.json").read_text())
+    assert units["time"] == "s"
+    back = twmr.read_result(run.folder / "result.csv")
+    np.testing.assert_array_equal(back.values, run.values)
 
 
-def test_mat_file_is_readable_by_scipy_with_units(tmp_path) -> None:
-    data, units = _run(tmp_path)
-    save_mat(data, units, tmp_path / "r.mat")
-    m = scipy.io.loadmat(tmp_path / "r.mat")
-    np.testing.assert_array_equal(np.ravel(m["i_y"]), data["i.y"])
-    assert [str(np.ravel(u)[0]) if np.size(u) else "" for u in np.ravel(m["units"])][0] == "s"
-    back, _ = load_result(tmp_path / "r.mat")
-    np.testing.assert_array_equal(back["s.y"], data["s.y"])
+def test_mat_and_parquet_carry_values_and_units(run) -> None:
+    m = scipy.io.loadmat(run.folder / "result.mat")
+    np.testing.assert_array_equal(np.ravel(m["plant_y"]), run["plant.y"])
+    assert str(np.ravel(np.ravel(m["units"])[0])[0]) == "s"
+    table = pq.read_table(run.folder / "result.parquet")
+    np.testing.assert_array_equal(table.column("ctrl.y").to_numpy(), run["ctrl.y"])
+    assert table.schema.field("time").metadata[b"unit"] == b"s"
+    for name in ("result.mat", "result.parquet"):
+        np.testing.assert_array_equal(twmr.read_result(run.folder / name).values, run.values)
 
 
-def test_recorder_file_is_a_plain_npy(tmp_path) -> None:
-    data, _ = _run(tmp_path)
-    again = np.load(tmp_path / "result.npy")
-    assert len(again) == 51 and again.dtype.names == ("time", "s.y", "i.y")
-    np.testing.assert_array_equal(again["i.y"], data["i.y"])
+def test_to_pandas_has_time_columns_and_units(run) -> None:
+    df = twmr.read_result(run.folder).to_pandas()
+    assert df.columns[0] == "time" and len(df) == 51
+    assert df.attrs["units"]["time"] == "s"
+    assert run.summary["status"] == "completed" and run.summary["steps_done"] == 100
 
 
-def test_plots_are_written(tmp_path) -> None:
-    data, units = _run(tmp_path)
-    paths = plot_result(data, units, tmp_path / "plots")
-    assert {p.name for p in paths} == {"s_y.png", "i_y.png"}
+def test_store_stays_readable_when_its_last_chunk_is_torn(tmp_path) -> None:
+    text = FIXTURE.read_text().replace("stop: 1.0", "stop: 50.0").replace("decimation: 2",
+                                                                           "decimation: 1")
+    result = twmr.simulate(twmr.load(text), tmp_path / "run")
+    raw = (result.folder / FILENAME).read_bytes()
+    torn = tmp_path / "torn.arrows"
+    torn.write_bytes(raw[: len(raw) * 3 // 4])
+    columns, _, values, intact = read_store(torn)
+    assert not intact and 0 < len(values) < len(result)
+    np.testing.assert_array_equal(values, result.values[: len(values)])
+
+
+def test_three_thousand_columns(tmp_path) -> None:
+    scenario = {"components": {f"c{i}": {"kind": "constant", "parameters": {"value": float(i)}}
+                               for i in range(3000)},
+                "experiment": {"stop": 0.05, "step": 0.01}}
+    result = twmr.simulate(twmr.load(scenario), tmp_path / "wide", formats=("csv", "parquet"))
+    assert len(result.columns) == 3001 and len(result) == 6
+    assert result["c2999.y"][-1] == 2999.0
+    assert pd.read_csv(result.folder / "result.csv").shape == (6, 3001)
+
+
+def test_failed_rerun_keeps_the_previous_result(tmp_path) -> None:
+    out = tmp_path / "run"
+    good = twmr.simulate(twmr.load(FIXTURE), out)
+    bad = twmr.load(FIXTURE, ["ref.height=.inf", "ref.time=0.5"])
+    with pytest.raises(twmr.api.CosimError) as err:
+        twmr.simulate(bad, out)
+    assert err.value.partial_results == out.with_name("run.incomplete")
+    kept = twmr.read_result(out)
+    np.testing.assert_array_equal(kept.values, good.values)
+    partial = twmr.read_result(out.with_name("run.incomplete"))
+    assert partial.status == "failed" and 0 < len(partial) < len(good)
+    assert not list(tmp_path.glob("run.partial-*"))
+
+
+def test_plots_are_written(run) -> None:
+    paths = plot_result(run.data, run.units, run.folder / "plots")
+    assert {p.name for p in paths} == {"plant_u.png", "plant_y.png", "ctrl_y.png"}
     assert all(p.stat().st_size > 1000 for p in paths)

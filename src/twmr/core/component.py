@@ -1,6 +1,6 @@
 """`Component`: one interface for every block, shaped like an FMI 2.0 co-simulation slave.
 
-Life cycle: ``setup(start, stop)`` → ``initialize()`` → at each communication point t the master
+Life cycle: ``prepare(run)`` → ``setup(start, stop)`` → ``initialize()`` → at each communication point t the master
 writes the inputs, calls ``evaluate(t)`` when the component has direct feedthrough, then
 ``do_step(t, h)`` → ... → ``terminate()``.
 
@@ -30,8 +30,6 @@ class Component:
     construction_parameters: ClassVar[tuple[str, ...]] = ()
     #: hardware in the loop: runs are paced to the wall clock unless the scenario says otherwise
     needs_realtime: ClassVar[bool] = False
-    #: folder of the run's results, set by the master before `setup` (None: not saved)
-    output_dir: Path | None = None
 
     def __init__(self, name: str = "", **parameters: Any):
         self.name = name or type(self).__name__
@@ -97,6 +95,11 @@ class Component:
         return self.__dict__[name]
 
     # -- life cycle (FMI 2.0 co-simulation) ---------------------------------------------------
+    def prepare(self, run: Any) -> None:
+        """Called first with the run's `RunContext`: `run.folder` is where the component may
+        write files of its own (None: the run writes nothing), `run.step` the base step [s],
+        `run.paced` whether steps follow the wall clock."""
+
     def setup(self, start: float, stop: float | None) -> None:
         """Called once before `initialize()` with the experiment's start and stop times [s]."""
         self.start_time = start

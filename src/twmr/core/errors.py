@@ -22,7 +22,11 @@ class Location:
 
 
 class CosimError(Exception):
-    """Base of every error the engine reports to a user."""
+    """Base of every error the engine reports to a user. Every subclass pickles (sweeps send
+    errors across processes): `__reduce__` rebuilds it from its constructor arguments."""
+
+    def __reduce__(self) -> tuple:
+        return (type(self), self.args)
 
 
 class UnitError(CosimError):
@@ -49,6 +53,9 @@ class ScenarioError(CosimError):
         self.problems = [problems] if isinstance(problems, Problem) else list(problems)
         super().__init__("\n".join(str(p) for p in self.problems))
 
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.problems,))
+
 
 class WiringError(ScenarioError):
     """Ports that cannot be connected as asked (sizes, types, units, drivers)."""
@@ -64,8 +71,12 @@ class ComponentError(CosimError):
     def __init__(self, instance: str, time: float | None, message: str):
         self.instance = instance
         self.time = time
+        self.message = message
         at = f" at t = {time:.9g} s" if time is not None else ""
         super().__init__(f"component '{instance}'{at}: {message}")
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.instance, self.time, self.message))
 
 
 class FmuError(ComponentError):

@@ -1,22 +1,39 @@
-"""The master: algorithms (Gauss-Seidel, Jacobi, multi-rate), execution and the recorder."""
+"""The master: the `Algorithm` interface and the generated fixed-step loop, `Execution`."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
-from twmr.master.algorithm import ALGORITHMS, generate
-from twmr.master.execution import Execution, Pacer, RunInfo
-from twmr.master.recorder import Recorder, columns_of
+from twmr.master.algorithm import Algorithm, NonFinite, make_algorithm
+from twmr.master.execution import Execution, Pacer, RunContext, RunInterrupted, columns_of
+from twmr.observers.base import Observer
+from twmr.observers.store import ResultStore
 from twmr.scenario.system import System
 
 
-def simulate(system: System, result_path: str | Path | None = None, progress: bool = False,
-             check_finite: bool = True) -> np.ndarray:
-    """Run `system` to its stop time; the recorded structured array (time + one column per
-    recorded scalar). Raises `ComponentError` on a failure, with the results so far on disk."""
-    return Execution(system, result_path, progress, check_finite).run()
+def simulate(system: System, folder: str | Path | None = None,
+             observers: Sequence[Observer] = (), check_finite: bool = True) -> np.ndarray:
+    """Run a built `system` to its stop time; the recorded rows as a structured array (`time` and
+    one field per recorded scalar). With `folder`, the rows are also streamed to
+    `folder/result.arrows`. Raises `ComponentError` on a failure, after every component is
+    terminated. (The user-facing entry point is `twmr.simulate`.)"""
+    store = ResultStore()
+    if folder is not None:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+    ex = Execution(system, [store, *observers], folder, check_finite)
+    ex.run()
+    values = store.data() if folder is None else _read(Path(folder))
+    dtype = np.dtype([(c, "<f8") for c in ex.columns])
+    return np.ascontiguousarray(values).view(dtype).reshape(-1)
 
 
-__all__ = ["simulate", "Execution", "Recorder", "RunInfo", "Pacer", "generate", "ALGORITHMS",
-           "columns_of"]
+def _read(folder: Path) -> np.ndarray:
+    from twmr.observers.store import FILENAME, read_store
+
+    return read_store(folder / FILENAME)[2]
+
+
+__all__ = ["simulate", "Algorithm", "NonFinite", "make_algorithm", "Execution", "Pacer",
+           "RunContext", "RunInterrupted", "columns_of"]

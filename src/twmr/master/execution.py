@@ -1,29 +1,62 @@
-"""`Execution`: runs a built `System` with a master algorithm, from setup to terminate.
+"""`Execution`: runs a built `System` with an `Algorithm`, from setup to terminate, and feeds the
+observers.
 
-It owns the clock (an integer count of base steps), real-time pacing, progress, error mapping (an
-exception or a NaN/Inf inside a component becomes a `ComponentError` naming the instance, the call
-or port, and the time) and the guarantee that the recorder is flushed and every component is
-terminated, whatever happens.
+It owns the clock (an integer count of base steps), real-time pacing, chunking of the recorded
+rows, error mapping (an exception or a NaN/Inf inside a component becomes a `ComponentError`
+naming the instance, the call or port, and the time) and every stop path: normal end, error,
+Ctrl-C, SIGTERM, SIGHUP or a failure to write the results. On each, every component is
+terminated first (a drive's terminate sends zero torque and disables it) with those signals held
+off, then the rows recorded so far go to the observers, then the observers are told the outcome;
+a failing observer is reported after the stop, never instead of it.
 """
 from __future__ import annotations
 
 import gc
+import logging
 import math
 import signal
 import sys
 import threading
 import time
-import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Sequence
 
 import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError
-from twmr.master.algorithm import NonFinite, Schedule, generate
-from twmr.master.recorder import Recorder
+from twmr.master.algorithm import Algorithm, NonFinite, make_algorithm
+from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
+
+log = logging.getLogger("twmr.run")
+
+#: wall time one chunk of steps aims at [s]: rows reach the observers (and the disk) this often
+CHUNK_SECONDS = 0.1
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """The run was stopped by Ctrl-C, SIGTERM or SIGHUP (`signal_name`)."""
+
+    def __init__(self, signal_name: str = "SIGINT"):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+class ResultWriteError(CosimError):
+    """Recording failed (disk full, folder removed...): the run stopped, components terminated."""
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What a run offers a component before `setup` (`Component.prepare`): a folder for its own
+    files (None: the run writes nothing), the base step h [s], and whether steps are paced to the
+    wall clock."""
+
+    folder: Path | None
+    step: float
+    paced: bool
 
 
 class Pacer:
@@ -79,145 +112,256 @@ class Pacer:
                 "missed_deadlines": self.overruns, "paced_steps": int(late.size)}
 
 
-@dataclass
-class RunInfo:
-    """What a run did: steps, wall time [s], real-time factor, pacing overruns, error if any."""
+class _Relay:
+    """Delivers row blocks from a worker thread, in order; the first failure is raised by the
+    next `put` or by `close`."""
 
-    n_steps: int = 0
-    steps_done: int = 0
-    wall_time: float = 0.0
-    realtime_factor: float = 0.0
-    overruns: int = 0
-    error: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
+    def __init__(self, deliver: Any):
+        import queue
+
+        self._queue: Any = queue.SimpleQueue()
+        self._error: BaseException | None = None
+        self._deliver = deliver
+        self._thread = threading.Thread(target=self._work, name="twmr-observers", daemon=True)
+        self._thread.start()
+
+    def _work(self) -> None:
+        while (item := self._queue.get()) is not None:
+            if self._error is None:
+                try:
+                    self._deliver(*item)
+                except BaseException as exc:  # noqa: BLE001 - handed to the stepping thread
+                    self._error = exc
+
+    def put(self, block: np.ndarray, n: int) -> None:
+        if self._error is not None:
+            raise self._error
+        self._queue.put((block, n))
+
+    def close(self) -> None:
+        self._queue.put(None)
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+
+
+def columns_of(system: System, signals: Sequence[tuple[str, str]]
+               ) -> tuple[list[str], list[str]]:
+    """Column names and units of the recorded signals, time first; vector ports as
+    `inst.port[1]..inst.port[n]` (1-based, as Modelica tools name them)."""
+    names, units = ["time"], ["s"]
+    for inst, port in signals:
+        var = system.components[inst].variables[port]
+        if var.size is None:
+            names.append(f"{inst}.{port}")
+            units.append(var.element_unit(0))
+        else:
+            for i in range(var.width):
+                names.append(f"{inst}.{port}[{i + 1}]")
+                units.append(var.element_unit(i))
+    return names, units
 
 
 class Execution:
-    """One run of `system`. `run()` returns the recorded structured array; `info` tells the rest.
+    """One run of `system`: `run()` returns the `Outcome` (or raises after the stop).
 
-    The steps run in chunks of `chunk_steps`; after each the recorder flushes to disk, the progress
-    bar moves and `on_chunk(n)` (if given) is called with the number of steps done."""
+    Rows are handed to `observers` in chunks of about `CHUNK_SECONDS` of wall time (a paced run:
+    of simulated time), so a crash loses at most the last chunk."""
 
-    def __init__(self, system: System, result_path: str | Path | None = None,
-                 progress: bool = False, check_finite: bool = True, chunk_steps: int = 20000,
-                 on_chunk: Callable[[int], None] | None = None):
+    def __init__(self, system: System, observers: Sequence[Observer] = (),
+                 folder: str | Path | None = None, check_finite: bool = True,
+                 algorithm: Algorithm | None = None):
         self.system = system
-        self.on_chunk = on_chunk
-        self.recorder = Recorder(system, result_path)
-        self.progress = progress
-        self.chunk_steps = chunk_steps
+        self.observers = list(observers)
+        self.folder = Path(folder) if folder is not None else None
         exp = system.experiment
         self.pacer = Pacer(exp.step) if system.paced else None
-        self.schedule: Schedule = generate(system, exp.algorithm, self.recorder.signals,
-                                           self.recorder.decimation, check_finite, self.pacer)
-        self.info = RunInfo(n_steps=exp.n_steps)
+        self.algorithm = algorithm or make_algorithm(exp.algorithm)
+        self.signals = list(system.record.signals)
+        self.columns, self.units = columns_of(system, self.signals)
+        self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
+        self.outcome = Outcome(n_steps=exp.n_steps)
+        self._relay = _Relay(self._deliver) if self.pacer is not None else None
         self._n = 0
+        self._rows: list[tuple[float, ...]] = []
 
-    def run(self) -> np.ndarray:
-        """Set up, initialize, step to the stop time, terminate. Raises `ComponentError` (results
-        up to the failure are on disk in `recorder.path`)."""
+    def run(self) -> Outcome:
+        """Set up, initialize, step to the stop time, terminate. Raises `CosimError` or
+        `KeyboardInterrupt` (`RunInterrupted`) after every component is terminated and the
+        observers have what was recorded."""
         exp = self.system.experiment
-        rows = self.recorder.rows
-        bar = _progress_bar(exp.n_steps) if self.progress else None
         wall0 = time.perf_counter()
-        if self.pacer is not None:
-            # the objects alive now (libraries, components) leave the collector's view, so a
-            # full collection during the paced run scans only what the run allocates
+        error: BaseException | None = None
+        previous = self._catch_stop_signals()
+        paced = self.pacer is not None
+        if paced:
+            # the objects alive now leave the collector's view, so a full collection during the
+            # paced run scans only what the run allocates; other threads (bus notifiers,
+            # emulated drives) hand the GIL back within 0.2 ms instead of 5 ms
             gc.collect()
             gc.freeze()
-            # other threads (bus notifiers, emulated drives) hand the GIL back within 0.2 ms
-            # instead of 5 ms, so a paced step is not held behind them
             switch = sys.getswitchinterval()
             sys.setswitchinterval(2e-4)
         try:
-            if not self.recorder.temporary:
-                for comp in self.system.components.values():
-                    comp.output_dir = Path(self.recorder.path).parent
+            start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
+                             self.folder, self.system.source)
+            for obs in self.observers:
+                self._write(obs.started, start)
+            context = RunContext(self.folder, exp.step, paced)
+            self._lifecycle("prepare", lambda c: c.prepare(context))
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize())
-            if self.pacer is not None:
-                self.pacer.start()
-            while self._n < exp.n_steps:
-                n1 = min(exp.n_steps, self._n + self.chunk_steps)
-                self._guarded(self.schedule.run, self._n, n1, rows)
-                if bar is not None:
-                    bar.update(n1 - self._n)
-                self._n = n1
-                self.recorder.flush()
-                if self.on_chunk is not None:
-                    self.on_chunk(n1)
-            self._guarded(self.schedule.finish, exp.n_steps, rows)
-        except CosimError as err:
-            self.info.error = str(err)
-            raise
-        except KeyboardInterrupt as stop:
-            t = self._locate(stop)[2]
-            if math.isfinite(t):
-                self._n = self._step_of(t)
-            self.info.error = f"interrupted (Ctrl-C) at t = {exp.start + self._n * exp.step:g} s"
-            raise
+            if paced:
+                self._paced_loop(exp.n_steps)
+            else:
+                self._loop(exp.n_steps)
+            self._guarded(self.algorithm.finish, exp.n_steps)
+        except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
+            error = exc
         finally:
-            self.info.steps_done = self._n
-            self.info.wall_time = time.perf_counter() - wall0
-            simulated = self._n * exp.step
-            self.info.realtime_factor = simulated / self.info.wall_time if self.info.wall_time else 0
-            self.info.overruns = self.pacer.overruns if self.pacer else 0
-            if self.pacer is not None:
-                self.info.extra.update(self.pacer.stats())
-            if self.pacer is not None:
+            self._terminate_all()
+            self._restore_signals(previous)
+            if paced:
                 gc.unfreeze()
                 sys.setswitchinterval(switch)
-            self.recorder.close()
-            if bar is not None:
-                bar.close()
-            self._report_all()
-            self._terminate_all()
-        return self.recorder.result()
+        error = self._conclude(error, wall0)
+        if error is not None:
+            raise error
+        return self.outcome
 
-    # -- helpers -----------------------------------------------------------------------------
+    # -- stepping ------------------------------------------------------------------------------
+    def _loop(self, n_steps: int) -> None:
+        chunk = 64
+        while self._n < n_steps:
+            n1 = min(n_steps, self._n + chunk)
+            t0 = time.perf_counter()
+            self._n = self._guarded(self.algorithm.advance, self._n, n1)
+            dt = time.perf_counter() - t0
+            self._emit()
+            chunk = int(min(max(1, chunk * 4), 200_000,
+                            max(1.0, chunk * CHUNK_SECONDS / max(dt, 1e-9))))
+
+    def _paced_loop(self, n_steps: int) -> None:
+        pacer = self.pacer
+        assert pacer is not None
+        every = max(1, int(round(CHUNK_SECONDS / self.system.experiment.step)))
+        pacer.start()
+        while self._n < n_steps:
+            self._n = self._guarded(self.algorithm.advance, self._n, self._n + 1)
+            pacer(self._n)
+            if self._n % every == 0:
+                self._emit()
+
+    def _emit(self) -> None:
+        """Hand the rows recorded since the last call to every observer (in a paced run, to the
+        relay thread, so a slow disk never delays a step)."""
+        block = np.array(self._rows, dtype=float) if self._rows \
+            else np.zeros((0, len(self.columns)))
+        self._rows.clear()
+        if self._relay is not None:
+            self._relay.put(block, self._n)
+            return
+        self._deliver(block, self._n)
+
+    def _deliver(self, block: np.ndarray, n: int) -> None:
+        for obs in self.observers:
+            self._write(obs.rows, block, n)
+
+    def _write(self, fn: Any, *args: Any) -> None:
+        try:
+            fn(*args)
+        except CosimError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a failing observer stops the run cleanly
+            owner = type(getattr(fn, "__self__", fn)).__name__
+            raise ResultWriteError(
+                f"recording the results failed in {owner} ({type(exc).__name__}: {exc}) at "
+                f"t = {self._time(self._n):g} s; the run was stopped and every component "
+                f"terminated. Fix: free disk space or choose another results folder; the rows "
+                f"written before are readable.") from exc
+
+    def _guarded(self, fn: Any, *args: Any) -> Any:
+        try:
+            return fn(*args, self._rows)
+        except NonFinite as nf:
+            self._n = self._step_of(nf.t)
+            raise self._nonfinite_error(nf.t) from None
+        except (CosimError, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # noqa: BLE001
+            name, call, t = self.algorithm.locate(exc)
+            if math.isfinite(t):
+                self._n = self._step_of(t)
+            raise ComponentError(
+                name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
+                f"inputs and parameters at that time (the results up to it are saved)."
+            ) from exc
+
+    # -- the end -------------------------------------------------------------------------------
+    def _conclude(self, error: BaseException | None, wall0: float) -> BaseException | None:
+        """Rows left to the observers, the outcome filled in and announced; the error to raise."""
+        out = self.outcome
+        if isinstance(error, KeyboardInterrupt):
+            name, _, t = self.algorithm.locate(error)
+            if math.isfinite(t):
+                self._n = self._step_of(t)
+            how = getattr(error, "signal_name", "SIGINT")
+            out.status, out.error = "interrupted", \
+                f"interrupted ({'Ctrl-C' if how == 'SIGINT' else how}) at t = " \
+                f"{self._time(self._n):g} s"
+        elif error is not None:
+            out.status, out.error = "failed", str(error) or type(error).__name__
+        if not isinstance(error, ResultWriteError):
+            try:
+                self._emit()
+                if self._relay is not None:
+                    self._relay.close()
+            except ResultWriteError as exc:
+                error = error or exc
+                out.status, out.error = ("failed", str(exc)) if out.status == "completed" \
+                    else (out.status, out.error)
+        out.steps_done = self._n
+        out.wall_time = time.perf_counter() - wall0
+        out.realtime_factor = (self._n * self.system.experiment.step / out.wall_time
+                               if out.wall_time else 0.0)
+        if self.pacer is not None and self.pacer.released_ns:
+            out.extra.update(self.pacer.stats())
+            out.lateness_us = self.pacer.lateness_us()
+        self._report_all()
+        failures = []
+        for obs in self.observers:
+            try:
+                obs.finished(out)
+            except Exception as exc:  # noqa: BLE001 - every observer is told; failures listed
+                failures.append(f"{type(obs).__name__}: {type(exc).__name__}: {exc}")
+                log.debug("observer %s failed", type(obs).__name__, exc_info=True)
+        if failures and error is None:
+            error = ResultWriteError(
+                f"the run completed but saving its results failed ({'; '.join(failures)}). Fix: "
+                f"free disk space or choose another results folder.")
+        elif failures:
+            log.error("saving the results also failed: %s", "; ".join(failures))
+        return error
+
     def _lifecycle(self, call: str, fn: Any) -> None:
         t = self.system.experiment.start
         for name in self.system.order:
             comp = self.system.components[name]
             try:
                 fn(comp)
-            except CosimError:
+            except (CosimError, KeyboardInterrupt):
                 raise
             except Exception as exc:  # noqa: BLE001 - every component failure is reported
                 raise ComponentError(name, t, f"{call}() raised {type(exc).__name__}: {exc}. "
                                      f"Fix: check the parameters of '{name}'.") from exc
 
-    def _guarded(self, fn: Any, *args: Any) -> None:
-        try:
-            fn(*args)
-        except NonFinite as nf:
-            self._n = self._step_of(nf.t)
-            raise self._nonfinite_error(nf.t) from None
-        except CosimError:
-            raise
-        except Exception as exc:  # noqa: BLE001
-            name, call, t = self._locate(exc)
-            self._n = self._step_of(t)
-            raise ComponentError(
-                name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
-                f"inputs and parameters at that time (the results up to it are saved)."
-            ) from exc
+    def _time(self, n: int) -> float:
+        exp = self.system.experiment
+        return exp.start + n * exp.step
 
     def _step_of(self, t: float) -> int:
         exp = self.system.experiment
         return int(round((t - exp.start) / exp.step))
-
-    def _locate(self, exc: BaseException) -> tuple[str, str, float]:
-        """The instance and call on the generated line where `exc` passed, and the time."""
-        owner, t = ("?", "a call"), math.nan
-        for frame, lineno in traceback.walk_tb(exc.__traceback__):
-            if frame.f_code.co_filename == self.schedule.filename:
-                owner = self.schedule.line_owner.get(lineno, owner)
-                t = frame.f_locals.get("t", t)
-        name, what = owner
-        call = {"input": "writing its inputs", "evaluate": "evaluate()",
-                "do_step": "do_step()"}.get(what, what)
-        return name, call, t
 
     def _nonfinite_error(self, t: float) -> ComponentError:
         for name in self.system.order:
@@ -235,32 +379,43 @@ class Execution:
         return ComponentError("?", t, "an output became NaN or Inf")
 
     def _report_all(self) -> None:
-        """Each component's own figures, as 'instance.key' in `info.extra`."""
+        """Each component's own figures, as 'instance.key' in the outcome's `extra`."""
         for name in self.system.order:
             try:
                 figures = self.system.components[name].report()
             except Exception:  # noqa: BLE001 - a report never hides the run's own outcome
                 continue
-            self.info.extra.update({f"{name}.{k}": v for k, v in figures.items()})
+            self.outcome.extra.update({f"{name}.{k}": v for k, v in figures.items()})
 
     def _terminate_all(self) -> None:
-        """Terminate every component, even if one fails; a second Ctrl-C waits until the end (a
-        drive's terminate sends zero torque)."""
+        """Terminate every component, even if one fails, with Ctrl-C, SIGTERM and SIGHUP held
+        off until all are done (a drive's terminate sends zero torque and disables it)."""
         main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        held = {}
+        if main:
+            for sig in (signal.SIGINT, *_STOP_SIGNALS):
+                held[sig] = signal.signal(sig, signal.SIG_IGN)
         try:
             for name in self.system.order:
                 try:
                     self.system.components[name].terminate()
-                except Exception:  # noqa: BLE001 - terminate every component even if one fails
-                    pass
+                except BaseException:  # noqa: BLE001 - terminate every component whatever fails
+                    log.warning("terminate() of '%s' failed", name, exc_info=True)
         finally:
-            if main:
-                signal.signal(signal.SIGINT, previous)
+            for sig, handler in held.items():
+                signal.signal(sig, handler)
 
+    def _catch_stop_signals(self) -> dict[int, Any]:
+        """SIGTERM and SIGHUP stop the run as Ctrl-C does (main thread only)."""
+        if threading.current_thread() is not threading.main_thread():
+            return {}
 
-def _progress_bar(total: int) -> Any:
-    from tqdm import tqdm
+        def stop(signum: int, frame: Any) -> None:
+            raise RunInterrupted(signal.Signals(signum).name)
 
-    return tqdm(total=total, unit="step", unit_scale=True, mininterval=0.5, leave=False,
-                disable=None)
+        return {sig: signal.signal(sig, stop) for sig in _STOP_SIGNALS}
+
+    @staticmethod
+    def _restore_signals(previous: dict[int, Any]) -> None:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -1,7 +1,22 @@
-"""Scenarios: YAML files -> checked `System` (components created, wired, ordered)."""
-from twmr.scenario.build import load, loads, schema
-from twmr.scenario.describe import describe, kinds_table
+"""Scenarios: YAML files -> checked `System` (components created, wired, ordered).
+
+The loader (YAML, JSON Schema) is imported on first use, so the master can use the `System`
+records without it."""
+from __future__ import annotations
+
+from typing import Any
+
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 
+_LAZY = {"load": "build", "loads": "build", "schema": "build", "describe": "listing",
+         "kinds_table": "listing"}
 __all__ = ["load", "loads", "schema", "describe", "kinds_table", "System", "Connection",
            "Experiment", "RecordSpec"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"twmr.scenario.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'twmr.scenario' has no attribute {name!r}")

@@ -3,6 +3,7 @@ components, wire and check the graph. Every problem found is collected and repor
 with file:line, the component and port at fault, and a fix."""
 from __future__ import annotations
 
+import copy
 import fnmatch
 import json
 import math
@@ -22,7 +23,7 @@ from twmr.core.errors import (
 from twmr.core.port import STRING
 from twmr.core.units import conversion
 from twmr.registry import kinds, lookup, suggest
-from twmr.scenario.graph import describe_cycle, feedthrough_edges, order, parse_end, wire
+from twmr.scenario.graph import describe_cycle, order, parse_end, wire
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 from twmr.scenario.yamlread import Lines, read
 
@@ -41,19 +42,24 @@ def load(path: str | Path, overrides: Sequence[str] = ()) -> System:
     path = Path(path)
     try:
         text = path.read_text()
-    except OSError as err:
-        raise ScenarioError(Problem(Location(str(path)), f"cannot read the scenario: "
-                                    f"{err.strerror or err}.", "check the path.")) from None
+    except (OSError, UnicodeDecodeError) as err:
+        why = getattr(err, "strerror", None) or err
+        raise ScenarioError(Problem(Location(str(path)), f"cannot read the scenario: {why}.",
+                                    "give a readable YAML file (UTF-8).")) from None
     return loads(text, str(path), path.resolve().parent, overrides)
 
 
-def loads(text: str, source: str = "<string>", base_dir: str | Path | None = None,
-          overrides: Sequence[str] = ()) -> System:
-    """Build the System of a scenario given as YAML text. Raises a `CosimError` subclass."""
+def loads(text: str | dict[str, Any], source: str = "<string>",
+          base_dir: str | Path | None = None, overrides: Sequence[str] = ()) -> System:
+    """Build the System of a scenario given as YAML text, or as a dict of the same shape.
+    Raises a `CosimError` subclass."""
     try:
         return _Builder(text, source, Path(base_dir or Path.cwd()), overrides).build()
     except CosimError:
         raise
+    except RecursionError:
+        raise ScenarioError(Problem(Location(source), "the scenario is nested too deeply to "
+                                    "read.", "flatten the YAML structure.")) from None
     except Exception as exc:  # noqa: BLE001 - a loader bug must still read as a scenario error
         raise ScenarioError(Problem(Location(source), f"cannot build the scenario "
                                     f"({type(exc).__name__}: {exc}).",
@@ -62,11 +68,15 @@ def loads(text: str, source: str = "<string>", base_dir: str | Path | None = Non
 
 
 class _Builder:
-    def __init__(self, text: str, source: str, base_dir: Path, overrides: Sequence[str]):
+    def __init__(self, text: str | dict[str, Any], source: str, base_dir: Path,
+                 overrides: Sequence[str]):
         self.source = source
         self.base_dir = base_dir
         self.overrides = list(overrides)
-        self.data, self.lines = read(text, source)
+        if isinstance(text, dict):
+            self.data, self.lines = copy.deepcopy(text), Lines(source)
+        else:
+            self.data, self.lines = read(text, source)
         self.problems: list[Problem] = []
 
     def at(self, *path: Any) -> Location:
@@ -82,8 +92,8 @@ class _Builder:
             raise ScenarioError(Problem(Location(self.source, 1), "a scenario must be a mapping "
                                         "with 'components:' and 'experiment:'.",
                                         "see docs/contracts.md for the format."))
-        self.validate()
         self.apply_overrides()
+        self.validate()
         comps = self.components()
         experiment = self.experiment()
         self.fail_if_problems()
@@ -92,15 +102,18 @@ class _Builder:
         self.fail_if_problems(WiringError)
         exec_order, cycle = order(comps, conns)
         if cycle:
-            edges = feedthrough_edges(comps, conns)
-            loc = next((c.location for c in conns if c.src == cycle[0] and c.dst == cycle[1]),
+            wires = set(zip(cycle, cycle[1:]))
+            loc = next((c.location for c in conns
+                        if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
                        self.at("connections"))
             raise AlgebraicLoopError(Problem(
-                loc, f"algebraic loop: {describe_cycle(edges, cycle)} — each of these outputs "
-                f"depends directly on the input before it, so no order can compute them.",
+                loc, f"algebraic loop: {describe_cycle(cycle)} — each output in this cycle "
+                f"depends directly ('=>', declared by its block's `depends_on`) on the input "
+                f"before it, so no order can compute them.",
                 "break the loop with a `delay` component on one of these wires, or use a block "
                 "whose output does not depend directly on its input (e.g. a state-space block "
-                "with D = 0)."))
+                "with D = 0). A block may declare feedthrough conservatively: check that each "
+                "'=>' output really reads that input at the same instant."))
         record = self.record(comps)
         self.fail_if_problems()
         multiples = {n: int(s.get("step_multiple", 1))
@@ -128,24 +141,41 @@ class _Builder:
         self.fail_if_problems()
 
     def apply_overrides(self) -> None:
+        """`comp.name=value` sets a parameter (or an input/state's initial value) or the
+        component's `step_multiple`; `experiment.name=value` an experiment setting."""
+        comps = self.data.get("components")
+        if not isinstance(comps, dict):
+            return  # the schema check reports it
         for text in self.overrides:
             loc = Location("--set", 0, text)
-            key, sep, value = text.partition("=")
+            key, sep, value = str(text).partition("=")
             comp, dot, name = key.strip().partition(".")
-            if not sep or not dot:
+            if not sep or not dot or not name:
                 self.problems.append(Problem(loc, f"cannot read the override '{text}'.",
-                                             "write --set component.parameter=value."))
-                continue
-            spec = self.data["components"].get(comp)
-            if spec is None:
-                self.problems.append(Problem(loc, f"no component '{comp}'"
-                                             f"{suggest(comp, list(self.data['components']))}.",
-                                             "use a component name of the scenario."))
+                                             "write component.parameter=value or "
+                                             "experiment.stop=value."))
                 continue
             try:
                 parsed = yaml.safe_load(value)
             except yaml.YAMLError:
                 parsed = value
+            if comp == "experiment":
+                exp = self.data.setdefault("experiment", {})
+                if isinstance(exp, dict):
+                    exp[name] = parsed
+                    self.lines.lines[("experiment", name)] = 0
+                continue
+            spec = comps.get(comp)
+            if not isinstance(spec, dict):
+                self.problems.append(Problem(loc, f"no component '{comp}'"
+                                             f"{suggest(comp, list(comps))}.",
+                                             "use a component name of the scenario, or "
+                                             "'experiment'."))
+                continue
+            if name == "step_multiple":
+                spec["step_multiple"] = parsed
+                self.lines.lines[("components", comp, "step_multiple")] = 0
+                continue
             section = "parameters"
             try:
                 var = lookup(spec["kind"]).declared().get(name)
@@ -153,7 +183,9 @@ class _Builder:
                     section = "initial"
             except Exception:  # noqa: BLE001 - unknown kinds are reported when components are built
                 pass
-            spec.setdefault(section, {})[name] = parsed
+            if not isinstance(spec.get(section), dict):
+                spec[section] = {}
+            spec[section][name] = parsed
             self.lines.lines[("components", comp, section, name)] = 0
 
     def components(self) -> dict[str, Component]:

@@ -3,11 +3,14 @@
 Checks: ports exist (with "did you mean"), a wire goes from an output to an input, every input is
 driven exactly once (or listed in `open:`), sizes and types agree after element selection, units
 are compatible; a scale between compatible units (mm -> m, deg -> rad) becomes a gain folded into
-the wire once, here. The Gauss-Seidel order is topological over the direct-feedthrough edges; a
-cycle of such edges is an algebraic loop, reported with the cycle printed.
+the wire once, here. The graph is port-level, as in Drake: a wire links an output to an input, and
+inside a component an input links to exactly the outputs that declare it in `depends_on`. The
+Gauss-Seidel plan is topological over that graph; a cycle of it is an algebraic loop, reported
+with the cycle printed.
 """
 from __future__ import annotations
 
+import heapq
 import re
 from dataclasses import dataclass
 
@@ -127,55 +130,113 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
             for (i, j), (g, o) in zip(zip(sidx, didx), gains)]
 
 
-def feedthrough_edges(comps: dict[str, Component], conns: list[Connection]
-                      ) -> dict[str, dict[str, tuple[str, str]]]:
-    """Component-level edges src -> dst when the wire ends at an input some output of dst depends
-    on directly; value: (src output, dst input) for printing the cycle."""
-    edges: dict[str, dict[str, tuple[str, str]]] = {n: {} for n in comps}
+Port = tuple[str, str]
+#: one action of a communication point: ("write", instance, input) or ("evaluate", instance, "")
+Action = tuple[str, str, str]
+
+
+def port_edges(comps: dict[str, Component], conns: list[Connection]) -> dict[Port, list[Port]]:
+    """The port-level dependency graph (as Drake's): a wire is an edge from an output to an input;
+    inside a component, an edge from an input to exactly the outputs that list it in
+    `depends_on`. Nodes are every input and output of every component."""
+    edges: dict[Port, list[Port]] = {}
+    for name, comp in comps.items():
+        for port, var in comp.variables.items():
+            if var.kind in ("input", "output", "state"):
+                edges[(name, port)] = []
+        for port, var in comp.outputs.items():
+            for dep in var.depends_on:
+                edges[(name, dep)].append((name, port))
     for c in conns:
-        dst = comps[c.dst]
-        if any(c.dst_port in o.depends_on for o in dst.outputs.values()):
-            edges[c.src].setdefault(c.dst, (c.src_port, c.dst_port))
+        succ = edges[(c.src, c.src_port)]
+        if (c.dst, c.dst_port) not in succ:
+            succ.append((c.dst, c.dst_port))
     return edges
 
 
-def order(comps: dict[str, Component], conns: list[Connection]) -> tuple[list[str], list[str]]:
-    """(execution order, cycle) — a topological order stable in declaration order, or the nodes of
-    one cycle of direct-feedthrough edges (order then empty)."""
-    edges = feedthrough_edges(comps, conns)
-    indeg = {n: 0 for n in comps}
-    for src in edges:
-        for dst in edges[src]:
-            indeg[dst] += 1
-    names = list(comps)
-    done: list[str] = []
-    ready = [n for n in names if indeg[n] == 0]
+def _topological(comps: dict[str, Component], edges: dict[Port, list[Port]]
+                 ) -> tuple[list[Port], list[Port]]:
+    """Ports in a topological order, stable in declaration order (component, then port), and
+    the ports left over when there is a cycle."""
+    rank = {node: i for i, node in enumerate(edges)}
+    indeg = dict.fromkeys(edges, 0)
+    for succ in edges.values():
+        for node in succ:
+            indeg[node] += 1
+    ready = [rank[n] for n, d in indeg.items() if d == 0]
+    heapq.heapify(ready)
+    nodes = list(edges)
+    done: list[Port] = []
     while ready:
-        n = ready.pop(0)
-        done.append(n)
-        for dst in edges[n]:
-            indeg[dst] -= 1
-            if indeg[dst] == 0:
-                ready.append(dst)
-                ready.sort(key=names.index)
-    if len(done) == len(names):
-        return done, []
-    return [], _cycle(edges, [n for n in names if n not in done])
+        node = nodes[heapq.heappop(ready)]
+        done.append(node)
+        for nxt in edges[node]:
+            indeg[nxt] -= 1
+            if indeg[nxt] == 0:
+                heapq.heappush(ready, rank[nxt])
+    return done, [n for n in nodes if indeg[n] > 0]
 
 
-def _cycle(edges: dict[str, dict[str, tuple[str, str]]], rest: list[str]) -> list[str]:
-    """One cycle among the nodes left after the topological sort, as a closed walk."""
+def evaluation_plan(comps: dict[str, Component], conns: list[Connection]
+                    ) -> tuple[list[Action], list[Port]]:
+    """(actions of one Gauss-Seidel communication point, cycle).
+
+    Ports are visited in topological order: a connected input is written once its sources are
+    final; a component is evaluated when one of its feedthrough outputs is reached and it has not
+    been evaluated at this point yet, or an input that output depends on was written since. So a
+    component is evaluated twice in a point when the wiring runs through it twice (y1 = f(u1)
+    feeds a block that drives u2, and y2 = g(u2)). With a cycle, the plan is empty and the cycle
+    is returned as a closed walk of ports."""
+    edges = port_edges(comps, conns)
+    ordered, rest = _topological(comps, edges)
+    if rest:
+        return [], _cycle(edges, rest)
+    driven = {(c.dst, c.dst_port) for c in conns}
+    plan: list[Action] = []
+    evaluated: set[str] = set()
+    written: dict[str, set[str]] = {name: set() for name in comps}
+    for name, port in ordered:
+        var = comps[name].variables[port]
+        if var.kind == "input":
+            if (name, port) in driven:
+                plan.append(("write", name, port))
+                written[name].add(port)
+        elif var.depends_on and (name not in evaluated or written[name] & set(var.depends_on)):
+            plan.append(("evaluate", name, ""))
+            evaluated.add(name)
+            written[name].clear()
+    for name, comp in comps.items():  # feedthrough blocks whose outputs depend on nothing wired
+        if comp.has_feedthrough and name not in evaluated:
+            plan.append(("evaluate", name, ""))
+    return plan, []
+
+
+def order(comps: dict[str, Component], conns: list[Connection]) -> tuple[list[str], list[Port]]:
+    """(component order, cycle): components in the topological order of their outputs (a source
+    before what it feeds), then those without outputs in declaration order; with a cycle of
+    ports, ([], cycle)."""
+    edges = port_edges(comps, conns)
+    ordered, rest = _topological(comps, edges)
+    if rest:
+        return [], _cycle(edges, rest)
+    outputs = [n for n, p in ordered if comps[n].variables[p].kind != "input"]
+    return list(dict.fromkeys(outputs + list(comps))), []
+
+
+def _cycle(edges: dict[Port, list[Port]], rest: list[Port]) -> list[Port]:
+    """One cycle among the ports left after the topological sort, as a closed walk."""
+    left = set(rest)
     node, seen = rest[0], []
     while node not in seen:
         seen.append(node)
-        node = next(d for d in edges[node] if d in rest)
+        node = next(d for d in edges[node] if d in left)
     return seen[seen.index(node):] + [node]
 
 
-def describe_cycle(edges: dict[str, dict[str, tuple[str, str]]], cycle: list[str]) -> str:
-    """'a.y -> b.u -> b.y -> a.u' for a cycle [a, b, a]."""
-    parts = []
-    for a, b in zip(cycle, cycle[1:]):
-        out, inp = edges[a][b]
-        parts.append(f"{a}.{out} -> {b}.{inp}")
-    return " => ".join(parts)
+def describe_cycle(cycle: list[Port]) -> str:
+    """'a.y -> b.u => b.y -> a.u' for a closed walk of ports: '->' a wire, '=>' a direct
+    feedthrough inside a component."""
+    text = f"{cycle[0][0]}.{cycle[0][1]}"
+    for (a, _), (b, q) in zip(cycle, cycle[1:]):
+        text += f" {'=>' if a == b else '->'} {b}.{q}"
+    return text

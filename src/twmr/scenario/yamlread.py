@@ -25,7 +25,7 @@ class Lines:
         p = tuple(path)
         while p and p not in self.lines:
             p = p[:-1]
-        return Location(self.source, self.lines.get(p, 1), _dotted(path))
+        return Location(self.source, self.lines.get(p, 0), _dotted(path))
 
 
 def _dotted(path: tuple[Any, ...]) -> str:

@@ -1,4 +1,5 @@
-"""Tracking metrics of the paper's Table III, computed from a recorded result.
+"""Tracking metrics of the paper's Table III, computed from a recorded result; registered as the
+metric set `tracking` (`twmr run --metrics tracking`, `twmr.simulate(..., metrics=["tracking"])`).
 
 Errors are world-frame: e_x = x_T - x_M, e_y = y_T - y_M, from the reference position
 (`*.position[1..2]`, the trajectory block) and the robot pose (`*.pose[1..2]`, the plant).
@@ -74,3 +75,8 @@ def tracking_metrics(data: np.ndarray, band: float = BAND) -> dict[str, Any]:
         out[f"peak_error_{axis}"] = peak_error(e, band)
         out[f"mse_{axis}"] = float(np.mean(e * e))  # eq. (38)
     return out
+
+
+def tracking(result: Any) -> dict[str, Any]:
+    """The `tracking` metric set of a `twmr.Result` (empty when it has no reference and pose)."""
+    return tracking_metrics(result.data)

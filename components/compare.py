@@ -1,10 +1,13 @@
 """`twmr compare A.yaml B.yaml ...`: run scenarios, print Table III side by side, save figures.
 
+Registered as a `twmr` subcommand through the `twmr.commands` entry point (`register`).
+
 Figures (PNG, in `results/compare/` unless `--out`): XY paths of every run against the reference,
 x and y tracking errors over time, wheel torques, and the adaptive estimate d_hat where recorded.
 """
 from __future__ import annotations
 
+import argparse
 import json
 import re
 import sys
@@ -13,23 +16,21 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from twmr.analysis.metrics import DEFINITIONS, errors, tracking_metrics
-from twmr.analysis.plots import _pyplot
+from twmr.components.metrics import DEFINITIONS, errors, tracking_metrics
 from twmr.core.errors import CosimError
+from twmr.plots import pyplot
 
 METRICS = ("settling_time_x", "settling_time_y", "peak_error_x", "peak_error_y", "mse_x", "mse_y")
 UNITS = {"settling_time": "s", "peak_error": "m", "mse": "m2"}
 
 
 def run_scenario(path: Path, out: Path, overrides: Sequence[str] = ()) -> np.ndarray:
-    """Load and run one scenario, results in `out/<stem>/result.npy`; the recorded array."""
-    from twmr.master import Execution
-    from twmr.scenario import load
+    """Load and run one scenario, results in `out/<stem>/`; the recorded structured array."""
+    import twmr
 
-    system = load(path, overrides)
-    ex = Execution(system, out / path.stem / "result.npy", progress=True)
     print(f"running {path} ...", file=sys.stderr)
-    return np.array(ex.run())
+    result = twmr.simulate(twmr.load(path, overrides), out / path.stem, progress=True)
+    return np.array(result.data)
 
 
 def table(results: dict[str, dict[str, float]]) -> str:
@@ -53,7 +54,7 @@ def _columns(data: np.ndarray, port: str) -> list[str]:
 
 def figures(runs: dict[str, np.ndarray], out: Path) -> list[Path]:
     """XY paths, x/y errors, torques and d_hat of every run; the PNG paths written."""
-    plt = _pyplot()
+    plt = pyplot()
     out.mkdir(parents=True, exist_ok=True)
     written = []
     fig, ax = plt.subplots(figsize=(6, 6))
@@ -126,3 +127,18 @@ def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
         print(table(results))
         print(f"\nfigures: {', '.join(str(p) for p in written)}")
     return 0
+
+
+def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
+    """Add `twmr compare` to the command line."""
+    cp = subparsers.add_parser("compare", parents=[common],
+                               help="run scenarios and print Table III metrics side by side")
+    cp.add_argument("scenarios", nargs="+")
+    cp.add_argument("--json", action="store_true", help="print the figures as one JSON object")
+    cp.add_argument("--out", help="directory for the comparison figures")
+    cp.add_argument("--set", action="append", default=[], metavar="COMP.PARAM=VALUE",
+                    help="override a parameter in every scenario (repeatable)")
+    cp.set_defaults(fn=lambda args: compare([Path(s) for s in args.scenarios],
+                                            as_json=args.json,
+                                            out=Path(args.out) if args.out else None,
+                                            overrides=args.set))

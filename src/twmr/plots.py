@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 
-def _pyplot():  # matplotlib without a screen
+def pyplot():  # matplotlib without a screen
     import matplotlib
 
     matplotlib.use("Agg")
@@ -30,7 +30,7 @@ def group_ports(names: list[str]) -> dict[str, list[str]]:
 def plot_timing(lateness_us: np.ndarray, period_s: float, path: str | Path,
                 title: str = "") -> Path:
     """A paced run's step lateness [us] over time and its histogram, the period marked."""
-    plt = _pyplot()
+    plt = pyplot()
     late = np.asarray(lateness_us, dtype=float)
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.5), gridspec_kw={"width_ratios": [2, 1]})
     a.plot(np.arange(late.size) * period_s, late, lw=0.6)
@@ -57,7 +57,7 @@ def plot_timing(lateness_us: np.ndarray, period_s: float, path: str | Path,
 def plot_result(data: np.ndarray, units: dict[str, str], out_dir: str | Path,
                 title: str = "") -> list[Path]:
     """Write one PNG per port (and XY plots) into `out_dir`; the paths written."""
-    plt = _pyplot()
+    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t = np.asarray(data["time"])

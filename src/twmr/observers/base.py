@@ -1,0 +1,54 @@
+"""The `Observer` interface (after libcosim's): told when a run starts, handed the recorded rows
+in chunks, told how it finished. Observers never reach into components."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class RunStart:
+    """What an observer knows when the run starts: recorded columns (time first) with units, the
+    base step h [s], the number of base steps, the run's folder (None: nothing is written) and
+    the scenario's name."""
+
+    columns: tuple[str, ...]
+    units: tuple[str, ...]
+    step: float
+    n_steps: int
+    folder: Path | None = None
+    scenario: str = "<scenario>"
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Outcome:
+    """How a run ended. status: 'completed' | 'failed' | 'interrupted'; `error` is the message
+    of the failure ('' when completed); `extra` holds pacing statistics and components' reports."""
+
+    status: str = "completed"
+    error: str = ""
+    n_steps: int = 0
+    steps_done: int = 0
+    wall_time: float = 0.0
+    realtime_factor: float = 0.0
+    extra: dict[str, Any] = field(default_factory=dict)
+    lateness_us: np.ndarray | None = None
+
+
+class Observer:
+    """Base class: override what you need. Exceptions raised by `rows` stop the run (the
+    components are terminated first); those raised by `finished` are reported after the stop."""
+
+    def started(self, run: RunStart) -> None:
+        """The run is about to take its first step."""
+
+    def rows(self, block: np.ndarray, steps_done: int) -> None:
+        """Recorded rows, a float64 array (rows x columns, time first); `steps_done` base steps
+        have been taken so far."""
+
+    def finished(self, outcome: Outcome) -> None:
+        """The run ended (every component is already terminated)."""

@@ -1,0 +1,155 @@
+"""`Result`: the recorded signals of one run, and `read_result` for a run's folder or any export.
+
+`result.time`, `result["plant.pose[1]"]` (a column), `result.data` (a numpy structured array, one
+field per column), `result.to_pandas()` (a DataFrame, time column `time`, units in `attrs`),
+`result.summary` (what `summary.json` says: status, error, statistics, pacing).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twmr.core.errors import CosimError
+from twmr.observers.store import FILENAME as STORE
+from twmr.observers.store import read_store
+from twmr.observers.summary import FILENAME as SUMMARY
+from twmr.observers.writers import UNITS_FILE, mat_name
+
+
+class Result:
+    """Recorded columns (time first) of one run, with their units and the run's summary."""
+
+    def __init__(self, columns: list[str], units: list[str], values: np.ndarray,
+                 summary: dict[str, Any] | None = None, folder: Path | None = None,
+                 intact: bool = True):
+        self.columns = list(columns)
+        self.units = dict(zip(columns, units))
+        self.values = np.ascontiguousarray(values, dtype=float).reshape(-1, len(columns))
+        self.summary = summary or {}
+        self.folder = folder
+        #: False when the store ended in a torn chunk (the run was killed while writing it)
+        self.intact = intact
+
+    @property
+    def status(self) -> str:
+        """'completed', 'failed', 'interrupted', or 'unknown' (no summary: the run was killed)."""
+        return str(self.summary.get("status", "unknown"))
+
+    @property
+    def data(self) -> np.ndarray:
+        """The values as a numpy structured array (a view, no copy)."""
+        dtype = np.dtype([(c, "<f8") for c in self.columns])
+        return self.values.view(dtype).reshape(-1)
+
+    @property
+    def time(self) -> np.ndarray:
+        return self.values[:, 0]
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        try:
+            return self.values[:, self.columns.index(column)]
+        except ValueError:
+            raise KeyError(f"no column '{column}'; recorded: {', '.join(self.columns)}") from None
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    def to_pandas(self) -> Any:
+        """A pandas DataFrame: column `time` [s] and one column per recorded scalar, named like
+        `plant.pose[1]`; `df.attrs['units']` maps each column to its unit."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.values, columns=self.columns)
+        df.attrs["units"] = dict(self.units)
+        return df
+
+    def __repr__(self) -> str:
+        where = f" in {self.folder}" if self.folder else ""
+        return f"<Result {len(self)} rows x {len(self.columns)} columns, {self.status}{where}>"
+
+
+def read_result(path: str | Path) -> Result:
+    """The result in a run's folder (`result.arrows`, also after a crash), or in one of its
+    exports (.csv with `units.json` beside it, .mat, .parquet, .arrows)."""
+    path = Path(path)
+    folder = path if path.is_dir() else path.parent
+    summary = _summary(folder)
+    try:
+        if path.is_dir():
+            if not (path / STORE).is_file():
+                raise CosimError(f"{path}: no {STORE} in this folder{_siblings(path)}. Fix: give "
+                                 f"the folder `twmr run` wrote (results/<scenario>).")
+            path = path / STORE
+        if not path.is_file():
+            raise CosimError(f"{path}: no such result{_siblings(path)}. Fix: give the folder "
+                             f"`twmr run` wrote or one of its result files.")
+        suffix = path.suffix.lower()
+        if suffix == ".arrows":
+            columns, units, values, intact = read_store(path)
+            return Result(columns, units, values, summary, folder, intact)
+        if suffix == ".csv":
+            return _read_csv(path, summary)
+        if suffix == ".mat":
+            return _read_mat(path, summary)
+        if suffix == ".parquet":
+            return _read_parquet(path, summary)
+    except CosimError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is reported plainly
+        raise CosimError(f"{path}: cannot read this result ({type(exc).__name__}: {exc}). Fix: "
+                         f"give a result written by twmr (result.arrows, .csv, .mat or "
+                         f".parquet).") from None
+    raise CosimError(f"{path}: unknown result format '{path.suffix}'. Fix: give a folder, or a "
+                     f".arrows, .csv, .mat or .parquet file.")
+
+
+def _siblings(path: Path) -> str:
+    """' (partial results of runs that did not complete: ...)' when there are some beside."""
+    found = sorted(path.parent.glob(f"{path.name}.partial-*")) + \
+        sorted(path.parent.glob(f"{path.name}.incomplete"))
+    return f" (results of runs that did not complete: {', '.join(map(str, found))})" \
+        if found else ""
+
+
+def _summary(folder: Path) -> dict[str, Any]:
+    try:
+        return json.loads((folder / SUMMARY).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _read_csv(path: Path, summary: dict[str, Any]) -> Result:
+    with open(path) as f:
+        import csv
+
+        columns = next(csv.reader([f.readline()]))
+    values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    try:
+        unit_of = json.loads((path.parent / UNITS_FILE).read_text())
+    except (OSError, ValueError):
+        unit_of = summary.get("units", {})
+    return Result(columns, [unit_of.get(c, "") for c in columns],
+                  values.reshape(-1, len(columns)), summary, path.parent)
+
+
+def _read_mat(path: Path, summary: dict[str, Any]) -> Result:
+    import scipy.io
+
+    m = scipy.io.loadmat(path)
+    columns = [str(np.ravel(c)[0]) for c in np.ravel(m["columns"])]
+    units = [str(np.ravel(c)[0]) if np.size(c) else "" for c in np.ravel(m["units"])]
+    values = np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
+    return Result(columns, units, values, summary, path.parent)
+
+
+def _read_parquet(path: Path, summary: dict[str, Any]) -> Result:
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    units = [(f.metadata or {}).get(b"unit", b"").decode() for f in table.schema]
+    values = np.column_stack([c.to_numpy() for c in table.columns]) if table.num_rows \
+        else np.zeros((0, table.num_columns))
+    return Result(list(table.column_names), units, values, summary, path.parent)
