@@ -78,8 +78,12 @@ class _Builder:
         else:
             self.data, self.lines = read(text, source)
         self.problems: list[Problem] = []
+        self.overridden: dict[tuple[Any, ...], str] = {}
 
     def at(self, *path: Any) -> Location:
+        for n in range(len(path), 0, -1):
+            if path[:n] in self.overridden:
+                return Location("--set", 0, self.overridden[path[:n]])
         return self.lines.at(*path)
 
     def fail_if_problems(self, kind: type[ScenarioError] = ScenarioError) -> None:
@@ -163,7 +167,7 @@ class _Builder:
                 exp = self.data.setdefault("experiment", {})
                 if isinstance(exp, dict):
                     exp[name] = parsed
-                    self.lines.lines[("experiment", name)] = 0
+                    self.overridden[("experiment", name)] = text
                 continue
             spec = comps.get(comp)
             if not isinstance(spec, dict):
@@ -174,7 +178,7 @@ class _Builder:
                 continue
             if name == "step_multiple":
                 spec["step_multiple"] = parsed
-                self.lines.lines[("components", comp, "step_multiple")] = 0
+                self.overridden[("components", comp, "step_multiple")] = text
                 continue
             section = "parameters"
             try:
@@ -186,7 +190,7 @@ class _Builder:
             if not isinstance(spec.get(section), dict):
                 spec[section] = {}
             spec[section][name] = parsed
-            self.lines.lines[("components", comp, section, name)] = 0
+            self.overridden[("components", comp, section, name)] = text
 
     def components(self) -> dict[str, Component]:
         comps: dict[str, Component] = {}
@@ -229,8 +233,6 @@ class _Builder:
                   allowed: tuple[str, ...]) -> None:
         for key, value in values.items():
             loc = self.at("components", name, section, key)
-            if loc.line == 0:
-                loc = Location("--set", 0, f"{name}.{key}")
             var = comp.variables.get(key)
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:

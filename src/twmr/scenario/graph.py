@@ -230,7 +230,11 @@ def _cycle(edges: dict[Port, list[Port]], rest: list[Port]) -> list[Port]:
     while node not in seen:
         seen.append(node)
         node = next(d for d in edges[node] if d in left)
-    return seen[seen.index(node):] + [node]
+    loop = seen[seen.index(node):]
+    # start at an output (its successor lies in another component), so it reads out -> in => out
+    first = next(i for i, p in enumerate(loop) if loop[(i + 1) % len(loop)][0] != p[0])
+    loop = loop[first:] + loop[:first]
+    return loop + [loop[0]]
 
 
 def describe_cycle(cycle: list[Port]) -> str:
