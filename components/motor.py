@@ -19,7 +19,8 @@ it (an encoder), so they do not depend directly on inputs.
 """
 from __future__ import annotations
 
-import control
+from typing import Any
+
 import numpy as np
 
 from twmr.core import Component, Input, Output, Parameter, STRING
@@ -54,12 +55,17 @@ class MotorDriver(Component):
         self._h = 0.0
         self.evaluate(self.start_time)
 
-    def armature(self) -> control.StateSpace:
-        """di/dt = (-R i + V - K_e N omega) / L; inputs (V, omega_wheel), output i."""
+    def armature(self) -> Any:
+        """di/dt = (-R i + V - K_e N omega) / L; inputs (V, omega_wheel), output i (a
+        python-control StateSpace)."""
+        import control
+
         return control.ss([[-self.R / self.L]], [[1.0 / self.L, -self.K_e * self.gear / self.L]],
                           [[1.0]], [[0.0, 0.0]])
 
     def _discretise(self, h: float) -> None:
+        import control
+
         d = control.c2d(self.armature(), h, method="zoh")
         self._a = float(d.A[0, 0])
         self._bv, self._bw = float(d.B[0, 0]), float(d.B[0, 1])

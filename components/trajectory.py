@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from twmr.core import Component, Output, Parameter, STRING
 
@@ -43,6 +42,8 @@ class Trajectory(Component):
             if len(times) != len(pts) or len(pts) < 2 or np.any(np.diff(times) <= 0):
                 raise ValueError(f"waypoints need one increasing time per point: {len(pts)} "
                                  f"points, {len(times)} times")
+            from scipy.interpolate import CubicSpline
+
             self._spline = CubicSpline(times, pts, bc_type="clamped")
         self._set(self.start_time)
 

@@ -10,19 +10,19 @@ import pytest
 from twmr.components.asmc import AsmcController
 from twmr.components.plant import TwmrPlant
 from twmr.components.smc import SmcController
+from twmr.testing import Harness
 
 R, B, LAM, VTH, K = 0.15, 0.75, 13.0, 20.0, 20.0
 
 
-def controller(cls=AsmcController, **kw):
-    c = cls("ctrl", **kw)
-    c.setup(0.0, 10.0)
-    c.initialize()
-    return c
+def controller(cls=AsmcController, **kw) -> Harness:
+    """An initialized harness around a controller with parameters `kw`, on [0, 10] s, h = 1 ms."""
+    return Harness(cls, name="ctrl", parameters=kw, stop=10.0).initialize()
 
 
 def numpy_law(c, pose, nu, pT, vT, d_hat, L):
-    """Eqs (9), (15), (16), (21)-(25), (32) with numpy matrices."""
+    """Eqs (9), (15), (16), (21)-(25), (32) with numpy matrices; `c` gives the nominal m11, m12
+    (the controller's own, not ports) and m_G."""
     x, y, th = pose
     Rm = np.array([[math.cos(th), math.sin(th)], [-math.sin(th), math.cos(th)]])
     e = Rm @ (np.array(pT) - np.array([x, y]))  # eq. (9)
@@ -47,14 +47,14 @@ def numpy_law(c, pose, nu, pT, vT, d_hat, L):
 def test_law_matches_numpy_transcription(seed: int, L: float) -> None:
     rng = np.random.default_rng(seed)
     c = controller(lookahead=L, d_hat0=tuple(rng.normal(size=2)))
-    c.pose, c.wheel_speed = tuple(rng.normal(size=3)), tuple(rng.normal(size=2) * 5)
-    c.ref_position, c.ref_velocity = tuple(rng.normal(size=2)), tuple(rng.normal(size=2))
-    c.evaluate(0.0)
-    tau, s, e = numpy_law(c, c.pose, np.array(c.wheel_speed), c.ref_position, c.ref_velocity,
-                          np.array(c.d_hat), L)
-    np.testing.assert_allclose(c.torque, tau, rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(c.s, s, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(c.error, e, rtol=1e-12, atol=1e-12)
+    c.set(pose=tuple(rng.normal(size=3)), wheel_speed=tuple(rng.normal(size=2) * 5))
+    c.set(ref_position=tuple(rng.normal(size=2)), ref_velocity=tuple(rng.normal(size=2)))
+    c.evaluate()
+    tau, s, e = numpy_law(c.component, c["pose"], np.array(c["wheel_speed"]), c["ref_position"],
+                          c["ref_velocity"], np.array(c["d_hat"]), L)
+    np.testing.assert_allclose(c["torque"], tau, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(c["s"], s, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(c["error"], e, rtol=1e-12, atol=1e-12)
 
 
 def test_lookahead_point_has_the_same_kappa() -> None:
@@ -75,60 +75,55 @@ def test_lookahead_point_has_the_same_kappa() -> None:
 
 def test_torque_is_finite_at_the_singular_point() -> None:
     c = controller(lookahead=0.0)
-    c.pose, c.ref_position = (1.0, 2.0, 0.0), (1.0, 2.5)  # target straight to the side: e_p1 = 0
-    c.wheel_speed, c.ref_velocity = (1.0, 1.0), (0.5, 0.0)
-    c.evaluate(0.0)
-    assert c.error[0] == 0.0
-    assert all(math.isfinite(v) for v in c.torque)
+    c.set(pose=(1.0, 2.0, 0.0), ref_position=(1.0, 2.5))  # target straight to the side: e_p1 = 0
+    c.set(wheel_speed=(1.0, 1.0), ref_velocity=(0.5, 0.0))
+    c.evaluate()
+    assert c["error"][0] == 0.0
+    assert all(math.isfinite(v) for v in c["torque"])
 
 
 def test_adaptive_estimate_follows_eta_s() -> None:
     c = controller(eta=7.0)
-    c.pose, c.ref_position, c.ref_velocity = (0.0, 0.0, 0.1), (1.0, 0.3), (0.5, 0.1)
-    c.wheel_speed = (2.0, 1.0)
-    h = 1e-3
+    c.set(pose=(0.0, 0.0, 0.1), ref_position=(1.0, 0.3), ref_velocity=(0.5, 0.1))
+    c.set(wheel_speed=(2.0, 1.0))
+    h = c.h  # 1 ms
     expected = np.zeros(2)
-    for n in range(50):
-        c.evaluate(n * h)
-        expected += 7.0 * np.array(c.s) * h  # eq. (33), s held over each step
-        c.do_step(n * h, h)
-    np.testing.assert_allclose(c.d_hat, expected, rtol=1e-12)
+    for _ in range(50):
+        c.evaluate()
+        expected += 7.0 * np.array(c["s"]) * h  # eq. (33), s held over each step
+        c.step()
+    np.testing.assert_allclose(c["d_hat"], expected, rtol=1e-12)
 
 
 def test_smc_is_asmc_without_adaptation() -> None:
     a, s = controller(AsmcController, eta=0.0), controller(SmcController)
     for c in (a, s):
-        c.pose, c.ref_position, c.ref_velocity = (0.2, 0.1, 0.3), (1.0, 0.5), (0.3, 0.4)
-        c.wheel_speed = (1.0, 3.0)
-        for n in range(5):
-            c.evaluate(n * 1e-3)
-            c.do_step(n * 1e-3, 1e-3)
-    assert a.torque == s.torque
+        c.set(pose=(0.2, 0.1, 0.3), ref_position=(1.0, 0.5), ref_velocity=(0.3, 0.4))
+        c.set(wheel_speed=(1.0, 3.0))
+        c.step(5)  # evaluate, then do_step, at t = 0, 1, ..., 4 ms
+    assert a["torque"] == s["torque"]
 
 
 def test_nominal_closed_loop_drives_lyapunov_function_down() -> None:
     """Nominal plant, no slip or disturbance: V = x1^2/2 + s^2/2 of eq. (27) (d~ term left out:
     d is not observable) falls by orders of magnitude from a 0.5 m offset."""
-    plant = TwmrPlant("plant")
-    plant.setup(0.0, 5.0)
+    plant = Harness(TwmrPlant, name="plant", initial={"pose": (0.0, 0.0, 0.0)}, stop=5.0)
     plant.initialize()
     ctrl = controller(lookahead=0.05, phi=0.5)
-    plant.pose = (0.0, 0.0, 0.0)
-    h = 1e-3
 
     def V() -> float:
-        x1 = np.array(ctrl.error) - np.array([0.05, 0.0])
-        return 0.5 * x1 @ x1 + 0.5 * np.dot(ctrl.s, ctrl.s)
+        x1 = np.array(ctrl["error"]) - np.array([0.05, 0.0])
+        return 0.5 * x1 @ x1 + 0.5 * np.dot(ctrl["s"], ctrl["s"])
 
     values = []
-    for n in range(3000):
-        t = n * h
-        ctrl.pose, ctrl.wheel_speed = plant.pose, plant.wheel_speed
-        ctrl.ref_position, ctrl.ref_velocity = (0.5 + 0.5 * t, 0.1), (0.5, 0.0)
-        ctrl.evaluate(t)
-        plant.torque = ctrl.torque
+    for _ in range(3000):
+        t = ctrl.t  # n h, the same for both harnesses
+        ctrl.set(pose=plant["pose"], wheel_speed=plant["wheel_speed"])
+        ctrl.set(ref_position=(0.5 + 0.5 * t, 0.1), ref_velocity=(0.5, 0.0))
+        ctrl.evaluate()
+        plant.set(torque=ctrl["torque"])
         values.append(V())
-        ctrl.do_step(t, h)
-        plant.do_step(t, h)
+        ctrl.step()
+        plant.step()
     assert values[-1] < 1e-3 * values[0]
     assert max(values[1000:]) < 0.01 * values[0]

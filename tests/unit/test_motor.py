@@ -6,50 +6,47 @@ import numpy as np
 import pytest
 
 from twmr.components.motor import MotorDriver
+from twmr.testing import Harness
 
 
-def motor(**kw) -> MotorDriver:
-    m = MotorDriver("motor", **kw)
-    m.setup(0.0, 1.0)
-    m.initialize()
-    return m
+def motor(step: float = 1e-3, **kw) -> Harness:
+    """An initialized harness around the motor driver with parameters `kw`, on [0, 1] s at
+    communication step `step`."""
+    return Harness(MotorDriver, name="motor", parameters=kw, stop=1.0, step=step).initialize()
 
 
 def test_ideal_mode_passes_torque_exactly() -> None:
     m = motor()
-    m.torque_command = (1.25, -3.5)
-    m.evaluate(0.0)
-    assert m.torque == (1.25, -3.5)
+    m.set(torque_command=(1.25, -3.5))
+    m.evaluate()
+    assert m["torque"] == (1.25, -3.5)
 
 
 def test_dc_mode_steady_state_torque_equals_command() -> None:
     m = motor(mode="dc")
-    m.torque_command = (6.0, -3.0)
-    for n in range(200):
-        m.evaluate(n * 1e-3)
-        m.do_step(n * 1e-3, 1e-3)
-    np.testing.assert_allclose(m.torque, (6.0, -3.0), rtol=1e-6)
+    m.set(torque_command=(6.0, -3.0))
+    m.step(200)  # evaluate, then do_step, 200 times at 1 ms
+    np.testing.assert_allclose(m["torque"], (6.0, -3.0), rtol=1e-6)
 
 
 def test_dc_current_loop_matches_python_control_closed_loop() -> None:
     """The PI + armature loop at step h against the continuous loop simulated by python-control:
     the difference is the ZOH/sampling error, which shrinks with h."""
     def cosim(h: float, T: float) -> tuple[np.ndarray, np.ndarray]:
-        m = motor(mode="dc", bandwidth=300.0)
-        m.torque_command = (3.0, 3.0)
-        m.wheel_speed = (0.0, 0.0)
+        m = motor(step=h, mode="dc", bandwidth=300.0)
+        m.set(torque_command=(3.0, 3.0), wheel_speed=(0.0, 0.0))
         ts, ys = [], []
-        for n in range(int(round(T / h))):
-            m.evaluate(n * h)
-            ts.append(n * h)
-            ys.append(m.torque[0])
-            m.do_step(n * h, h)
+        for _ in range(int(round(T / h))):
+            m.evaluate()
+            ts.append(m.t)  # n h
+            ys.append(m["torque"][0])
+            m.step()
         return np.array(ts), np.array(ys)
 
     m = motor(mode="dc", bandwidth=300.0)
-    kt = m.gear * m.K_t
-    pi = control.tf([m.L * 300.0, m.R * 300.0], [1.0, 0.0])
-    arm = control.tf([1.0], [m.L, m.R])
+    kt = m["gear"] * m["K_t"]
+    pi = control.tf([m["L"] * 300.0, m["R"] * 300.0], [1.0, 0.0])
+    arm = control.tf([1.0], [m["L"], m["R"]])
     loop = control.feedback(pi * arm, 1) * kt  # torque per ampere of reference
     errs = []
     for h in (1e-3, 2.5e-4):
@@ -60,28 +57,24 @@ def test_dc_current_loop_matches_python_control_closed_loop() -> None:
 
 
 def test_voltage_saturation_limits_the_current_rise() -> None:
-    m = motor(mode="dc", V_max=1.0)
-    m.torque_command = (40.0, 40.0)
-    m.evaluate(0.0)
-    m.do_step(0.0, 1e-4)
+    m = motor(step=1e-4, mode="dc", V_max=1.0)
+    m.set(torque_command=(40.0, 40.0))
+    m.step()  # evaluate(0.0), then do_step(0.0, 1e-4)
     # di/dt <= V_max / L over one step
-    assert m.torque[0] <= m.gear * m.K_t * (1.0 / m.L) * 1e-4 * 1.0001
+    assert m["torque"][0] <= m["gear"] * m["K_t"] * (1.0 / m["L"]) * 1e-4 * 1.0001
 
 
 def test_current_limit() -> None:
     m = motor(mode="dc", I_max=10.0)
-    m.torque_command = (1000.0, -1000.0)
-    for n in range(500):
-        m.evaluate(n * 1e-3)
-        m.do_step(n * 1e-3, 1e-3)
-    assert m.torque[0] == pytest.approx(10.0 * m.gear * m.K_t, rel=1e-6)
-    assert m.torque[1] == pytest.approx(-10.0 * m.gear * m.K_t, rel=1e-6)
+    m.set(torque_command=(1000.0, -1000.0))
+    m.step(500)  # evaluate, then do_step, 500 times at 1 ms
+    assert m["torque"][0] == pytest.approx(10.0 * m["gear"] * m["K_t"], rel=1e-6)
+    assert m["torque"][1] == pytest.approx(-10.0 * m["gear"] * m["K_t"], rel=1e-6)
 
 
 def test_encoder_integrates_the_wheel_speed() -> None:
-    m = motor()
-    m.wheel_speed = (2.0, -1.0)
-    for n in range(100):
-        m.do_step(n * 1e-2, 1e-2)
-    assert m.angle == pytest.approx((2.0, -1.0))
-    assert m.measured_speed == (2.0, -1.0)
+    m = motor(step=1e-2)
+    m.set(wheel_speed=(2.0, -1.0))
+    m.step(100)  # 1 s at 10 ms
+    assert m["angle"] == pytest.approx((2.0, -1.0))
+    assert m["measured_speed"] == (2.0, -1.0)

@@ -8,6 +8,7 @@ import pytest
 
 from twmr.components._model import derivative
 from twmr.components.plant import TwmrPlant
+from twmr.testing import Harness
 
 A, IG, ID, IW, R, B, MW, MG = 0.3, 15.625, 0.0025, 0.1, 0.15, 0.75, 1.0, 30.0
 
@@ -26,15 +27,16 @@ def paper_matrices(varpi: float) -> dict[str, np.ndarray]:
             "G": MG * A * R / (2 * B) * np.array([1.0, -1.0])}
 
 
-def plant(**kw) -> TwmrPlant:
-    p = TwmrPlant("plant", **kw)
-    p.setup(0.0, 10.0)
-    p.initialize()
-    return p
+def plant(initial: dict | None = None, step: float = 1e-3, **kw) -> Harness:
+    """An initialized harness around the plant with parameters `kw` and start values `initial`,
+    on [0, 10] s at communication step `step`. m11, m12, q1, q2 and `coefficients` are the model's
+    own figures, not ports: they are read from `.component`."""
+    return Harness(TwmrPlant, name="plant", parameters=kw, initial=initial, stop=10.0,
+                   step=step).initialize()
 
 
 def test_inertia_terms_match_the_paper() -> None:
-    p = plant()
+    p = plant().component
     mats = paper_matrices(0.0)
     m11, m12, q1, q2 = p.m11, p.m12, p.q1, p.q2
     assert m11 == pytest.approx(mats["M"][0, 0], rel=1e-14)
@@ -54,7 +56,7 @@ def test_derivative_is_eq_8_and_eq_11_term_by_term(seed: int) -> None:
     rng = np.random.default_rng(seed)
     x, y, th, wR, wL = rng.normal(size=5)
     tau, mu, mu2, td = rng.normal(size=2), rng.normal(size=3), rng.normal(size=3), rng.normal(size=2)
-    p = plant()
+    p = plant().component
     d = derivative(x, y, th, wR, wL, *tau, *mu, *mu2, *td, *p.coefficients)
     beta = R * (wR + wL) / 2 + (mu[0] + mu[1]) / 2  # eq. (2)
     varpi = R * (wR - wL) / (2 * B) + (mu[0] - mu[1]) / (2 * B)  # eq. (3)
@@ -73,39 +75,35 @@ def test_b_is_skew_symmetric() -> None:
 
 
 def test_equal_wheel_speeds_without_slip_drive_straight() -> None:
-    p = plant()
-    p.wheel_speed = (2.0, 2.0)
-    for n in range(1000):
-        p.do_step(n * 1e-3, 1e-3)
-    x, y, th = p.pose
+    p = plant(initial={"wheel_speed": (2.0, 2.0)})
+    p.step(1000)  # 1 s at 1 ms
+    x, y, th = p["pose"]
     assert th == 0.0 and y == 0.0
     assert x == pytest.approx(2.0 * R * 1.0, rel=1e-12)
-    assert p.com == pytest.approx((x + A, 0.0))
+    assert p["com"] == pytest.approx((x + A, 0.0))
 
 
-def kinetic_energy(p: TwmrPlant) -> float:
-    nu = np.array(p.wheel_speed)
-    M = np.array([[p.m11, p.m12], [p.m12, p.m11]])
+def kinetic_energy(p: Harness) -> float:
+    nu = np.array(p["wheel_speed"])
+    c = p.component
+    M = np.array([[c.m11, c.m12], [c.m12, c.m11]])
     return 0.5 * nu @ M @ nu
 
 
 def test_energy_is_conserved_without_torque_slip_or_disturbance() -> None:
-    p = plant()
-    p.wheel_speed = (3.0, -1.0)
+    p = plant(initial={"wheel_speed": (3.0, -1.0)})
     e0 = kinetic_energy(p)
-    for n in range(2000):
-        p.do_step(n * 1e-3, 1e-3)
+    p.step(2000)  # 2 s at 1 ms
     assert kinetic_energy(p) == pytest.approx(e0, rel=1e-9)
-    assert p.wheel_speed != (3.0, -1.0)  # B did exchange energy between the wheels
+    assert p["wheel_speed"] != (3.0, -1.0)  # B did exchange energy between the wheels
 
 
 def run(internal_step: float) -> np.ndarray:
-    p = plant(internal_step=internal_step)
-    p.wheel_speed = (1.0, 0.2)
-    p.slip_rate, p.slip_accel, p.disturbance = (0.3, -0.2, 0.1), (0.5, 0.1, -0.2), (0.4, -0.1)
-    p.torque = (2.0, -1.0)
-    p.do_step(0.0, 1.0)
-    return np.array(p.pose + p.wheel_speed)
+    p = plant(initial={"wheel_speed": (1.0, 0.2)}, step=1.0, internal_step=internal_step)
+    p.set(slip_rate=(0.3, -0.2, 0.1), slip_accel=(0.5, 0.1, -0.2), disturbance=(0.4, -0.1))
+    p.set(torque=(2.0, -1.0))
+    p.step()  # one communication step of 1 s: do_step(0.0, 1.0)
+    return np.array(p["pose"] + p["wheel_speed"])
 
 
 def test_rk4_is_fourth_order() -> None:
@@ -118,4 +116,4 @@ def test_rk4_is_fourth_order() -> None:
 def test_scale_multiplies_masses_and_inertias() -> None:
     p, q = plant(scale=1.25), plant(m_G=37.5, m_W=1.25, I_G=15.625 * 1.25, I_D=0.003125,
                                      I_W=0.125)
-    assert p.coefficients == pytest.approx(q.coefficients, rel=1e-14)
+    assert p.component.coefficients == pytest.approx(q.component.coefficients, rel=1e-14)

@@ -5,7 +5,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy.signal import cont2discrete
 
 from twmr.core.component import Component
 from twmr.core.port import Input, Output, Parameter
@@ -110,6 +109,8 @@ class StateSpace(Component):
 
     def do_step(self, t: float, h: float) -> None:
         if h != self._h:
+            from scipy.signal import cont2discrete
+
             ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
             self._ad, self._bd, self._h = ad, bd[:, 0], h
         self._x = self._ad @ self._x + self._bd * self.u
