@@ -1,13 +1,10 @@
 """`twmr compare A.yaml B.yaml ...`: run scenarios, print Table III side by side, save figures.
 
-Registered as a `twmr` subcommand through the `twmr.commands` entry point (`register`).
-
 Figures (PNG, in `results/compare/` unless `--out`): XY paths of every run against the reference,
 x and y tracking errors over time, wheel torques, and the adaptive estimate d_hat where recorded.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
@@ -128,17 +125,3 @@ def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
         print(f"\nfigures: {', '.join(str(p) for p in written)}")
     return 0
 
-
-def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
-    """Add `twmr compare` to the command line."""
-    cp = subparsers.add_parser("compare", parents=[common],
-                               help="run scenarios and print Table III metrics side by side")
-    cp.add_argument("scenarios", nargs="+")
-    cp.add_argument("--json", action="store_true", help="print the figures as one JSON object")
-    cp.add_argument("--out", help="directory for the comparison figures")
-    cp.add_argument("--set", action="append", default=[], metavar="COMP.PARAM=VALUE",
-                    help="override a parameter in every scenario (repeatable)")
-    cp.set_defaults(fn=lambda args: compare([Path(s) for s in args.scenarios],
-                                            as_json=args.json,
-                                            out=Path(args.out) if args.out else None,
-                                            overrides=args.set))

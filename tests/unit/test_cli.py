@@ -47,3 +47,61 @@ def test_set_override_and_components_listing(tmp_path, capsys) -> None:
     assert main(["components", "twmr_plant"]) == 0
     out = capsys.readouterr().out
     assert "pose[3] [(m, m, rad)]" in out and "internal_step" in out
+
+
+def test_version_and_common_options_after_the_subcommand(capsys) -> None:
+    import pytest
+
+    import twmr
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0 and twmr.__version__ in capsys.readouterr().out
+    assert main(["check", str(FIXTURE), "-q"]) == 0
+    assert main(["check", str(FIXTURE), "-v", "--debug"]) == 0
+    assert main(["-q", "components", "gain"]) == 0
+
+
+def test_check_schedule_prints_the_generated_loop(capsys) -> None:
+    assert main(["check", str(FIXTURE), "--schedule"]) == 0
+    out = capsys.readouterr().out
+    assert "def run(n0, n1, rows):" in out and "for n in range(n0, n1):" in out
+    assert "# d2, ev2, st2: err (Sum)" in out
+    assert out.index("ev2(t)") < out.index("ev3(t)") < out.index("rows.append(")
+
+
+def test_metrics_only_when_asked_and_registered_subcommands_listed(tmp_path, capsys) -> None:
+    paper = Path(__file__).resolve().parents[2] / "scenarios" / "paper_trajectory1_asmc.yaml"
+    args = ["run", str(paper), "--quiet", "--format", "none", "--set", "experiment.stop=1.0"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert "metrics" not in json.loads((tmp_path / "a" / "summary.json").read_text())
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "b"), "--metrics", "tracking"]) == 0
+    printed = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    saved = json.loads((tmp_path / "b" / "summary.json").read_text())["metrics"]
+    assert printed == saved and set(saved) >= {"mse_x", "settling_time_y"}
+    assert main(["run", str(paper), "--metrics", "trakcing"]) == 1
+    assert "did you mean 'tracking'" in capsys.readouterr().err
+
+
+def test_generated_loop_shows_in_tracebacks(tmp_path) -> None:
+    import traceback
+
+    import pytest
+
+    from tests.helpers import system
+    from twmr.blocks import Constant
+    from twmr.core import Component, ComponentError, Input, Output
+    from twmr.master import simulate
+
+    class Fails(Component):
+        u = Input(0.0)
+        y = Output(0.0)
+
+        def do_step(self, t: float, h: float) -> None:
+            raise RuntimeError("boom")
+
+    with pytest.raises(ComponentError) as err:
+        simulate(system([Constant("c"), Fails("f")], ["c.y -> f.u"], 0.1, 0.01))
+    text = "".join(traceback.format_exception(err.value.__cause__))
+    assert "st1(t, h1)" in text  # the generated line, shown from linecache

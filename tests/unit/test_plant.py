@@ -55,7 +55,8 @@ def test_mass_matrix_is_symmetric_positive_definite() -> None:
 def test_derivative_is_eq_8_and_eq_11_term_by_term(seed: int) -> None:
     rng = np.random.default_rng(seed)
     x, y, th, wR, wL = rng.normal(size=5)
-    tau, mu, mu2, td = rng.normal(size=2), rng.normal(size=3), rng.normal(size=3), rng.normal(size=2)
+    tau, mu, mu2, td = (rng.normal(size=2), rng.normal(size=3), rng.normal(size=3),
+                        rng.normal(size=2))
     p = plant().component
     d = derivative(x, y, th, wR, wL, *tau, *mu, *mu2, *td, *p.coefficients)
     beta = R * (wR + wL) / 2 + (mu[0] + mu[1]) / 2  # eq. (2)

@@ -187,6 +187,10 @@ def _generate(system: System, algorithm: str, record: list[tuple[str, str]], dec
                                  [s for s in record if comps[s[0]].variables[s[1]].kind
                                   in ("output", "state")]))
     w = _Writer()
+    for name in order:
+        i = ids[name]
+        w.add(0, f"# d{i}, ev{i}, st{i}: {name} ({type(comps[name]).__name__}) values, evaluate, "
+                 f"do_step")
     w.add(0, "def run(n0, n1, rows):")
     w.add(1, "for n in range(n0, n1):")
     w.add(2, "t = start + n * h")
