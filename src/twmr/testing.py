@@ -62,9 +62,11 @@ class Harness:
 
     def set(self, **inputs: Any) -> Harness:
         """Write inputs (coerced and checked by their ports), as the master does before a call."""
-        for name, value in inputs.items():
+        values = {}
+        for name, value in inputs.items():  # all checked before any is written
             self._check(name, ("input",))
-            self.component.__dict__[name] = self.component.variables[name].coerce(value)
+            values[name] = self.component.variables[name].coerce(value)
+        self.component.__dict__.update(values)
         return self
 
     def initialize(self) -> Harness:
@@ -105,6 +107,7 @@ class Harness:
 
     def __getitem__(self, name: str) -> Any:
         """The current value of any port, parameter or state."""
+        self._check(name, ("input", "output", "state", "parameter"))
         return self.component.get(name)
 
     @property

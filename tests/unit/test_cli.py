@@ -105,3 +105,13 @@ def test_generated_loop_shows_in_tracebacks(tmp_path) -> None:
         simulate(system([Constant("c"), Fails("f")], ["c.y -> f.u"], 0.1, 0.01))
     text = "".join(traceback.format_exception(err.value.__cause__))
     assert "st1(t, h1)" in text  # the generated line, shown from linecache
+
+
+def test_compare_is_registered_by_the_robot_package(tmp_path, capsys) -> None:
+    scen = Path(__file__).resolve().parents[2] / "scenarios"
+    assert main(["compare", str(scen / "paper_trajectory1_asmc.yaml"),
+                 str(scen / "paper_trajectory1_smc.yaml"), "--json", "--out", str(tmp_path),
+                 "--set", "experiment.stop=2.0", "-q"]) == 0
+    table = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert set(table) == {"paper_trajectory1_asmc", "paper_trajectory1_smc"}
+    assert (tmp_path / "xy.png").is_file()

@@ -70,6 +70,8 @@ class Variable:
 
         Raises ValueError/TypeError with a plain message when the value does not fit."""
         cast = _CAST[self.type]
+        if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+            value = value.tolist()  # numpy arrays and scalars
         if value is None:
             raise TypeError("no value given (null)")
         if self.type == BOOLEAN and not isinstance(value, (bool, int, list, tuple)):
@@ -91,6 +93,8 @@ class Variable:
     def _check(self, v: Any) -> Any:
         if self.type == STRING:
             return v
+        if v != v:  # NaN fails every comparison, so it would pass min and max
+            raise ValueError("NaN is not a valid value")
         if self.min is not None and v < self.min:
             raise ValueError(f"{v} is below the minimum {self.min}")
         if self.max is not None and v > self.max:
