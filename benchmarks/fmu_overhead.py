@@ -1,6 +1,8 @@
 """FMU overhead: a chain of three FMUs (the C test FMU `lag2`, built here), 100,000 steps,
 stepped (a) by a hand-written loop of fmpy calls (setReal, doStep, getReal) and (b) by the master
-from a scenario; also fmpy's own `simulate_fmu` of one FMU per step. Last line: one JSON object."""
+from a scenario (rows kept in memory by a `ResultStore`; the time is `Outcome.wall_time`, which
+includes instantiating the FMUs); also fmpy's own `simulate_fmu` of one FMU per step.
+Last line: one JSON object."""
 from __future__ import annotations
 
 import json
@@ -9,14 +11,14 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from tests.fmu_build import build_c_fmu  # noqa: E402
-from twmr.master import Execution  # noqa: E402
-from twmr.scenario import loads  # noqa: E402
+from tests.fmu_build import build_c_fmu
+from twmr.master import Execution
+from twmr.observers.store import ResultStore
+from twmr.scenario import loads
 
 SCENARIO = """
 components:
@@ -73,9 +75,12 @@ def main() -> None:
         hand = min(hand_loop(fmu, n, h) for _ in range(2))
         walls = []
         for _ in range(2):
-            ex = Execution(loads(SCENARIO % {"fmu": fmu, "stop": n * h}, source="chain.yaml"))
-            ex.run()
-            walls.append(ex.info.wall_time)
+            store = ResultStore()
+            ex = Execution(loads(SCENARIO % {"fmu": fmu, "stop": n * h}, source="chain.yaml"),
+                           [store])
+            outcome = ex.run()
+            assert outcome.status == "completed" and len(store.data()) == n // 100 + 1, outcome
+            walls.append(outcome.wall_time)
         master = min(walls)
         t0 = time.perf_counter()
         simulate_fmu(str(fmu), stop_time=20.0, step_size=h, output_interval=h)

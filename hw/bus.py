@@ -58,3 +58,54 @@ class FrameLog:
     def close(self) -> None:
         with self._lock:
             self._writer.stop()
+
+
+class FrameGuard(can.Listener):
+    """First listener of a notifier: remembers the frame being handled, so that when a later
+    listener raises on it (a short or malformed frame), `on_error` hands the frame and the error
+    to `report` and the notifier thread goes on instead of dying."""
+
+    def __init__(self, report: Any):
+        self.report = report
+        self.frame: can.Message | None = None
+        self.count = 0
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.frame = msg
+
+    def on_error(self, exc: Exception) -> bool:
+        self.count += 1
+        self.report(self.frame, exc)
+        return True
+
+
+def frame_text(msg: can.Message | None) -> str:
+    """'0x021 [1] 0a' for messages."""
+    if msg is None:
+        return "an unknown frame"
+    return f"0x{msg.arbitration_id:03x} [{msg.dlc}] {bytes(msg.data).hex(' ') or '-'}"
+
+
+def strict_canopen(network: Any, report: Any) -> FrameGuard:
+    """Make a canopen network's decoding errors reach `report(frame, error)`: canopen's own
+    listener logs and swallows them, so it is replaced by one that lets them through to a
+    `FrameGuard` (the notifier thread goes on either way)."""
+    import canopen.network
+
+    class Strict(canopen.network.MessageListener):
+        def on_message_received(self, msg: can.Message) -> None:
+            if not (msg.is_error_frame or msg.is_remote_frame):
+                self.network.notify(msg.arbitration_id, msg.data, msg.timestamp)
+
+    listeners = network.notifier.listeners
+    for i, listener in enumerate(listeners):
+        if isinstance(listener, canopen.network.MessageListener):
+            listeners[i] = Strict(network)
+
+    def handled(frame: can.Message | None, exc: Exception) -> None:
+        network.notifier.exception = None  # canopen re-raises it at its next send otherwise
+        report(frame, exc)
+
+    guard = FrameGuard(handled)
+    listeners.insert(0, guard)
+    return guard

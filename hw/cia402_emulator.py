@@ -17,6 +17,7 @@ from typing import Any, Mapping
 import canopen
 
 from twmr.hw import cia402 as c
+from twmr.hw.bus import strict_canopen
 from twmr.hw.cia402 import State
 
 
@@ -116,6 +117,8 @@ class Cia402Emulator:
         self.sync_timeout = sync_timeout
         self.network = canopen.Network()
         self.network.connect(**dict(options or {"interface": "virtual", "channel": "twmr"}))
+        self.malformed = 0  # frames dropped because they could not be decoded
+        strict_canopen(self.network, self._drop)
         self.axes = {n: Cia402Axis(self.network, n, eds, gear, rated_torque_mNm,
                                    increments_per_rev, inertia) for n in node_ids}
         self.network.subscribe(0x000, self._on_nmt)
@@ -126,6 +129,9 @@ class Cia402Emulator:
         self._watch = threading.Thread(target=self._watchdog, name="cia402-emulator",
                                        daemon=True)
         self._watch.start()
+
+    def _drop(self, msg: Any, exc: Exception) -> None:
+        self.malformed += 1
 
     def set_load_speeds(self, speeds: Mapping[int, float]) -> None:
         """Wheel speeds [rad/s] imposed by a simulated load (the plant), by node."""

@@ -20,7 +20,7 @@ import can
 import canopen
 
 from twmr.hw import cia402 as c
-from twmr.hw.bus import FrameLog, describe
+from twmr.hw.bus import FrameLog, describe, frame_text, strict_canopen
 from twmr.hw.cia402 import State
 from twmr.hw.safety import Fault, LinkError
 
@@ -64,6 +64,7 @@ class Cia402Link:
 
             self.network.bus.send = logged_send
         self.network.notifier.add_listener(self._on_frame)
+        self.guard = strict_canopen(self.network, self._malformed)
         self.nodes_od: dict[int, Any] = {}
         for n in self.nodes:
             node = canopen.RemoteNode(n, canopen.import_od(str(eds), n))
@@ -79,6 +80,14 @@ class Cia402Link:
         if msg.is_error_frame:
             self._latch(Fault(None, f"error frame received ({msg.data.hex() or 'no data'})",
                               "check termination, bitrate and wiring"))
+
+    def _malformed(self, msg: can.Message | None, exc: Exception) -> None:
+        """A frame canopen or we cannot decode: a fault of the node whose COB-ID it carries."""
+        node = msg.arbitration_id & 0x7F if msg is not None else None
+        self._latch(Fault(node if node in self.values else None,
+                          f"malformed frame {frame_text(msg)} ({type(exc).__name__}: {exc})",
+                          "check the drive's PDO mapping against its EDS/DCF and that no other "
+                          "device uses this node id"))
 
     def _on_beat(self, n: int) -> None:
         with self.lock:

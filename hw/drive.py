@@ -93,6 +93,7 @@ class CanMotorDrive(Component):
         self.emulators: list[Any] = []
         self.log: FrameLog | None = None
         self._tripped = False
+        self._rtt_ns: list[int] = []
         self._late_replies = 0
         self._age_max = 0.0
         self._nodes = tuple(int(n) for n in self.node_ids)
@@ -202,7 +203,7 @@ class CanMotorDrive(Component):
         """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback."""
         out: dict[str, float] = {"late_replies": self._late_replies,
                                  "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
-        rtt = np.asarray(getattr(self.link, "rtt_ns", []), dtype=float) / 1e3
+        rtt = np.asarray(getattr(self.link, "rtt_ns", self._rtt_ns), dtype=float) / 1e3
         if rtt.size:
             out.update(can_rtt_p50_us=float(np.percentile(rtt, 50)),
                        can_rtt_p99_us=float(np.percentile(rtt, 99)),
@@ -216,6 +217,7 @@ class CanMotorDrive(Component):
         link, self.link = getattr(self, "link", None), None
         try:
             if link is not None:
+                self._rtt_ns = link.rtt_ns  # for report(), which comes after the stop
                 link.disable(emergency=self._tripped)
                 link.close()
         finally:

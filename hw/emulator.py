@@ -18,6 +18,7 @@ J omega' = torque with wheel inertia `inertia` [kg.m2].
 from __future__ import annotations
 
 import math
+import struct
 import threading
 import time
 from collections import deque
@@ -63,6 +64,7 @@ class OdriveEmulator:
         self.lock = threading.Lock()
         self.silent = False  # stops answering and sending (a dead drive) when set
         self.received: deque[can.Message] = deque(maxlen=1000)  # the latest frames, for tests
+        self.malformed = 0  # frames dropped because they could not be decoded
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="odrive-emulator", daemon=True)
         self._thread.start()
@@ -159,7 +161,10 @@ class OdriveEmulator:
         while not self._stop.is_set():
             msg = self.bus.recv(timeout=poll)
             while msg is not None:
-                self._handle(msg)
+                try:
+                    self._handle(msg)
+                except (ValueError, IndexError, struct.error):
+                    self.malformed += 1  # as the firmware, drop a frame it cannot decode
                 msg = self.bus.recv(timeout=0)
             now = time.monotonic()
             self._advance(now - last)

@@ -18,7 +18,7 @@ from typing import Any, Sequence
 import can
 
 from twmr.hw import protocol as p
-from twmr.hw.bus import FrameLog, describe
+from twmr.hw.bus import FrameGuard, FrameLog, describe, frame_text
 from twmr.hw.safety import Fault, LinkError
 
 
@@ -51,7 +51,8 @@ class OdriveLink:
             raise LinkError(Fault(None, f"cannot open {describe(options)} ({err})",
                                   "check the adapter and the interface/channel/bitrate or "
                                   "can_config parameters")) from err
-        listeners: list[Any] = [self._on_frame] + ([log.received] if log else [])
+        self.guard = FrameGuard(self._malformed)
+        listeners: list[Any] = [self.guard, self._on_frame] + ([log.received] if log else [])
         self.notifier = can.Notifier(self.bus, listeners, timeout=0.01)
 
     # -- bus -----------------------------------------------------------------------------------
@@ -94,6 +95,14 @@ class OdriveLink:
                 self._latch(Fault(node, f"axis error 0x{beat.axis_error:x}, state "
                                   f"{beat.axis_state} (heartbeat)",
                                   "read the drive's errors, then Clear_Errors"))
+
+    def _malformed(self, msg: can.Message | None, exc: Exception) -> None:
+        """A frame that cannot be decoded: a fault of the drive that sent it."""
+        node = p.split_id(msg.arbitration_id)[0] if msg is not None else None
+        self._latch(Fault(node if node in self.beats else None,
+                          f"malformed frame {frame_text(msg)} ({type(exc).__name__}: {exc})",
+                          "check the drive's firmware line (firmware: parameter) and that no "
+                          "other device uses this node id"))
 
     def _latch(self, fault: Fault) -> None:
         with self.lock:

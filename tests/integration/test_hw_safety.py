@@ -208,3 +208,63 @@ def test_terminate_sends_zero_torque_and_disables(protocol: str) -> None:
     else:
         assert [a.state for a in emu.axes.values()] == [State.READY, State.READY]
         assert [a.torque for a in emu.axes.values()] == [0.0, 0.0]
+
+
+def test_short_torque_frame_is_dropped_and_the_emulated_drive_keeps_running() -> None:
+    ch = channel()
+    d = started(channel=ch)
+    other = can.Bus(interface="virtual", channel=ch)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        other.send(can.Message(arbitration_id=p.can_id(0, p.SET_INPUT_TORQUE), data=b"\x01",
+                               is_extended_id=False))
+        loop.run(50)  # the emulator still answers: no trip
+        emu = d.emulators[0]
+        assert emu.malformed == 1 and emu._thread.is_alive()
+        assert emu.axes[0].state == p.AXIS_CLOSED_LOOP and emu.axes[0].command == 1.0
+    finally:
+        d.terminate()
+        other.shutdown()
+
+
+@pytest.mark.parametrize("cmd", [p.GET_ENCODER_ESTIMATES, p.HEARTBEAT])
+def test_short_frame_from_a_drive_trips_naming_the_frame_and_the_notifier_lives(cmd) -> None:
+    ch = channel()
+    d = started(channel=ch)
+    other = can.Bus(interface="virtual", channel=ch)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        mon = Monitor(ch)
+        other.send(can.Message(arbitration_id=p.can_id(1, cmd), data=b"\x00\x01",
+                               is_extended_id=False))
+        steps, err = steps_to_trip(loop)
+        text = str(err)
+        assert f"drive node 1: malformed frame 0x{p.can_id(1, cmd):03x} [2] 00 01" in text
+        assert steps <= 2
+        readers = [t for t in d.link.notifier._readers if hasattr(t, "is_alive")]
+        assert d.link.guard.count == 1 and readers and all(t.is_alive() for t in readers)
+        d.terminate()  # the emulated drives stop sending, so the monitor's queue ends
+        assert last_commands(mon.frames()) == {0: (0.0, p.ESTOP), 1: (0.0, p.ESTOP)}
+    finally:
+        d.terminate()
+        other.shutdown()
+
+
+def test_short_heartbeat_from_a_cia402_drive_trips_naming_it() -> None:
+    ch = channel()
+    d = started("cia402", channel=ch)
+    other = can.Bus(interface="virtual", channel=ch)
+    loop = Paced(d)
+    try:
+        loop.run(10)
+        other.send(can.Message(arbitration_id=0x700 + 2, data=b"", is_extended_id=False))
+        steps, err = steps_to_trip(loop)
+        assert "drive node 2: malformed frame 0x702 [0]" in str(err) and steps <= 2
+        time.sleep(0.05)
+        for axis in d.emulators[0].axes.values():
+            assert axis.state != State.OPERATION_ENABLED
+    finally:
+        d.terminate()
+        other.shutdown()

@@ -181,7 +181,7 @@ class Execution:
         self.columns, self.units = columns_of(system, self.signals)
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
         self.outcome = Outcome(n_steps=exp.n_steps)
-        self._relay = _Relay(self._deliver) if self.pacer is not None else None
+        self._relay: _Relay | None = None
         self._n = 0
         self._rows: list[tuple[float, ...]] = []
 
@@ -190,18 +190,11 @@ class Execution:
         `KeyboardInterrupt` (`RunInterrupted`) after every component is terminated and the
         observers have what was recorded."""
         exp = self.system.experiment
-        wall0 = time.perf_counter()
         error: BaseException | None = None
         previous = self._catch_stop_signals()
         paced = self.pacer is not None
-        if paced:
-            # the objects alive now leave the collector's view, so a full collection during the
-            # paced run scans only what the run allocates; other threads (bus notifiers,
-            # emulated drives) hand the GIL back within 0.2 ms instead of 5 ms
-            gc.collect()
-            gc.freeze()
-            switch = sys.getswitchinterval()
-            sys.setswitchinterval(2e-4)
+        frozen = False
+        self._wall0 = math.nan
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
                              self.folder, self.system.source)
@@ -212,6 +205,16 @@ class Execution:
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize())
             if paced:
+                # the objects alive now leave the collector's view, so a full collection during
+                # the paced run scans only what the run allocates; other threads (bus notifiers,
+                # emulated drives) hand the GIL back within 0.2 ms instead of 5 ms
+                gc.collect()
+                gc.freeze()
+                frozen, switch = True, sys.getswitchinterval()
+                sys.setswitchinterval(2e-4)
+                self._relay = _Relay(self._deliver)
+            self._wall0 = time.perf_counter()
+            if paced:
                 self._paced_loop(exp.n_steps)
             else:
                 self._loop(exp.n_steps)
@@ -219,12 +222,13 @@ class Execution:
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
+            wall = time.perf_counter() - self._wall0
             self._terminate_all()
             self._restore_signals(previous)
-            if paced:
+            if frozen:
                 gc.unfreeze()
                 sys.setswitchinterval(switch)
-        error = self._conclude(error, wall0)
+        error = self._conclude(error, wall if math.isfinite(wall) else 0.0)
         if error is not None:
             raise error
         return self.outcome
@@ -298,7 +302,7 @@ class Execution:
             ) from exc
 
     # -- the end -------------------------------------------------------------------------------
-    def _conclude(self, error: BaseException | None, wall0: float) -> BaseException | None:
+    def _conclude(self, error: BaseException | None, wall: float) -> BaseException | None:
         """Rows left to the observers, the outcome filled in and announced; the error to raise."""
         out = self.outcome
         if isinstance(error, KeyboardInterrupt):
@@ -321,7 +325,7 @@ class Execution:
                 out.status, out.error = ("failed", str(exc)) if out.status == "completed" \
                     else (out.status, out.error)
         out.steps_done = self._n
-        out.wall_time = time.perf_counter() - wall0
+        out.wall_time = wall
         out.realtime_factor = (self._n * self.system.experiment.step / out.wall_time
                                if out.wall_time else 0.0)
         if self.pacer is not None and self.pacer.released_ns:

@@ -27,7 +27,9 @@ class RunStart:
 @dataclass
 class Outcome:
     """How a run ended. status: 'completed' | 'failed' | 'interrupted'; `error` is the message
-    of the failure ('' when completed); `extra` holds pacing statistics and components' reports."""
+    of the failure ('' when completed); `wall_time` [s] is the stepping alone (from the first
+    step to the end, set-up and initialization excluded), `realtime_factor` simulated time over
+    it; `extra` holds pacing statistics and components' reports."""
 
     status: str = "completed"
     error: str = ""

@@ -49,7 +49,7 @@ class ResultStore(Observer):
                                     "n_steps": run.n_steps, **run.metadata})}
         self._schema = pa.schema(fields, metadata=meta)
         self.path = run.folder / FILENAME
-        self._file = open(self.path, "wb", buffering=0)  # noqa: SIM115 - closed in finished()
+        self._file = open(self.path, "wb")  # noqa: SIM115 - closed in finished()
         self._writer = pa.ipc.new_stream(self._file, self._schema)
         self._synced = time.monotonic()
 
@@ -65,6 +65,7 @@ class ResultStore(Observer):
         arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(col)])
                   for col in columns]
         self._writer.write_batch(pa.RecordBatch.from_arrays(arrays, schema=self._schema))
+        self._file.flush()  # the whole batch to the operating system: a killed run keeps it
         if time.monotonic() - self._synced >= self.sync_seconds:
             os.fsync(self._file.fileno())
             self._synced = time.monotonic()
@@ -74,6 +75,7 @@ class ResultStore(Observer):
             return
         try:
             self._writer.close()
+            self._file.flush()
             os.fsync(self._file.fileno())
         finally:
             self._file.close()

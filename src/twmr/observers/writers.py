@@ -56,8 +56,10 @@ def save_parquet(columns: list[str], units: list[str], values: np.ndarray, path:
     import pyarrow.parquet as pq
 
     fields = [pa.field(c, pa.float64(), metadata={"unit": u}) for c, u in zip(columns, units)]
-    table = pa.Table.from_arrays([pa.array(np.ascontiguousarray(values[:, j]))
-                                  for j in range(len(columns))], schema=pa.schema(fields))
+    n = len(values)
+    arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
+        np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]
+    table = pa.Table.from_arrays(arrays, schema=pa.schema(fields))
     pq.write_table(table, path)
     return path
 
