@@ -78,5 +78,17 @@ def tracking_metrics(data: np.ndarray, band: float = BAND) -> dict[str, Any]:
 
 
 def tracking(result: Any) -> dict[str, Any]:
-    """The `tracking` metric set of a `twmr.Result` (empty when it has no reference and pose)."""
+    """The `tracking` metric set of a `twmr.Result` (see `needs` for what it must record)."""
     return tracking_metrics(result.data)
+
+
+def _tracking_needs(columns: list[str]) -> str:
+    """'' when the columns hold a reference position and a pose, else what is missing."""
+    names = tuple(columns)
+    if _column(names, r"\.position\[1\]$") and _column(names, r"\.pose\[1\]$"):
+        return ""
+    return ("needs a recorded reference position ('<trajectory>.position') and robot pose "
+            "('<plant>.pose')")
+
+
+tracking.needs = _tracking_needs  # type: ignore[attr-defined]

@@ -15,7 +15,21 @@ def emulate_drive(args: argparse.Namespace) -> int:
     """Emulated drives (ODrive or CiA 402) answering on a python-can bus until Ctrl-C."""
     if not args.node:
         args.node = [0, 1] if args.protocol == "odrive" else [1, 2]
+    import can
+
     from twmr.hw.bus import bus_options, describe
+    from twmr.hw.safety import node_id_problem
+
+    problem = node_id_problem(args.protocol, args.node)
+    if problem:
+        raise CosimError(f"emulate-drive: {problem}. Fix: give --node ids the protocol can "
+                         f"address (ODrive 0..63, CANopen 1..127), each once.")
+    if args.eds and args.protocol != "cia402":
+        raise CosimError(f"emulate-drive: --eds {args.eds} is for CiA 402 drives. Fix: add "
+                         f"--protocol cia402, or leave --eds out.")
+    if args.eds and not Path(args.eds).is_file():
+        raise CosimError(f"emulate-drive: the EDS/DCF {args.eds} does not exist. Fix: give the "
+                         f"drive's description file.")
 
     try:
         options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
@@ -34,7 +48,7 @@ def emulate_drive(args: argparse.Namespace) -> int:
             eds = args.eds or str(resources.files("twmr.hw").joinpath(
                 "data", "maxon_epos4_module_50-5.eds"))
             emu = Cia402Emulator(tuple(args.node), eds, options, args.gear)
-    except (OSError, ValueError, ImportError) as err:
+    except (OSError, ValueError, ImportError, can.CanError) as err:
         raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
                          f"--interface/--channel, --can-config and --eds.") from None
     print(f"emulating {args.protocol} drives {args.node} on {describe(options)}; Ctrl-C stops",
@@ -64,10 +78,19 @@ def replay(args: argparse.Namespace) -> int:
         print(f"{n} frames of {log} sent on {describe(options)}", file=sys.stderr)
         return 0
     decoder = Decoder(args.protocol, args.firmware, args.gear, args.rated_torque)
+    try:
+        decoded = decode_log(log, decoder)
+    except Exception as err:  # noqa: BLE001 - python-can's readers raise many kinds
+        raise CosimError(f"{log}: cannot read it as a frame log ({type(err).__name__}: {err}). "
+                         f"Fix: give the .blf or .asc file `twmr run` wrote beside the results."
+                         ) from None
+    if not decoded:
+        raise CosimError(f"{log}: no {args.protocol} frames found in it. Fix: check --protocol "
+                         f"(odrive or cia402) and that this is a bench run's frame log.")
     out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
     try:
         out.write("time_s,direction,node,signal,value\n")
-        for d in decode_log(log, decoder):
+        for d in decoded:
             out.write(f"{d.time:.6f},{d.direction},{'' if d.node is None else d.node},"
                       f"{d.signal},{d.value:.9g}\n")
     finally:

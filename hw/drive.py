@@ -27,7 +27,7 @@ import numpy as np
 
 from twmr.core import BOOLEAN, STRING, Component, HardwareError, Input, Output, Parameter
 from twmr.hw.bus import FrameLog, bus_options
-from twmr.hw.safety import Fault, LinkError, clamp, stale
+from twmr.hw.safety import Fault, LinkError, clamp, node_id_problem, stale
 
 SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
 
@@ -54,6 +54,8 @@ class CanMotorDrive(Component):
                             "limit (Set_Limits)")
     torque_constant = Parameter(0.04, unit="N.m/A", min=1e-9, description="ODrive: motor torque "
                                 "constant; current limit = torque_limit / (gear K_t)")
+    max_current = Parameter(0.0, unit="A", min=0.0, description="the drive's rated maximum "
+                            "motor current (0: not stated; required with emulate: false)")
     firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
     encoder = Parameter("cyclic", type=STRING, description="ODrive: cyclic | polled estimates")
     eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
@@ -84,6 +86,37 @@ class CanMotorDrive(Component):
         files = {k: str(base_dir / v) if v and not Path(str(v)).is_absolute() else v
                  for k, v in construction.items()}
         return cls(name, **files)
+
+    def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        """Node ids per protocol; with real drives (emulate: false) explicit torque and speed
+        limits within the drive's rating (max_current x torque_constant x gear)."""
+        problems = []
+        nodes = tuple(int(n) for n in self.node_ids)
+        what = node_id_problem(self.protocol, nodes)
+        if what:
+            problems.append(("node_ids" if "protocol" not in what else "protocol", what + ".",
+                             "give two different ids the drives are configured with (ODrive "
+                             "0..63, CANopen 1..127)."))
+        if self.eds and self.protocol != "cia402":
+            problems.append(("eds", "an EDS/DCF is given but the protocol is not cia402.",
+                             "remove eds:, or set protocol: cia402."))
+        if not self.emulate:
+            missing = [k for k in ("torque_limit", "speed_limit", "max_current")
+                       if k not in given]
+            if missing:
+                problems.append((missing[0], f"with real drives (emulate: false) "
+                                 f"{', '.join(missing)} must be given explicitly.",
+                                 "state the drive's rated current (max_current [A]) and the "
+                                 "limits the bench may use (torque_limit [N.m], speed_limit "
+                                 "[rad/s]) for these motors."))
+            elif self.max_current > 0:
+                rating = self.max_current * self.torque_constant * self.gear
+                if self.torque_limit > rating:
+                    problems.append(("torque_limit", f"torque_limit {self.torque_limit:g} N.m "
+                                     f"is above the drive's rating max_current x "
+                                     f"torque_constant x gear = {rating:g} N.m.",
+                                     f"give at most {rating:g} N.m."))
+        return problems
 
     # -- life cycle ------------------------------------------------------------------------------
     def setup(self, start: float, stop: float | None) -> None:

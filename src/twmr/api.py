@@ -13,18 +13,20 @@ run's partial results go to `<out>.incomplete`, a killed run's stay in `<out>.pa
 """
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from twmr.core.errors import CosimError, Location, Problem, ScenarioError
+from twmr.core.errors import CosimError
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
 from twmr.scenario.system import System
 
 __all__ = ["Scenario", "load", "simulate", "read_result", "Result"]
+log = logging.getLogger("twmr.run")
 
 
 @dataclass
@@ -71,14 +73,10 @@ def load(source: str | Path | dict[str, Any], overrides: Sequence[str] = ()) -> 
         scenario = Scenario("<dict>", source, Path.cwd(), tuple(overrides))
     elif isinstance(source, Path) or ("\n" not in source and (
             Path(source).suffix.lower() in (".yaml", ".yml") or Path(source).exists())):
+        from twmr.scenario.yamlread import read_file
+
         path = Path(source)
-        try:
-            text = path.read_text()
-        except (OSError, UnicodeDecodeError) as err:
-            why = getattr(err, "strerror", None) or err
-            raise ScenarioError(Problem(Location(str(path)), f"cannot read the scenario: {why}.",
-                                        "give the path of a readable YAML file (UTF-8), a YAML "
-                                        "string or a dict.")) from None
+        text = read_file(path)
         scenario = Scenario(str(path), text, path.resolve().parent, tuple(overrides))
     else:
         scenario = Scenario("<string>", source, Path.cwd(), tuple(overrides))
@@ -105,6 +103,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
         scenario = load(scenario)
     metric_fns = _metric_functions(metrics)
     system = scenario.fresh_system()
+    _check_metrics(metric_fns, system)
     store = ResultStore()
     summary = SignalSummary({"scenario": scenario.source, "overrides": list(scenario.overrides),
                              "algorithm": system.experiment.algorithm,
@@ -139,26 +138,64 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     return result
 
 
+#: what a folder `simulate` may replace holds only these (a previous run's results)
+_RESULT_FILES = ("result.arrows", "summary.json")
+
+
 def _stage(final: Path) -> Path:
-    """A new folder beside `final` for this run."""
-    final = final.absolute()
-    if final.exists() and not final.is_dir():
-        raise CosimError(f"{final} exists and is not a folder. Fix: choose another --out.")
-    final.parent.mkdir(parents=True, exist_ok=True)
-    stage = final.with_name(f"{final.name}.partial-{os.getpid()}")
-    if stage.exists():
-        shutil.rmtree(stage)
-    stage.mkdir()
+    """A new folder beside `final` for this run, after checking that `final` may be replaced:
+    it does not exist, is empty, or holds a previous run's results; it is no symbolic link and
+    neither the working folder nor one of its parents."""
+    where = f"the results folder '{final}'"
+    try:
+        if final.is_symlink():
+            raise CosimError(f"{where} is a symbolic link; results are never written through "
+                             f"one. Fix: give the real folder it points to, or another --out.")
+        final = final.absolute()
+        cwd = Path.cwd().resolve()
+        if final.resolve() == cwd or final.resolve() in cwd.parents or \
+                final.name in ("", ".", ".."):
+            raise CosimError(f"{where} is the working folder or one of its parents, which a "
+                             f"run would replace. Fix: give a folder of its own, e.g. --out "
+                             f"results/run1.")
+        if final.exists():
+            if not final.is_dir():
+                raise CosimError(f"{where} exists and is not a folder. Fix: choose another "
+                                 f"--out.")
+            entries = list(final.iterdir())
+            if entries and not any((final / f).is_file() for f in _RESULT_FILES):
+                raise CosimError(f"{where} holds files that are not a twmr result ("
+                                 f"{', '.join(e.name for e in entries[:3])}...), which a run "
+                                 f"would replace. Fix: give an empty or a new folder.")
+        final.parent.mkdir(parents=True, exist_ok=True)
+        stage = final.with_name(f"{final.name}.partial-{os.getpid()}")
+        if stage.exists():
+            shutil.rmtree(stage)
+        stage.mkdir()
+    except CosimError:
+        raise
+    except OSError as err:
+        raise CosimError(f"cannot create {where} ({err.strerror or err}). Fix: give a folder "
+                         f"you can write, with a shorter name, whose parents are folders."
+                         ) from None
     return stage
 
 
 def _settle(stage: Path, final: Path, completed: bool) -> Path:
-    """Completed: `stage` replaces `final`. Otherwise it becomes `<final>.incomplete`."""
-    target = final.absolute() if completed else final.absolute().with_name(f"{final.name}.incomplete")
+    """Completed: `stage` replaces `final`. Otherwise it becomes `<final>.incomplete`. If the
+    rename fails, the results stay in `stage`, which is returned."""
+    final = final.absolute()
+    target = final if completed else final.with_name(f"{final.name}.incomplete")
     old = target.with_name(f"{target.name}.old-{os.getpid()}")
-    if target.exists():
-        target.rename(old)
-    stage.rename(target)
+    try:
+        if target.is_symlink() or target.is_file():
+            target.unlink()
+        elif target.exists():
+            target.rename(old)
+        stage.rename(target)
+    except OSError as err:
+        log.warning("could not move the results to %s (%s); they are in %s", target, err, stage)
+        return stage
     if old.exists():
         shutil.rmtree(old, ignore_errors=True)
     return target
@@ -180,6 +217,18 @@ def _metric_functions(names: Sequence[str]) -> dict[str, Callable[[Result], dict
     from twmr.registry import metric
 
     return {name: metric(name) for name in names}
+
+
+def _check_metrics(fns: dict[str, Callable[..., Any]], system: System) -> None:
+    """Refuse, before running, a metric set whose `needs(columns)` names what is missing."""
+    from twmr.master.execution import columns_of
+
+    columns = columns_of(system, system.record.signals)[0]
+    for name, fn in fns.items():
+        missing = getattr(fn, "needs", lambda c: "")(columns)
+        if missing:
+            raise CosimError(f"the metric set '{name}' {missing}, which this scenario does not "
+                             f"record. Fix: record them, or leave it out.")
 
 
 def _add_metrics(result: Result, fns: dict[str, Callable[[Result], dict[str, Any]]],

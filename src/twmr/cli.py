@@ -23,7 +23,14 @@ log = logging.getLogger("twmr")
 
 
 def _out_dir(args: argparse.Namespace, scenario: Path) -> Path:
-    return Path(args.out) if args.out else Path("results") / (scenario.stem or "scenario")
+    """--out, else results/<scenario name> with the name made a plain folder name."""
+    if args.out is not None:
+        if not args.out.strip():
+            raise CosimError("--out is empty. Fix: give a folder, e.g. --out results/run1.")
+        return Path(args.out)
+    import re
+
+    return Path("results") / (re.sub(r"[^\w.-]", "_", scenario.stem).lstrip(".") or "scenario")
 
 
 def _formats(text: str) -> tuple[str, ...]:
@@ -100,8 +107,13 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_components(args: argparse.Namespace) -> int:
+    from twmr.registry import kinds, suggest
     from twmr.scenario.listing import kinds_table
 
+    unknown = [k for k in args.kinds if k not in kinds()]
+    if unknown:
+        raise CosimError(f"unknown component kind '{unknown[0]}'{suggest(unknown[0], kinds())}. "
+                         f"Fix: `twmr components` lists them all.")
     print(kinds_table(args.kinds or None))
     return 0
 
@@ -248,11 +260,30 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         log.error("error: %s%s", err, _where(err))
         return 1
+    except BrokenPipeError:
+        _quiet_stdout()  # the reader went away (`twmr ... | head`): stop without a word
+        return 141
+    except OSError as err:
+        if args.debug:
+            raise
+        what = f" '{err.filename}'" if err.filename else ""
+        log.error("error: %s%s%s. Fix: check the path, its permissions and the free disk "
+                  "space.", err.strerror or err, what, _where(err))
+        return 1
     except KeyboardInterrupt as err:
         how = getattr(err, "signal_name", "SIGINT")
         log.error("interrupted (%s) after %.1f s%s", "Ctrl-C" if how == "SIGINT" else how,
                   time.perf_counter() - t0, _where(err) or ".")
         return 130 if how == "SIGINT" else 128 + _signal_number(how)
+
+
+def _quiet_stdout() -> None:
+    import os
+
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 def _where(err: BaseException) -> str:

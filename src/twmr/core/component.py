@@ -83,6 +83,12 @@ class Component:
         return any(o.depends_on for o in self.outputs.values())
 
     # -- values ------------------------------------------------------------------------------
+    def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        """Problems with the parameters as a whole, found when the scenario is built (`twmr
+        check`): (parameter at fault or '', what is wrong, how to fix it). `given` names the
+        parameters the scenario set (the others hold their defaults)."""
+        return []
+
     def set_parameter(self, name: str, value: Any) -> None:
         """Set a parameter or a start value (input, state) before `initialize()`.
 

@@ -25,8 +25,10 @@ from twmr.core.units import conversion
 from twmr.registry import kinds, lookup, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
-from twmr.scenario.yamlread import Lines, read
+from twmr.scenario.yamlread import Lines, read, read_file
 
+#: the most base steps one run may take (1e9 steps: ~1.5 h at 5 us a step)
+MAX_STEPS = 1e9
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
 
 
@@ -40,13 +42,7 @@ def schema() -> dict[str, Any]:
 def load(path: str | Path, overrides: Sequence[str] = ()) -> System:
     """Build the System of the scenario file at `path` (with `--set` overrides)."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        why = getattr(err, "strerror", None) or err
-        raise ScenarioError(Problem(Location(str(path)), f"cannot read the scenario: {why}.",
-                                    "give a readable YAML file (UTF-8).")) from None
-    return loads(text, str(path), path.resolve().parent, overrides)
+    return loads(read_file(path), str(path), path.resolve().parent, overrides)
 
 
 def loads(text: str | dict[str, Any], source: str = "<string>",
@@ -226,6 +222,12 @@ class _Builder:
             self.configure(comp, name, params, "parameters", ("parameter",))
             self.configure(comp, name, dict(spec.get("initial") or {}), "initial",
                            ("state", "input"))
+            given = frozenset(params) | frozenset(construction)
+            for key, message, fix in comp.check(given):
+                where = ("components", name, "parameters", key) if key in given else \
+                    ("components", name)
+                self.problems.append(Problem(self.at(*where), f"component '{name}' ({kind}): "
+                                             f"{message}", fix))
             comps[name] = comp
         return comps
 
@@ -271,7 +273,13 @@ class _Builder:
     def experiment(self) -> Experiment:
         e = self.data["experiment"]
         start, stop, step = float(e.get("start", 0.0)), float(e["stop"]), float(e["step"])
-        if not step > 0:
+        bad = [k for k, v in (("start", start), ("stop", stop), ("step", step))
+               if not math.isfinite(v)]
+        if bad:
+            self.problems.append(Problem(self.at("experiment", bad[0]), f"{bad[0]} is "
+                                         f"{e.get(bad[0])}; times must be finite numbers.",
+                                         "give start, stop and step in seconds."))
+        elif not step > 0:
             self.problems.append(Problem(self.at("experiment", "step"),
                                          f"the step must be > 0, not {step}.",
                                          "give a positive base step in seconds, e.g. 1.0e-3."))
@@ -280,7 +288,12 @@ class _Builder:
                                          f"after start ({start}).", "make stop > start."))
         else:
             n = (stop - start) / step
-            if not math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9):
+            if n > MAX_STEPS:
+                self.problems.append(Problem(self.at("experiment", "stop"), f"(stop - start) / "
+                                             f"step = {n:.3g} steps, more than the limit of "
+                                             f"{MAX_STEPS:.0e}.", "shorten the run or take a "
+                                             "larger step (see docs/limits.md)."))
+            elif not math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9):
                 self.problems.append(Problem(self.at("experiment", "step"), f"(stop - start) / "
                                              f"step = {n:.6g} is not a whole number of steps.",
                                              "choose a step that divides the duration."))

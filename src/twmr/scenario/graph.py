@@ -232,7 +232,7 @@ def _cycle(edges: dict[Port, list[Port]], rest: list[Port]) -> list[Port]:
         node = next(d for d in edges[node] if d in left)
     loop = seen[seen.index(node):]
     # start at an output (its successor lies in another component), so it reads out -> in => out
-    first = next(i for i, p in enumerate(loop) if loop[(i + 1) % len(loop)][0] != p[0])
+    first = next((i for i, p in enumerate(loop) if loop[(i + 1) % len(loop)][0] != p[0]), 0)
     loop = loop[first:] + loop[:first]
     return loop + [loop[0]]
 
