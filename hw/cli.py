@@ -107,7 +107,8 @@ def _axis_text(axis: Any) -> str:
 
 def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
     """Add `emulate-drive` and `replay` to the command line."""
-    em = subparsers.add_parser("emulate-drive", parents=[common], help="emulated drives on a CAN bus (no hardware)")
+    em = subparsers.add_parser("emulate-drive", parents=[common],
+                               help="emulated drives on a CAN bus (no hardware)")
     em.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
     em.add_argument("--interface", default="virtual")
     em.add_argument("--channel", default="twmr")
@@ -123,7 +124,8 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     em.add_argument("--node", type=int, action="append", default=None,
                     help="axis node id (repeatable; default 0 and 1, CiA 402: 1 and 2)")
     em.set_defaults(fn=emulate_drive)
-    rp = subparsers.add_parser("replay", parents=[common], help="decode a run's CAN frame log to CSV, or play it onto a bus")
+    rp = subparsers.add_parser("replay", parents=[common],
+                               help="decode a run's CAN frame log to CSV, or play it onto a bus")
     rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
     rp.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
     rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")

@@ -13,8 +13,9 @@ HEAVY = ("scipy.signal", "scipy.interpolate", "control", "pandas", "matplotlib",
 
 
 def modules_after(code: str) -> set[str]:
-    out = subprocess.run([sys.executable, "-c", code + "\nimport sys\nprint(' '.join(sys.modules))"],
-                         capture_output=True, text=True, check=True, cwd=ROOT)
+    code += "\nimport sys\nprint(' '.join(sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
     return set(out.stdout.split())
 
 

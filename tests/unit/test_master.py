@@ -149,3 +149,17 @@ def test_unit_scale_is_folded_into_the_wire_and_applied() -> None:
     sysm.connections = conns
     r = simulate(sysm)
     assert r["b.seen"][0] == pytest.approx(math.pi / 6)
+
+
+def test_pacer_lateness_counts_from_each_steps_own_deadline() -> None:
+    import time as _time
+
+    from twmr.master.execution import Pacer
+
+    pacer = Pacer(0.01)
+    pacer.start()
+    _time.sleep(0.008)  # the first step is released ~0.8 periods late
+    pacer(0)
+    pacer(1)
+    late = pacer.lateness_us()
+    assert late[0] >= 7000  # measured from t0, not from a deadline rounded to the release

@@ -98,7 +98,6 @@ def test_bad_experiment() -> None:
 
 
 def test_unit_conversion_is_folded_into_the_wire() -> None:
-    from twmr.core import Component, Input, Output
 
     assert conversion("mm", "m") == (pytest.approx(1e-3), 0.0)
     assert conversion("deg", "rad")[0] == pytest.approx(3.141592653589793 / 180)

@@ -70,6 +70,7 @@ class Pacer:
         self.spin_ns = int(spin * 1e9)
         self.t0 = time.perf_counter_ns()
         self.released_ns: list[int] = []
+        self.deadline_ns: list[int] = []
         self.overruns = 0
 
     def start(self) -> None:
@@ -83,17 +84,14 @@ class Pacer:
         while (now := time.perf_counter_ns()) < target:
             pass
         self.released_ns.append(now)
+        self.deadline_ns.append(target)
         if now - target > self.h_ns:
             self.overruns += 1
 
     def lateness_us(self) -> np.ndarray:
-        """Per paced step: release time past its deadline [us]."""
+        """Per paced step: release time past its own deadline t0 + n h [us]."""
         released = np.asarray(self.released_ns, dtype=np.int64)
-        if not released.size:
-            return np.zeros(0)
-        first = int(round((released[0] - self.t0) / self.h_ns))
-        deadlines = self.t0 + (first + np.arange(released.size)) * self.h_ns
-        return (released - deadlines) / 1e3
+        return (released - np.asarray(self.deadline_ns, dtype=np.int64)) / 1e3
 
     def stats(self) -> dict[str, float]:
         """Lateness and |period error| p50/p99/max [us], missed deadlines (released more than one

@@ -39,7 +39,7 @@ ALGORITHMS = ("gauss_seidel", "jacobi")
 
 
 class _Writer:
-    """Collects generated lines and remembers which instance (and what call) each line belongs to."""
+    """Collects generated lines and the instance (and call) each line belongs to."""
 
     def __init__(self) -> None:
         self.lines: list[str] = []
@@ -161,7 +161,8 @@ def _generate(system: System, algorithm: str, record: list[tuple[str, str]], dec
         if len(conns) == 1 and conns[0].dst_index is None:
             c = conns[0]
             src_var = comps[c.src].variables[c.src_port]
-            return f"{port_expr(name, port)} = {_value_expr(c, source_of(c), src_var.size, var.size)}"
+            value = _value_expr(c, source_of(c), src_var.size, var.size)
+            return f"{port_expr(name, port)} = {value}"
         cur = port_expr(name, port)
         elems = [f"{cur}[{k}]" for k in range(var.width)]  # unconnected elements keep their value
         for c in conns:

@@ -24,7 +24,7 @@ FILENAME = "result.arrows"
 
 
 class ResultStore(Observer):
-    """Appends rows to `folder/result.arrows`, or keeps them in memory when the run has no folder."""
+    """Appends rows to `folder/result.arrows`; keeps them in memory when the run has no folder."""
 
     def __init__(self, sync_seconds: float = 1.0):
         self.sync_seconds = sync_seconds

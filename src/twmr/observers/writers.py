@@ -4,6 +4,7 @@ crash-consistent store after the run, so a failed export never costs the recorde
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -66,13 +67,25 @@ def save_parquet(columns: list[str], units: list[str], values: np.ndarray, path:
 
 def export(columns: list[str], units: list[str], values: np.ndarray, folder: Path,
            formats: tuple[str, ...]) -> list[Path]:
-    """Write the asked formats into `folder` as result.<ext>; the paths written."""
+    """Write the asked formats into `folder` as result.<ext>; the paths written. Each file is
+    written under a temporary name and renamed when complete, so an export cut short (Ctrl-C,
+    full disk) never leaves a truncated file under the real name."""
     written = []
+
+    def whole(save: Any, name: str, *args: Any) -> None:
+        tmp = folder / f".partial-{name}"  # same suffix: savemat appends .mat otherwise
+        try:
+            save(*args, tmp)
+            os.replace(tmp, folder / name)
+        finally:
+            tmp.unlink(missing_ok=True)
+        written.append(folder / name)
+
     if "csv" in formats:
-        written += [save_csv(columns, values, folder / "result.csv"),
-                    save_units(columns, units, folder)]
+        whole(save_csv, "result.csv", columns, values)
+        written.append(save_units(columns, units, folder))
     if "mat" in formats:
-        written.append(save_mat(columns, units, values, folder / "result.mat"))
+        whole(save_mat, "result.mat", columns, units, values)
     if "parquet" in formats:
-        written.append(save_parquet(columns, units, values, folder / "result.parquet"))
+        whole(save_parquet, "result.parquet", columns, units, values)
     return written
