@@ -17,6 +17,10 @@ CONTROLWORD, STATUSWORD, MODES_OF_OPERATION = 0x6040, 0x6041, 0x6060
 TARGET_TORQUE, MAX_TORQUE, MOTOR_RATED_TORQUE = 0x6071, 0x6072, 0x6076
 VELOCITY_ACTUAL, POSITION_ACTUAL = 0x606C, 0x6064
 CYCLIC_SYNC_TORQUE = 10
+HEARTBEAT_CONSUMER = 0x1016  # sub 1: (producer node << 16) | timeout [ms] (CiA 301)
+ABORT_CONNECTION = 0x6007  # what the drive does when the host's heartbeat is lost
+ABORT_FAULT = 1  # ... fault signal: the drive goes to FAULT (torque off)
+HOST_NODE = 127  # the node id the host's heartbeat is sent under (0x77F)
 
 # controlword commands (bits 0-3, 7)
 SHUTDOWN, SWITCH_ON, ENABLE_OPERATION = 0x06, 0x07, 0x0F

@@ -106,6 +106,21 @@ class Cia402Axis:
         with self.lock:
             return self.state == State.OPERATION_ENABLED and now - self.last_sync > timeout
 
+    def host_lost(self, now: float, beats: Mapping[int, float]) -> bool:
+        """The heartbeat consumer (0x1016 sub 1) with the abort option 0x6007 set to fault: the
+        producer it watches has been heard once and is now silent for longer than its timeout."""
+        od = self.node.object_dictionary
+        if c.HEARTBEAT_CONSUMER not in od or c.ABORT_CONNECTION not in od:
+            return False
+        entry = int(self.node.sdo[c.HEARTBEAT_CONSUMER][1].raw)
+        producer, ms = (entry >> 16) & 0x7F, entry & 0xFFFF
+        if not ms or int(self.node.sdo[c.ABORT_CONNECTION].raw) != c.ABORT_FAULT:
+            return False
+        seen = beats.get(producer)
+        with self.lock:
+            return self.state == State.OPERATION_ENABLED and seen is not None and \
+                now - seen > ms / 1e3
+
 
 class Cia402Emulator:
     """CiA 402 drives `node_ids` on the python-can bus `options`; `close()` stops them."""
@@ -123,6 +138,9 @@ class Cia402Emulator:
                                    increments_per_rev, inertia) for n in node_ids}
         self.network.subscribe(0x000, self._on_nmt)
         self.network.subscribe(0x080, self._on_sync)
+        self.host_beats: dict[int, float] = {}  # heartbeats of other nodes, by node id
+        for other in set(range(1, 128)) - set(node_ids):
+            self.network.subscribe(0x700 + other, self._on_heartbeat)
         for axis in self.axes.values():
             axis.node.nmt.start_heartbeat(heartbeat_ms)
         self._stop = threading.Event()
@@ -150,11 +168,16 @@ class Cia402Emulator:
         for axis in self.axes.values():
             axis.on_sync(now)
 
+    def _on_heartbeat(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        self.host_beats[can_id - 0x700] = time.monotonic()
+
     def _watchdog(self) -> None:
-        while not self._stop.wait(self.sync_timeout / 4):
+        """Drive-side protection: SYNC lost, or a consumed heartbeat lost (EMCY 0x8130)."""
+        while not self._stop.wait(0.01):
             now = time.monotonic()
             for axis in self.axes.values():
-                if axis.sync_lost(now, self.sync_timeout):
+                if axis.sync_lost(now, self.sync_timeout) or axis.host_lost(now,
+                                                                            self.host_beats):
                     axis.inject_fault(0x8130)
 
     def close(self) -> None:

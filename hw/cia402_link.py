@@ -47,6 +47,8 @@ class Cia402Link:
         self._replied = threading.Event()
         self.rx: dict[int, tuple[Any, Any, Any]] = {}  # RPDO1, controlword, target torque
         self.rated: dict[int, int] = {}  # 0x6076 [mN.m]
+        self.protected: dict[int, bool] = {}  # heartbeat consumer and abort option written
+        self.host_beat: Any = None  # the host's heartbeat producer (a periodic frame)
         self.network = canopen.Network()
         try:
             self.network.connect(**options)
@@ -119,10 +121,20 @@ class Cia402Link:
                               "read the drive's error history 0x1003, then fault-reset"))
 
     # -- life cycle ------------------------------------------------------------------------------
-    def configure(self, torque_limit: float) -> None:
-        """SDO configuration and PDO mapping of every axis, then NMT start."""
+    def configure(self, torque_limit: float, host_timeout: float) -> None:
+        """SDO configuration and PDO mapping of every axis, then NMT start. Drive-side
+        protection where the dictionary has it: each drive consumes the host's heartbeat
+        (0x1016, timeout `host_timeout` [s]) and faults when it is lost (0x6007 = 1), so a host
+        that dies or loses the bus stops the drives without a word from it."""
+        ms = max(1, min(0xFFFF, int(round(host_timeout * 1e3))))
         for n, node in self.nodes_od.items():
             node.nmt.state = "PRE-OPERATIONAL"
+            od = node.object_dictionary
+            if c.HEARTBEAT_CONSUMER in od:
+                node.sdo[c.HEARTBEAT_CONSUMER][1].raw = (c.HOST_NODE << 16) | ms
+            if c.ABORT_CONNECTION in od:
+                node.sdo[c.ABORT_CONNECTION].raw = c.ABORT_FAULT
+            self.protected[n] = c.HEARTBEAT_CONSUMER in od and c.ABORT_CONNECTION in od
             node.sdo[c.MODES_OF_OPERATION].raw = c.CYCLIC_SYNC_TORQUE
             self.rated[n] = int(node.sdo[c.MOTOR_RATED_TORQUE].raw) or self.default_rated
             if c.MAX_TORQUE in node.object_dictionary:
@@ -152,14 +164,16 @@ class Cia402Link:
             t1.add_callback(lambda m, n=n: self._on_tpdo(n, 1, m))
             t2.add_callback(lambda m, n=n: self._on_tpdo(n, 2, m))
             self.rx[n] = (r, cw, tt)
+        self.host_beat = self.network.send_periodic(0x700 + c.HOST_NODE, b"\x05",
+                                                    host_timeout / 4)
         for node in self.nodes_od.values():
             node.nmt.state = "OPERATIONAL"
 
-    def start(self, timeout: float, torque_limit: float) -> None:
+    def start(self, timeout: float, torque_limit: float, host_timeout: float = 0.5) -> None:
         """Configure, then walk every axis to OPERATION ENABLED (fault reset first if needed);
         `LinkError` when an axis does not answer or is not enabled in time."""
         try:
-            self.configure(torque_limit)
+            self.configure(torque_limit, host_timeout)
         except (canopen.SdoCommunicationError, canopen.SdoAbortedError) as err:
             raise LinkError(Fault(None, f"SDO configuration of nodes {self.nodes} failed "
                                   f"({err})", "check node ids, power, the EDS and the bus")
@@ -236,4 +250,6 @@ class Cia402Link:
             pass
 
     def close(self) -> None:
+        if self.host_beat is not None:
+            self.host_beat.stop()
         self.network.disconnect()

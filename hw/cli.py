@@ -23,7 +23,7 @@ def emulate_drive(args: argparse.Namespace) -> int:
     problem = node_id_problem(args.protocol, args.node)
     if problem:
         raise CosimError(f"emulate-drive: {problem}. Fix: give --node ids the protocol can "
-                         f"address (ODrive 0..63, CANopen 1..127), each once.")
+                         f"address (ODrive 0..63, CANopen 1..126), each once.")
     if args.eds and args.protocol != "cia402":
         raise CosimError(f"emulate-drive: --eds {args.eds} is for CiA 402 drives. Fix: add "
                          f"--protocol cia402, or leave --eds out.")

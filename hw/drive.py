@@ -96,7 +96,7 @@ class CanMotorDrive(Component):
         if what:
             problems.append(("node_ids" if "protocol" not in what else "protocol", what + ".",
                              "give two different ids the drives are configured with (ODrive "
-                             "0..63, CANopen 1..127)."))
+                             "0..63, CANopen 1..126)."))
         if self.eds and self.protocol != "cia402":
             problems.append(("eds", "an EDS/DCF is given but the protocol is not cia402.",
                              "remove eds:, or set protocol: cia402."))
@@ -191,7 +191,7 @@ class CanMotorDrive(Component):
                 current = self.torque_limit / (self.gear * self.torque_constant)
                 self.link.start(self.start_timeout, self.speed_limit, current)
             else:
-                self.link.start(self.start_timeout, self.torque_limit)
+                self.link.start(self.start_timeout, self.torque_limit, self.heartbeat_timeout)
         except LinkError as err:
             self._trip(err.fault)
         self._publish(time.monotonic())

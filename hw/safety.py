@@ -56,8 +56,9 @@ def stale(now: float, feedback: Mapping[int, float], heartbeats: Mapping[int, fl
 
 
 #: node ids each protocol can address: ODrive CAN Simple puts 6 bits of node id in the 11-bit
-#: identifier; CANopen nodes are 1..127 (0 is the NMT master's broadcast)
-NODE_RANGE = {"odrive": range(0, 64), "cia402": range(1, 128)}
+#: identifier; CANopen nodes are 1..127 (0 is the NMT broadcast) and the host's heartbeat
+#: takes 127
+NODE_RANGE = {"odrive": range(0, 64), "cia402": range(1, 127)}
 
 
 def node_id_problem(protocol: str, nodes: Sequence[int]) -> str:

@@ -268,3 +268,27 @@ def test_short_heartbeat_from_a_cia402_drive_trips_naming_it() -> None:
     finally:
         d.terminate()
         other.shutdown()
+
+
+def test_cia402_drives_consume_the_host_heartbeat_and_fault_when_it_stops() -> None:
+    """The host writes 0x1016 (consumer of its heartbeat) and 0x6007 = fault at start-up; when
+    the host falls silent (bus-off, crash) the drives fault by themselves. The SYNC watchdog is
+    switched off here so that only the heartbeat consumer can act."""
+    from twmr.hw import cia402 as c
+
+    d = started("cia402", heartbeat_timeout=0.1)
+    loop = Paced(d)
+    try:
+        emu = d.emulators[0]
+        emu.sync_timeout = 1e9
+        loop.run(20)
+        for n, axis in emu.axes.items():
+            assert int(axis.node.sdo[c.HEARTBEAT_CONSUMER][1].raw) == (c.HOST_NODE << 16) | 100
+            assert int(axis.node.sdo[c.ABORT_CONNECTION].raw) == c.ABORT_FAULT
+            assert axis.state == State.OPERATION_ENABLED and d.link.protected[n]
+        d.link.host_beat.stop()  # the host is gone: no heartbeat, no SYNC, no torque frames
+        time.sleep(0.4)
+        for axis in emu.axes.values():
+            assert axis.state == State.FAULT and axis.torque == 0.0
+    finally:
+        d.terminate()
