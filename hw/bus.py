@@ -23,7 +23,13 @@ def bus_options(interface: str, channel: str, bitrate: int, can_config: str = ""
         path = Path(can_config)
         if not path.is_file():
             raise FileNotFoundError(f"python-can configuration file {path} does not exist")
-        options = dict(can.util.load_config(path=str(path), context=context))
+        import configparser
+
+        try:
+            options = dict(can.util.load_config(path=str(path), context=context))
+        except (configparser.Error, UnicodeDecodeError):
+            raise ValueError(f"{path} is not a python-can configuration file (INI with a "
+                             f"[{context}] section)") from None
         if not options.get("interface"):
             raise ValueError(f"{path} [{context}] names no interface")
         return options

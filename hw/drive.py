@@ -70,7 +70,8 @@ class CanMotorDrive(Component):
     reply_timeout = Parameter(1e-3, unit="s", min=0.0, description="wait for a period's feedback")
     start_timeout = Parameter(1.0, unit="s", min=0.0)
     emulate = Parameter(True, type=BOOLEAN, description="run emulated drives in this process")
-    log_file = Parameter("auto", type=STRING, description="frame log (.blf | .asc); 'auto' = "
+    log_file = Parameter("auto", type=STRING, description="frame log (.blf | .asc) in the "
+                         "results folder; 'auto' = "
                          "<results>/<name>_frames.blf, '' = none")
 
     torque_command = Input(size=2, unit="N.m", description="(tau_R, tau_L) requested")
@@ -97,6 +98,13 @@ class CanMotorDrive(Component):
             problems.append(("node_ids" if "protocol" not in what else "protocol", what + ".",
                              "give two different ids the drives are configured with (ODrive "
                              "0..63, CANopen 1..126)."))
+        log = Path(self.log_file)
+        if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
+                                                  log.suffix.lower() not in (".blf", ".asc")):
+            problems.append(("log_file", f"log_file '{self.log_file}' must be a .blf or .asc "
+                             f"file name inside the results folder.",
+                             "give a plain name such as motor.blf (it is written beside the "
+                             "results), 'auto' or ''."))
         if self.eds and self.protocol != "cia402":
             problems.append(("eds", "an EDS/DCF is given but the protocol is not cia402.",
                              "remove eds:, or set protocol: cia402."))
@@ -153,10 +161,12 @@ class CanMotorDrive(Component):
         self._run_folder = run.folder
 
     def _log_path(self) -> Path | None:
-        if self.log_file == "auto":
-            out = getattr(self, "_run_folder", None)
-            return Path(out) / f"{self.name}_frames.blf" if out else None
-        return Path(self.log_file) if self.log_file else None
+        """The frame log inside the run's folder ('auto': <name>_frames.blf), or None."""
+        out = getattr(self, "_run_folder", None)
+        if not self.log_file or out is None:
+            return None
+        return Path(out) / (f"{self.name}_frames.blf" if self.log_file == "auto"
+                            else self.log_file)
 
     def _eds(self) -> str:
         return self.eds or str(resources.files("twmr.hw").joinpath("data", SHIPPED_EDS))

@@ -54,12 +54,14 @@ def _start(v: Any, type_: str) -> Any:
         return None
     if type_ == STRING:
         return str(raw)
-    if type_ == BOOLEAN:
-        return str(raw).strip().lower() in ("true", "1")
+    text = str(raw).strip()
     try:
-        return float(raw) if type_ == REAL else int(float(raw))
-    except ValueError:
-        return None
+        if type_ == BOOLEAN:
+            return {"true": True, "1": True, "false": False, "0": False}[text.lower()]
+        return float(text) if type_ == REAL else int(float(text))
+    except (ValueError, KeyError):
+        raise ValueError(f"variable '{v.name}' has start=\"{raw}\", which is not a valid "
+                         f"{type_}") from None
 
 
 def read_description(path: Path, instance: str = "fmu") -> Any:
@@ -186,7 +188,12 @@ class FmuComponent(Component):
                                                            self.md.coSimulation is None):
             raise FmuError(name, None, f"'{self.path.name}' has no {interface} interface.")
         self.solver_step = float(solver_step)
-        self.ports, self._variables = ports_of(self.md)
+        try:
+            self.ports, self._variables = ports_of(self.md)
+        except ValueError as err:
+            raise FmuError(name, None, f"'{self.path.name}': {err} in its modelDescription.xml. "
+                           f"Fix: correct the FMU's model description (or ask its vendor).") \
+                from None
         self.fmi3 = self.md.fmiVersion.startswith("3.")
         self._slave: Any = None
         self._unzipped: str | None = None
