@@ -41,6 +41,7 @@ class Cia402Axis:
         self.speed = 0.0
         self.angle = 0.0
         self.external_speed: float | None = None
+        self.malformed = 0  # RPDOs dropped for their length
         self.last_sync = self.last_time = time.monotonic()
         self._publish_status()
 
@@ -65,6 +66,9 @@ class Cia402Axis:
         self.node.rpdo.subscribe()
 
     def _on_rpdo(self, pdo: canopen.pdo.PdoMap) -> None:
+        if len(pdo.data) < sum(v.length for v in pdo.map) // 8:
+            self.malformed += 1  # CiA 301: a PDO shorter than its mapping is not processed
+            return
         with self.lock:
             by_index = {v.index: v for v in pdo.map}
             if c.CONTROLWORD in by_index:
@@ -81,6 +85,8 @@ class Cia402Axis:
                 self.torque = c.permille_to_torque(permille, self.gear, rated)
 
     def on_sync(self, now: float) -> None:
+        if self.node.nmt.state != "OPERATIONAL":
+            return  # PDOs only in OPERATIONAL (NMT stop or pre-operational silences them)
         with self.lock:
             self.last_sync = now
             dt, self.last_time = now - self.last_time, now
@@ -158,10 +164,18 @@ class Cia402Emulator:
                 self.axes[node].external_speed = w
 
     def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        if len(data) >= 2 and data[0] == 0x01:
-            for axis in self.axes.values():
-                if data[1] in (0, axis.node_id):
-                    axis.start()
+        if len(data) < 2:
+            self.malformed += 1
+            return
+        for axis in self.axes.values():
+            if data[1] not in (0, axis.node_id):
+                continue
+            if data[0] == 0x01:
+                axis.start()
+            elif data[0] in (0x02, 0x80):  # stop, enter pre-operational: no PDOs, torque off
+                with axis.lock:
+                    axis.state = State.SWITCH_ON_DISABLED
+                    axis.torque = 0.0
 
     def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
         now = time.monotonic()

@@ -11,6 +11,7 @@ EMCY frames and error frames latch a fault, and so does a drive leaving OPERATIO
 """
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from pathlib import Path
@@ -24,6 +25,7 @@ from twmr.hw.bus import FrameLog, describe, frame_text, strict_canopen
 from twmr.hw.cia402 import State
 from twmr.hw.safety import Fault, LinkError
 
+log = logging.getLogger("twmr.hw")
 _KEYS = {c.STATUSWORD: "status", c.VELOCITY_ACTUAL: "rpm", c.POSITION_ACTUAL: "inc"}
 
 
@@ -47,6 +49,7 @@ class Cia402Link:
         self._replied = threading.Event()
         self.rx: dict[int, tuple[Any, Any, Any]] = {}  # RPDO1, controlword, target torque
         self.rated: dict[int, int] = {}  # 0x6076 [mN.m]
+        self.foreign_malformed = 0  # undecodable frames that no drive of ours sent
         self.protected: dict[int, bool] = {}  # heartbeat consumer and abort option written
         self.host_beat: Any = None  # the host's heartbeat producer (a periodic frame)
         self.network = canopen.Network()
@@ -74,7 +77,7 @@ class Cia402Link:
             node.emcy.add_callback(lambda e, n=n: self._latch(Fault(
                 n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error register "
                 f"0x{e.register:02x}", "read the drive's error history 0x1003, then fault-reset")))
-            node.nmt.add_heartbeat_callback(lambda state, n=n: self._on_beat(n))
+            node.nmt.add_heartbeat_callback(lambda state, n=n: self._on_beat(n, state))
             self.nodes_od[n] = node
 
     # -- bus ------------------------------------------------------------------------------------
@@ -84,16 +87,28 @@ class Cia402Link:
                               "check termination, bitrate and wiring"))
 
     def _malformed(self, msg: can.Message | None, exc: Exception) -> None:
-        """A frame canopen or we cannot decode: a fault of the node whose COB-ID it carries."""
+        """A frame canopen or we cannot decode: a fault of the drive when one of ours sent it
+        (EMCY, TPDO, SDO answer, heartbeat), else counted and logged."""
         node = msg.arbitration_id & 0x7F if msg is not None else None
-        self._latch(Fault(node if node in self.values else None,
+        function = msg.arbitration_id & 0x780 if msg is not None else None
+        if node not in self.values or function not in (0x080, 0x180, 0x280, 0x380, 0x480,
+                                                       0x580, 0x700):
+            self.foreign_malformed += 1
+            log.warning("ignored a malformed frame %s not sent by a drive (%s)",
+                        frame_text(msg), exc)
+            return
+        self._latch(Fault(node,
                           f"malformed frame {frame_text(msg)} ({type(exc).__name__}: {exc})",
                           "check the drive's PDO mapping against its EDS/DCF and that no other "
                           "device uses this node id"))
 
-    def _on_beat(self, n: int) -> None:
+    def _on_beat(self, n: int, state: int) -> None:
         with self.lock:
             self.beats[n] = time.monotonic()
+        if self.running and state != 0x05:  # 5: OPERATIONAL
+            names = {0x04: "STOPPED", 0x7F: "PRE-OPERATIONAL", 0x00: "INITIALISING"}
+            self._latch(Fault(n, f"NMT state {names.get(state, hex(state))} in its heartbeat "
+                              f"(PDOs stopped)", "check who sent an NMT command on the bus"))
 
     def _latch(self, fault: Fault) -> None:
         with self.lock:

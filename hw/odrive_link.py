@@ -11,6 +11,7 @@ heartbeats, and latches the first fault (axis error, axis out of closed loop, er
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 from typing import Any, Sequence
@@ -80,6 +81,11 @@ class OdriveLink:
         now = time.monotonic()
         if cmd == p.GET_ENCODER_ESTIMATES:
             angle, speed = p.decode_encoder(msg.data, self.gear)
+            if not (math.isfinite(angle) and math.isfinite(speed)):
+                self._latch(Fault(node, f"encoder estimates not finite in frame "
+                                  f"{frame_text(msg)} (position {angle}, speed {speed})",
+                                  "check the drive's encoder and its calibration"))
+                return
             with self.lock:
                 self.estimates[node] = (angle, speed, now)
                 sent = self._asked.pop(node, None)
