@@ -138,27 +138,3 @@ def test_write_error_stops_the_run_with_a_clear_error_and_terminates(tmp_path,
     kept = twmr.read_result(tmp_path / "run.incomplete")
     assert 0 < len(kept) and kept.status == "failed"
     np.testing.assert_allclose(np.diff(kept.time), 0.01)
-
-
-def test_fmu_calling_exit_ends_the_run_as_a_failure_with_its_results(tmp_path, faulty) -> None:
-    scenario = tmp_path / "exits.yaml"
-    scenario.write_text(textwrap.dedent(f"""
-        components:
-          src: {{kind: sine, parameters: {{frequency: 1.0}}}}
-          dut:
-            kind: fmu
-            parameters: {{path: {faulty}, mode: 2, fail_after: 20000}}
-        connections: [src.y -> dut.u]
-        experiment: {{stop: 1000.0, step: 1.0e-3}}
-    """))
-    proc = subprocess.run([sys.executable, "-m", "twmr.cli", "run", str(scenario), "--out",
-                           str(tmp_path / "run"), "--quiet"], capture_output=True, text=True,
-                          timeout=300)
-    assert proc.returncode == 1, proc.stderr
-    assert "exit()" in proc.stderr and "Traceback" not in proc.stderr
-    partial = list(tmp_path.glob("run.partial-*"))
-    assert len(partial) == 1
-    result = twmr.read_result(partial[0])
-    assert result.status == "failed" and "exit()" in result.summary["error"]
-    assert 0 < len(result) <= 20000
-    np.testing.assert_array_equal(result["dut.y"], np.arange(len(result)))

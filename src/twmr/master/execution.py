@@ -36,36 +36,6 @@ CHUNK_SECONDS = 0.1
 _STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 
-#: the Execution running now, for the process-exit guard
-_active: list[Execution] = []
-
-
-def _guard_process_exit() -> None:
-    """Once per process: a C `atexit` handler, so that a native library that calls `exit()`
-    during a run (an FMU's doStep) cannot end the process silently with status 0. The handler
-    terminates the components (drives: zero torque, disabled), saves what was recorded with the
-    run marked failed, and ends the process with status 1."""
-    global _exit_hook
-    if _exit_hook is not None:
-        return
-    import ctypes
-
-    def on_exit(_: Any) -> None:
-        if _active:
-            _active[-1].emergency_stop("the process was ended by a call to exit() from native "
-                                       "code during the run (an FMU?)")
-
-    try:  # glibc exports __cxa_atexit (atexit itself is a static wrapper around it)
-        libc = ctypes.CDLL(None)
-        _exit_hook = ctypes.CFUNCTYPE(None, ctypes.c_void_p)(on_exit)
-        libc.__cxa_atexit(_exit_hook, None, None)
-    except (OSError, AttributeError):  # no such C library here: exit() stays unguarded
-        _exit_hook = False
-
-
-_exit_hook: Any = None
-
-
 class RunInterrupted(KeyboardInterrupt):
     """The run was stopped by Ctrl-C, SIGTERM or SIGHUP (`signal_name`)."""
 
@@ -219,8 +189,6 @@ class Execution:
         observers have what was recorded."""
         exp = self.system.experiment
         error: BaseException | None = None
-        _guard_process_exit()
-        _active.append(self)
         previous = self._catch_stop_signals()
         paced = self.pacer is not None
         frozen = False
@@ -252,7 +220,6 @@ class Execution:
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
-            _active.remove(self)
             wall = time.perf_counter() - self._wall0
             self._terminate_all()
             self._restore_signals(previous)
@@ -331,28 +298,6 @@ class Execution:
                 name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
                 f"inputs and parameters at that time (the results up to it are saved)."
             ) from exc
-
-    def emergency_stop(self, why: str) -> None:
-        """The process is ending under the run (see `_guard_process_exit`): terminate every
-        component, tell the observers that are safe at exit (summary) that the run failed, say
-        so, and end the process with status 1. The rows of the last chunk are not written."""
-        try:
-            self._terminate_all()
-            out = self.outcome
-            out.status, out.error, out.steps_done = "failed", why, self._n
-            out.wall_time = time.perf_counter() - self._wall0
-            for obs in self.observers:  # libraries may be half torn down: only the safe ones
-                if obs.safe_at_exit:
-                    try:
-                        obs.finished(out)
-                    except Exception:  # noqa: BLE001 - the process ends either way
-                        pass
-            log.error("error: %s. The components were terminated; the rows recorded up to the "
-                      "last chunk are in %s.", why, self.folder or "memory (lost)")
-        finally:
-            import os
-
-            os._exit(1)
 
     # -- the end -------------------------------------------------------------------------------
     def _conclude(self, error: BaseException | None, wall: float) -> BaseException | None:

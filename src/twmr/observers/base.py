@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
@@ -44,9 +44,6 @@ class Outcome:
 class Observer:
     """Base class: override what you need. Exceptions raised by `rows` stop the run (the
     components are terminated first); those raised by `finished` are reported after the stop."""
-
-    #: `finished` may run while the process is exiting (native libraries half torn down)
-    safe_at_exit: ClassVar[bool] = False
 
     def started(self, run: RunStart) -> None:
         """The run is about to take its first step."""

@@ -11,8 +11,6 @@ FILENAME = "lateness_us.npy"
 
 
 class PacingReport(Observer):
-    safe_at_exit = True
-
     def __init__(self) -> None:
         self.folder: Path | None = None
 

@@ -18,8 +18,6 @@ class SignalSummary(Observer):
     """Streams statistics of every recorded column; writes `folder/summary.json` at the end with
     `header` (what the caller knows of the run), the outcome, units and the statistics."""
 
-    safe_at_exit = True
-
     def __init__(self, header: dict[str, Any] | None = None):
         self.header = dict(header or {})
         self.document: dict[str, Any] = {}
