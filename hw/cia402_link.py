@@ -179,8 +179,7 @@ class Cia402Link:
             t1.add_callback(lambda m, n=n: self._on_tpdo(n, 1, m))
             t2.add_callback(lambda m, n=n: self._on_tpdo(n, 2, m))
             self.rx[n] = (r, cw, tt)
-        self.host_beat = self.network.send_periodic(0x700 + c.HOST_NODE, b"\x05",
-                                                    host_timeout / 4)
+        self.host_beat = _HostHeartbeat(self, host_timeout / 4)
         for node in self.nodes_od.values():
             node.nmt.state = "OPERATIONAL"
 
@@ -268,3 +267,28 @@ class Cia402Link:
         if self.host_beat is not None:
             self.host_beat.stop()
         self.network.disconnect()
+
+
+class _HostHeartbeat:
+    """The host's heartbeat (node `HOST_NODE`, state OPERATIONAL) every `period` [s], from its
+    own thread; a failed send (bus-off) latches a bus fault and ends it, never the process."""
+
+    def __init__(self, link: Cia402Link, period: float):
+        self.link, self.period = link, period
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="cia402-host-heartbeat",
+                                         daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period):
+            try:
+                self.link.network.send_message(0x700 + c.HOST_NODE, b"\x05")
+            except Exception as err:  # noqa: BLE001 - any failure is a bus fault, latched
+                self.link._latch(Fault(None, f"heartbeat send failed ({err}): bus-off or "
+                                       f"adapter lost", "check wiring, termination and bitrate"))
+                return
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=1.0)

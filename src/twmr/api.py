@@ -95,7 +95,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     registered metric functions (e.g. 'tracking') whose figures go into `summary['metrics']`.
     Raises a `CosimError` (or `KeyboardInterrupt`) after every component is terminated; the
     results so far are in `<out>.incomplete` (see the module's docstring)."""
-    from twmr.master.execution import Execution
+    from twmr.master.execution import Execution, held_signals
     from twmr.observers.store import ResultStore
     from twmr.observers.summary import SignalSummary
 
@@ -130,8 +130,9 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
         ex.run()
     except BaseException as exc:  # noqa: BLE001 - the folder is settled, then it is raised
         error = exc
-    folder = _settle(stage, final, error is None)
-    result = _finish_folder(folder, tuple(formats), metric_fns)
+    with held_signals():  # a second Ctrl-C must not cut the saving short
+        folder = _settle(stage, final, error is None)
+        result = _finish_folder(folder, tuple(formats), metric_fns)
     if error is not None:
         error.partial_results = folder  # type: ignore[attr-defined]
         raise error

@@ -271,10 +271,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                   "space.", err.strerror or err, what, _where(err))
         return 1
     except KeyboardInterrupt as err:
+        _ignore_stop_signals()  # a second Ctrl-C while the process ends changes nothing
         how = getattr(err, "signal_name", "SIGINT")
         log.error("interrupted (%s) after %.1f s%s", "Ctrl-C" if how == "SIGINT" else how,
                   time.perf_counter() - t0, _where(err) or ".")
         return 130 if how == "SIGINT" else 128 + _signal_number(how)
+
+
+def _ignore_stop_signals() -> None:
+    import signal
+
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
 
 
 def _quiet_stdout() -> None:

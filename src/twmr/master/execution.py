@@ -11,6 +11,7 @@ a failing observer is reported after the stop, never instead of it.
 """
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import math
@@ -20,7 +21,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import numpy as np
 
@@ -33,7 +34,23 @@ log = logging.getLogger("twmr.run")
 
 #: wall time one chunk of steps aims at [s]: rows reach the observers (and the disk) this often
 CHUNK_SECONDS = 0.1
-_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+_STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
+                      if hasattr(signal, n))
+
+
+@contextlib.contextmanager
+def held_signals() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP ignored inside (main thread only): for stopping hardware and
+    saving results, which a second signal must not cut short."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {sig: signal.signal(sig, signal.SIG_IGN) for sig in _STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in held.items():
+            signal.signal(sig, handler)
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -220,13 +237,16 @@ class Execution:
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
+            self._stopping = True  # from here on, a further signal is ignored
             wall = time.perf_counter() - self._wall0
             self._terminate_all()
-            self._restore_signals(previous)
             if frozen:
                 gc.unfreeze()
                 sys.setswitchinterval(switch)
-        error = self._conclude(error, wall if math.isfinite(wall) else 0.0)
+        try:
+            error = self._conclude(error, wall if math.isfinite(wall) else 0.0)
+        finally:
+            self._restore_signals(previous)
         if error is not None:
             raise error
         return self.outcome
@@ -392,28 +412,24 @@ class Execution:
     def _terminate_all(self) -> None:
         """Terminate every component, even if one fails, with Ctrl-C, SIGTERM and SIGHUP held
         off until all are done (a drive's terminate sends zero torque and disables it)."""
-        main = threading.current_thread() is threading.main_thread()
-        held = {}
-        if main:
-            for sig in (signal.SIGINT, *_STOP_SIGNALS):
-                held[sig] = signal.signal(sig, signal.SIG_IGN)
-        try:
+        with held_signals():
             for name in self.system.order:
                 try:
                     self.system.components[name].terminate()
                 except BaseException:  # noqa: BLE001 - terminate every component whatever fails
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
-        finally:
-            for sig, handler in held.items():
-                signal.signal(sig, handler)
 
     def _catch_stop_signals(self) -> dict[int, Any]:
-        """SIGTERM and SIGHUP stop the run as Ctrl-C does (main thread only)."""
+        """Ctrl-C, SIGTERM and SIGHUP stop the run (main thread only); once it is stopping,
+        a further one (a second Ctrl-C) is ignored until the results are handed over."""
+        self._stopping = False
         if threading.current_thread() is not threading.main_thread():
             return {}
 
         def stop(signum: int, frame: Any) -> None:
-            raise RunInterrupted(signal.Signals(signum).name)
+            if not self._stopping:
+                self._stopping = True
+                raise RunInterrupted(signal.Signals(signum).name)
 
         return {sig: signal.signal(sig, stop) for sig in _STOP_SIGNALS}
 
