@@ -80,9 +80,9 @@ def assert_no_thread_died(died: list[str]) -> None:
 @pytest.fixture(autouse=True)
 def _paced_like_the_master() -> Any:
     """`open_bench` does what the master does before a paced run (full collection, gc.freeze,
-    a 0.2 ms thread switch interval); undone here. Without it a full collection of the test
-    process's heap stalls every thread for 15-30 ms now and then, and the host watchdog trips
-    on a healthy drive pair."""
+    a 0.2 ms thread switch interval), just before the drive starts; undone here. Without it a
+    full collection of the test process's heap stalls every thread for 15-30 ms now and then,
+    and the host watchdog trips on a healthy drive pair."""
     switch = sys.getswitchinterval()
     yield
     gc.unfreeze()
@@ -153,11 +153,10 @@ class Bench:
 
 def open_bench(protocol: str, **params: Any) -> Bench:
     ch = channel()
-    drive = started(protocol, channel=ch, watchdog_periods=N, **params)
-    gc.collect()
+    gc.collect()  # before the drive starts: its feedback is fresh at the first step
     gc.freeze()
     sys.setswitchinterval(2e-4)
-    time.sleep(0.02)  # cyclic ODrive estimates held up by the collection come in
+    drive = started(protocol, channel=ch, watchdog_periods=N, **params)
     return Bench(drive, ch, protocol, can.Bus(interface="virtual", channel=ch))
 
 
@@ -579,3 +578,40 @@ def test_malformed_frame_to_an_emulated_drive_leaves_it_running(case: ToDrive,
         assert_no_thread_died(deaths)
     finally:
         bench.close()
+
+
+# -- the frame log on an odd channel name ------------------------------------------------------
+@pytest.mark.parametrize("protocol", ["odrive", "cia402"])
+def test_frame_log_on_a_channel_named_with_a_large_number(protocol: str, tmp_path: Any,
+                                                          deaths: list[str]) -> None:
+    """A virtual channel (or any interface's channel) whose name ends in a number above 65535:
+    python-can's BLF writer turns the trailing digits into a 16-bit channel number. Logging must
+    not stop the run, and never as a 'malformed frame' of a drive; the log decodes afterwards."""
+    from types import SimpleNamespace
+
+    from twmr.hw.drive import CanMotorDrive
+    from twmr.hw.replay import Decoder, decode_log
+
+    gc.collect()
+    gc.freeze()
+    sys.setswitchinterval(2e-4)
+    drive = CanMotorDrive("motor", protocol=protocol, channel=f"{channel()}-70000",
+                          watchdog_periods=N, log_file="auto",
+                          node_ids=ODRIVE_NODES if protocol == "odrive" else CIA_NODES)
+    drive.prepare(SimpleNamespace(folder=tmp_path, step=H, paced=True))
+    log = tmp_path / "motor_frames.blf"
+    loop = Paced(drive)
+    try:
+        drive.setup(0.0, None)
+        drive.initialize()
+        loop.t0 = time.perf_counter()
+        try:
+            loop.run(100)
+        except HardwareError as err:
+            pytest.fail(f"the run stopped while logging frames: {err}", pytrace=False)
+    finally:
+        drive.terminate()
+    decoded = decode_log(log, Decoder(protocol=protocol))
+    torques = [d for d in decoded if d.direction == "Tx" and d.signal == "torque_command"]
+    assert len(torques) >= 100 * 2, f"{len(torques)} torque commands in the log"
+    assert_no_thread_died(deaths)

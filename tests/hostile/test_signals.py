@@ -5,12 +5,15 @@ the virtual CAN bus, emulated).
 The promise checked: exit 130 for Ctrl-C, 128 + signum for SIGTERM / SIGHUP; stderr is one
 paragraph, no traceback, saying the run was interrupted and where the results are; the rows so
 far are in OUT.incomplete with status 'interrupted'; the previous result in OUT is unchanged and
-no OUT.partial-<pid> is left behind; on the bench, the frame log in OUT.incomplete ends, for both
-drives, with zero torque followed by Set_Axis_State IDLE.
+no OUT.partial-<pid> nor half-written export is left behind; on the bench, the frame log in
+OUT.incomplete ends, for both drives, with zero torque followed by Set_Axis_State IDLE. A double
+signal is the first one's: its exit status and message.
 
 The simulation-only run is tests/fixtures/scenarios/loop.yaml with decimation 1 and
 `--set experiment.stop=1000`; at the fixture's step (10 ms) those 1e5 steps take about 0.1 s on
 this machine, over before a signal could land, so the step is also set to 0.1 ms (1e7 steps).
+The bench's channel name ends in a letter: a name ending in a number above 65535 breaks the BLF
+frame log (test_can_faults.py::test_frame_log_on_a_channel_named_with_a_large_number).
 """
 from __future__ import annotations
 
@@ -85,8 +88,10 @@ def signal_run(args: list[str], cwd: Path, ready: str, delay: float,
                 time.sleep(0.02)
             time.sleep(delay)
             if proc.poll() is not None:
-                pytest.fail(f"the run ended (exit {proc.returncode}) before the signal: make it "
-                            f"longer", pytrace=False)
+                err = (io / "stderr").read_bytes().decode(errors="replace")
+                pytest.fail(f"the run ended by itself (exit {proc.returncode}) {delay:g} s after "
+                            f"{ready} appeared, before the signal; stderr:\n{err[-2000:]}",
+                            pytrace=False)
             for sig, pause in signals:
                 time.sleep(pause)
                 try:
@@ -228,7 +233,7 @@ def test_signal_during_a_bench_run(cwd: Path, how: str) -> None:
     previous = tree(out)
     signals = SIGNALS[how]
     o = signal_run(["run", str(BENCH), "--out", "out", "-q", "--set",
-                    f"motor.channel=sig-{uuid.uuid4().hex[:12]}"], cwd,
+                    f"motor.channel=sig-{uuid.uuid4().hex[:12]}-x"], cwd,
                    "out.partial-*/motor_frames.blf", 1.0, signals)
     problems = interrupted_problems(o, out, signals[0][0], previous) + bench_log_problems(out)
     assert not problems, "\n".join(problems) + "\n" + o.describe()
