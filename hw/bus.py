@@ -7,6 +7,7 @@ ASC or BLF, by suffix) with its direction, so a run can be replayed (`twmr.hw.re
 """
 from __future__ import annotations
 
+import copy
 import threading
 import time
 from pathlib import Path
@@ -43,27 +44,43 @@ def describe(options: dict[str, Any]) -> str:
 
 class FrameLog:
     """A python-can writer (`.asc` or `.blf`) shared by the sending thread and the bus's
-    notifier thread; sent frames are stamped with the wall time and marked Tx."""
+    notifier thread; sent frames are stamped with the wall time and marked Tx. Writing never
+    raises into the bus threads: the first failure is kept in `error` and ends the log."""
 
     def __init__(self, path: str | Path):
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self.path = Path(path)
         self._writer = can.Logger(str(path))
         self._lock = threading.Lock()
+        self.error = ""
+
+    def _write(self, msg: can.Message) -> None:
+        with self._lock:
+            if self.error:
+                return
+            try:
+                self._writer.on_message_received(msg)
+            except Exception as err:  # noqa: BLE001 - a log must never stop the drives' thread
+                self.error = f"{type(err).__name__}: {err}"
 
     def received(self, msg: can.Message) -> None:
-        with self._lock:
-            self._writer.on_message_received(msg)
+        if isinstance(msg.channel, str):  # BLF reads a channel name's digits as a 16-bit number
+            msg = copy.copy(msg)
+            msg.channel = None
+        self._write(msg)
 
     def sent(self, msg: can.Message) -> None:
         msg.timestamp = time.time()
         msg.is_rx = False
-        with self._lock:
-            self._writer.on_message_received(msg)
+        msg.channel = None
+        self._write(msg)
 
     def close(self) -> None:
         with self._lock:
-            self._writer.stop()
+            try:
+                self._writer.stop()
+            except Exception as err:  # noqa: BLE001 - reported, never raised over the stop
+                self.error = self.error or f"{type(err).__name__}: {err}"
 
 
 class FrameGuard(can.Listener):

@@ -135,6 +135,7 @@ class CanMotorDrive(Component):
         self.log: FrameLog | None = None
         self._tripped = False
         self._rtt_ns: list[int] = []
+        self._log_error = ""
         self._late_replies = 0
         self._age_max = 0.0
         self._nodes = tuple(int(n) for n in self.node_ids)
@@ -242,10 +243,12 @@ class CanMotorDrive(Component):
             self.link.disable(emergency=True)
         raise HardwareError(self.name, self._t, fault.text())
 
-    def report(self) -> dict[str, float]:
+    def report(self) -> dict[str, Any]:
         """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback."""
-        out: dict[str, float] = {"late_replies": self._late_replies,
-                                 "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
+        out: dict[str, Any] = {"late_replies": self._late_replies,
+                               "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
+        if self._log_error:
+            out["frame_log_error"] = self._log_error
         rtt = np.asarray(getattr(self.link, "rtt_ns", self._rtt_ns), dtype=float) / 1e3
         if rtt.size:
             out.update(can_rtt_p50_us=float(np.percentile(rtt, 50)),
@@ -266,6 +269,7 @@ class CanMotorDrive(Component):
         finally:
             if getattr(self, "log", None) is not None:
                 self.log.close()
+                self._log_error = self.log.error
                 self.log = None
             for emu in getattr(self, "emulators", ()):
                 emu.close()

@@ -2,6 +2,7 @@
 loop (each step at least one period of wall time, like the master's pacer), and a bus monitor."""
 from __future__ import annotations
 
+import gc
 import time
 import uuid
 from typing import Any
@@ -24,6 +25,8 @@ def started(protocol: str = "odrive", **kw: Any) -> CanMotorDrive:
     if protocol == "cia402":
         kw.setdefault("node_ids", (1, 2))
     d = CanMotorDrive("motor", protocol=protocol, **kw)
+    gc.collect()  # as the master does before hardware starts: no full collection stalls
+    gc.freeze()  # the paced steps (tens of ms on this machine)
     d.setup(0.0, None)
     d.initialize()
     return d

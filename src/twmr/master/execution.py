@@ -216,17 +216,20 @@ class Execution:
             for obs in self.observers:
                 self._write(obs.started, start)
             context = RunContext(self.folder, exp.step, paced)
-            self._lifecycle("prepare", lambda c: c.prepare(context))
-            self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
-            self._lifecycle("initialize", lambda c: c.initialize())
             if paced:
-                # the objects alive now leave the collector's view, so a full collection during
-                # the paced run scans only what the run allocates; other threads (bus notifiers,
-                # emulated drives) hand the GIL back within 0.2 ms instead of 5 ms
+                # collect now, before hardware starts (a full collection stalls every thread
+                # for tens of ms), and freeze: a collection during the paced run scans only
+                # what the run allocates; other threads (bus notifiers, emulated drives) hand
+                # the GIL back within 0.2 ms instead of 5 ms
                 gc.collect()
                 gc.freeze()
                 frozen, switch = True, sys.getswitchinterval()
                 sys.setswitchinterval(2e-4)
+            self._lifecycle("prepare", lambda c: c.prepare(context))
+            self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
+            self._lifecycle("initialize", lambda c: c.initialize())
+            if paced:
+                gc.freeze()  # what set-up created too; no collection once drives run
                 self._relay = _Relay(self._deliver)
             self._wall0 = time.perf_counter()
             if paced:
