@@ -81,3 +81,7 @@ def test_every_error_class_round_trips_through_pickle() -> None:
             assert (back.instance, back.time) == (err.instance, err.time)
         if isinstance(err, E.ScenarioError):
             assert back.problems == err.problems
+
+
+def test_experiment_override_in_exponent_notation_without_a_dot() -> None:
+    assert twmr.load(FIXTURE, ["experiment.step=1e-3"]).system.experiment.step == 1e-3

@@ -160,6 +160,11 @@ class _Builder:
             except yaml.YAMLError:
                 parsed = value
             if comp == "experiment":
+                if isinstance(parsed, str):
+                    try:
+                        parsed = float(parsed)  # YAML 1.1 reads '1e-5' (no dot) as text
+                    except ValueError:
+                        pass
                 exp = self.data.setdefault("experiment", {})
                 if isinstance(exp, dict):
                     exp[name] = parsed
