@@ -153,10 +153,11 @@ class _Relay:
             raise self._error
         self._queue.put((block, n))
 
-    def close(self) -> None:
+    def close(self, check: bool = True) -> None:
+        """Deliver what is queued and end the thread; raise its failure when `check`."""
         self._queue.put(None)
         self._thread.join()
-        if self._error is not None:
+        if check and self._error is not None:
             raise self._error
 
 
@@ -345,6 +346,8 @@ class Execution:
                 error = error or exc
                 out.status, out.error = ("failed", str(exc)) if out.status == "completed" \
                     else (out.status, out.error)
+        if self._relay is not None and self._relay._thread.is_alive():
+            self._relay.close(check=False)  # the thread ends whatever failed
         out.steps_done = self._n
         out.wall_time = wall
         out.realtime_factor = (self._n * self.system.experiment.step / out.wall_time
