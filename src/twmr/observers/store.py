@@ -54,6 +54,8 @@ class ResultStore(Observer):
         self._synced = time.monotonic()
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
+        if not len(block):
+            return  # a chunk that recorded nothing (decimation, or no signals) adds no batch
         if self._writer is None:
             self.blocks.append(block)
             return
