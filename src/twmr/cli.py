@@ -48,6 +48,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from twmr import api
 
     scenario_path = Path(args.scenario)
+    if args.fmu_log:
+        from twmr.fmi import log as fmu_log
+
+        fmu_log.show_all = True
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
     formats = _formats(args.format)
     metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
@@ -131,9 +135,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
-    from twmr.fmi import describe_fmu
+    from twmr.fmi import describe_fmu, fmu_interface
 
-    print(describe_fmu(Path(args.fmu)))
+    if args.json:
+        import json
+
+        print(json.dumps(fmu_interface(Path(args.fmu)), indent=2))
+    else:
+        print(describe_fmu(Path(args.fmu)))
     return 0
 
 
@@ -191,6 +200,8 @@ def parser() -> argparse.ArgumentParser:
                    help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",
                    help="pace steps to the wall clock (automatic with hardware components)")
+    r.add_argument("--fmu-log", action="store_true",
+                   help="show every message the FMUs log (errors and warnings always show)")
     r.set_defaults(fn=cmd_run)
     c = sub.add_parser("check", parents=[common],
                        help="validate a scenario and print its graph, order and units")
@@ -209,6 +220,8 @@ def parser() -> argparse.ArgumentParser:
     pl.set_defaults(fn=cmd_plot)
     i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component")
     i.add_argument("fmu")
+    i.add_argument("--json", action="store_true",
+                   help="print the interface (ports: name, causality, type, unit, size) as JSON")
     i.set_defaults(fn=cmd_inspect)
     e = sub.add_parser("export", parents=[common],
                        help="export a native component kind as an FMU 2.0 (CS)")

@@ -80,7 +80,20 @@ class ComponentError(CosimError):
 
 
 class FmuError(ComponentError):
-    """An FMU that cannot be loaded, or whose FMI call returned an error status."""
+    """An FMU that cannot be loaded, or whose FMI call returned an error status; `log` holds the
+    FMU's last log lines, printed under the message."""
+
+    def __init__(self, instance: str, time: float | None, message: str,
+                 log: tuple[str, ...] | list[str] = ()):
+        self.log = tuple(log)
+        text = message
+        if self.log:
+            text += "\n  FMU log (last lines):\n" + "\n".join(f"    {line}" for line in self.log)
+        super().__init__(instance, time, text)
+        self.message = message
+
+    def __reduce__(self) -> tuple:
+        return (type(self), (self.instance, self.time, self.message, self.log))
 
 
 class HardwareError(ComponentError):

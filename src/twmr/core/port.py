@@ -10,9 +10,25 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-REAL, INTEGER, BOOLEAN, STRING = "Real", "Integer", "Boolean", "String"
-TYPES = (REAL, INTEGER, BOOLEAN, STRING)
-_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str}
+REAL, INTEGER, BOOLEAN, STRING, BINARY = "Real", "Integer", "Boolean", "String", "Binary"
+TYPES = (REAL, INTEGER, BOOLEAN, STRING, BINARY)
+#: types that are not numbers: never recorded, never checked for NaN
+TEXT_TYPES = (STRING, BINARY)
+
+
+def _binary(value: Any = b"") -> bytes:
+    """Bytes from bytes or from hexadecimal text ('0a0b', as FMI 3.0 start values are written)."""
+    if isinstance(value, (bytes, bytearray)):
+        return bytes(value)
+    if isinstance(value, str):
+        try:
+            return bytes.fromhex(value)
+        except ValueError:
+            raise ValueError(f"expected hexadecimal bytes such as '0a0b', got {value!r}") from None
+    raise TypeError(f"expected bytes (hexadecimal text such as '0a0b'), got {value!r}")
+
+
+_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str, BINARY: _binary}
 
 
 @dataclass
@@ -30,6 +46,8 @@ class Variable:
     min: float | None = None
     max: float | None = None
     description: str = ""
+    #: units this port's unit strings may name beyond Modelica's (an FMU's UnitDefinitions)
+    unit_definitions: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
     name: str = field(default="", init=False)
     kind = "variable"
 
@@ -76,6 +94,10 @@ class Variable:
             raise TypeError("no value given (null)")
         if self.type == BOOLEAN and not isinstance(value, (bool, int, list, tuple)):
             raise TypeError(f"expected true or false, got {value!r}")
+        if self.type == BINARY:
+            if self.size is None:
+                return _binary(value)
+            return tuple(_binary(v) for v in value)
         if self.type in (REAL, INTEGER) and isinstance(value, str):
             raise TypeError(f"expected a number, got the text {value!r}")
         if self.size is None:

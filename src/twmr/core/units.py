@@ -128,10 +128,23 @@ def parse_unit(text: str) -> Unit:
     return Unit(raw, factor, tuple(exps), _OFFSETS.get(raw, 0.0))
 
 
-def conversion(src: str, dst: str) -> tuple[float, float]:
+def known_unit(text: str, defined: dict[str, Unit] | None = None) -> Unit | None:
+    """The unit `text` as `defined` (e.g. by an FMU's UnitDefinitions) or as a Modelica unit
+    string; None when neither knows it."""
+    if defined and text in defined:
+        return defined[text]
+    try:
+        return parse_unit(text)
+    except UnitError:
+        return None
+
+
+def conversion(src: str | Unit, dst: str | Unit) -> tuple[float, float]:
     """(gain, offset) such that value_in_dst = gain * value_in_src + offset; UnitError if the
     dimensions differ."""
-    a, b = parse_unit(src), parse_unit(dst)
+    a = src if isinstance(src, Unit) else parse_unit(src)
+    b = dst if isinstance(dst, Unit) else parse_unit(dst)
+    src, dst = a.text, b.text
     if a.exponents != b.exponents:
         raise UnitError(
             f"unit '{src}' ({a.dimension}) cannot be converted to '{dst}' ({b.dimension})"

@@ -1,203 +1,118 @@
-"""`FmuComponent`: an FMU (FMI 2.0 or 3.0 co-simulation, FMI 2.0 model exchange integrated here by
-RK4) as a component, through fmpy.
+"""`FmuComponent`: an FMU (FMI 2.0 or 3.0, co-simulation or model exchange) as a component,
+through fmpy.
 
-Ports come from the modelDescription: causality input/output -> `Input`/`Output`, parameters
-(fixed or tunable) -> `Parameter`, with type, unit (the variable's or its declaredType's), start,
-min/max and description. Modelica array names `x[1]..x[n]` are grouped into a vector port `x` of
-size n. Direct feedthrough comes from ModelStructure (an output without dependency information
-depends on every input, as the standard says).
+Ports come from the modelDescription (`twmr.fmi.description`). Every variable type goes through
+its own FMI call (fmi3GetFloat32, fmi3SetUInt64, ...), one call per type for all the values of a
+step. Per step the FMU sees only the traffic a hand-written loop would make: the wired inputs are
+set (the open ones once, at initialization), and only the outputs the run reads (wired or
+recorded) are got, each once: direct-feedthrough outputs in `evaluate`, the others after the step.
 
-Each step is one set call per type for all inputs, `doStep`, and one get call for all outputs.
-Every FMI call that fails raises `FmuError` naming the instance, the FMU, the call and the time.
+Model exchange is integrated here with events (`twmr.fmi.exchange`). The FMU's log is captured
+through the logger callback (`twmr.fmi.log`); every failed FMI call raises `FmuError` naming the
+instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
-import re
 import shutil
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
-from twmr.core.port import (
-    BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, State, Variable,
-)
+from twmr.fmi.description import FmuPort, ports_of, read_description
+from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
+from twmr.fmi.log import FmuLog
+from twmr.fmi.sources import runnable
 
-_ARRAY = re.compile(r"^(.*)\[(\d+)\]$")
-_TYPES = {"Real": REAL, "Float64": REAL, "Float32": REAL, "Integer": INTEGER, "Int32": INTEGER,
-          "Int64": INTEGER, "Int16": INTEGER, "Int8": INTEGER, "UInt32": INTEGER,
-          "UInt16": INTEGER, "UInt8": INTEGER, "UInt64": INTEGER, "Enumeration": INTEGER,
-          "Boolean": BOOLEAN, "String": STRING}
+__all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
 
-
-@dataclass
-class _Port:
-    """One port and the FMU variables behind it (value references, in element order)."""
-
-    name: str
-    kind: str
-    type: str
-    vrs: list[int]
-    scalar: bool
+#: FMI 2.0 call suffix per FMI type
+_FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
+              "Boolean": "Boolean", "String": "String"}
 
 
-def _unit(v: Any) -> str:
-    unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
-    return unit or ""
+def _call_suffix(fmi_type: str, fmi3: bool) -> str:
+    if not fmi3:
+        return _FMI2_CALL[fmi_type]
+    return "Int64" if fmi_type == "Enumeration" else fmi_type
 
 
-def _start(v: Any, type_: str) -> Any:
-    raw = getattr(v, "start", None)
-    if raw is None:
-        return None
-    if type_ == STRING:
-        return str(raw)
-    text = str(raw).strip()
+def _restore_pythonfmu_reference(unzipped: Path) -> None:
+    """pythonfmu 0.6.4-0.7.0's fmi2Instantiate (findClass) releases a reference to the slave
+    module's dict that it only borrowed, one per instance: the dict is later freed while in use
+    and a garbage collection crashes. Give the reference back."""
+    import ctypes
+    import sys
+
     try:
-        if type_ == BOOLEAN:
-            return {"true": True, "1": True, "false": False, "0": False}[text.lower()]
-        return float(text) if type_ == REAL else int(float(text))
-    except (ValueError, KeyError):
-        raise ValueError(f"variable '{v.name}' has start=\"{raw}\", which is not a valid "
-                         f"{type_}") from None
-
-
-def read_description(path: Path, instance: str = "fmu") -> Any:
-    """fmpy's ModelDescription of `path`, with every failure as an FmuError."""
-    from fmpy import read_model_description
-
-    if not path.exists():
-        raise FmuError(instance, None, f"FMU file '{path}' not found. Fix: check `path:` (relative "
-                       f"paths are taken from the scenario's folder).")
-    try:
-        md = read_model_description(str(path), validate=False)
-    except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds (zip, XML, schema)
-        raise FmuError(instance, None, f"'{path}' is not a readable FMU ({type(exc).__name__}: "
-                       f"{exc}). Fix: check the file is an FMU (a zip with modelDescription.xml)."
-                       ) from None
-    if md.fmiVersion.startswith("1."):
-        raise FmuError(instance, None, f"'{path}' is an FMI 1.0 FMU, which is not supported. Fix: "
-                       f"export it as FMI 2.0 or 3.0 co-simulation.")
-    if md.coSimulation is None and (md.modelExchange is None or md.fmiVersion != "2.0"):
-        raise FmuError(instance, None, f"'{path}' has neither a co-simulation interface nor an "
-                       f"FMI 2.0 model-exchange one. Fix: export it as FMI 2.0/3.0 co-simulation "
-                       f"or FMI 2.0 model exchange.")
-    return md
-
-
-def ports_of(md: Any) -> tuple[list[_Port], dict[str, Variable]]:
-    """Ports (grouped arrays) and their Variable descriptors from a ModelDescription."""
-    groups: dict[tuple[str, str], list[tuple[int, Any]]] = {}
-    order: list[tuple[str, str]] = []
-    for v in md.modelVariables:
-        if v.causality == "input":
-            kind = "input"
-        elif v.causality == "output":
-            kind = "state" if getattr(v, "initial", None) == "exact" else "output"
-        elif v.causality == "parameter" and v.variability in ("fixed", "tunable"):
-            kind = "parameter"
-        else:
-            continue
-        m = _ARRAY.match(v.name)
-        key = (m.group(1), kind) if m else (v.name, kind)
-        idx = int(m.group(2)) if m else 0
-        if key not in groups:
-            groups[key] = []
-            order.append(key)
-        groups[key].append((idx, v))
-    ports: list[_Port] = []
-    variables: dict[str, Variable] = {}
-    inputs_by_var: dict[int, str] = {}
-    for key in order:
-        name, kind = key
-        items = sorted(groups[key], key=lambda x: x[0])
-        scalar = len(items) == 1 and items[0][0] == 0
-        if not scalar and [i for i, _ in items] != list(range(1, len(items) + 1)):
-            # not a complete 1..n array: keep every element as its own scalar port
-            for i, v in items:
-                _add(ports, variables, f"{name}_{i}", kind, [v], True)
-            continue
-        _add(ports, variables, name, kind, [v for _, v in items], scalar)
-        if kind == "input":
-            for _, v in items:
-                inputs_by_var[id(v)] = name
-    all_inputs = tuple(p.name for p in ports if p.kind == "input")
-    deps: dict[str, set[str]] = {}
-    for unknown in getattr(md, "outputs", []) or []:
-        m = _ARRAY.match(unknown.variable.name)
-        port = m.group(1) if m else unknown.variable.name
-        if getattr(unknown.variable, "initial", None) == "exact":
-            continue  # a state: never depends directly on inputs
-        if unknown.dependencies is None:
-            deps.setdefault(port, set()).update(all_inputs)
-        else:
-            deps.setdefault(port, set()).update(
-                inputs_by_var[id(d)] for d in unknown.dependencies if id(d) in inputs_by_var)
-    for p in ports:
-        if p.kind in ("output", "state"):
-            var = variables[p.name]
-            assert isinstance(var, Output)
-            var.depends_on = () if p.kind == "state" else \
-                tuple(sorted(deps.get(p.name, set(all_inputs))))
-    return ports, variables
-
-
-def _add(ports: list[_Port], variables: dict[str, Variable], name: str, kind: str,
-         vs: list[Any], scalar: bool) -> None:
-    type_ = _TYPES.get(vs[0].type, REAL)
-    units = tuple(_unit(v) for v in vs)
-    starts = [_start(v, type_) for v in vs]
-    cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter}[kind]
-    kwargs: dict[str, Any] = {"type": type_, "description": vs[0].description or ""}
-    if type_ != STRING:
-        kwargs["unit"] = units[0] if len(set(units)) == 1 else units
-    if scalar:
-        start = starts[0]
-        if start is None:
-            start = "" if type_ == STRING else (False if type_ == BOOLEAN else 0)
-        var = cls(start=start, **kwargs)
-    else:
-        kwargs["size"] = len(vs)
-        var = cls(start=tuple(0 if s is None else s for s in starts), **kwargs)
-    var.name = name
-    variables[name] = var
-    ports.append(_Port(name, kind, type_, [v.valueReference for v in vs], scalar))
+        name = (unzipped / "resources" / "slavemodule.txt").read_text().strip()
+    except OSError:
+        return
+    module = sys.modules.get(name)
+    if module is not None:
+        ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
 
 
 class FmuComponent(Component):
-    """An FMU (FMI 2.0/3.0 co-simulation) stepped through fmpy; ports from its modelDescription."""
+    """An FMU stepped through fmpy; ports from its modelDescription."""
 
     kind = "fmu"
-    construction_parameters = ("path", "interface", "solver_step")
+    #: a port without unit here means the FMU declares none (wiring it to a unit is warned about)
+    generic_units = False
+    construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
+                               "solver_step", "isolate", "timeout")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
-                 solver_step: float = 1e-3, **parameters: Any):
+                 solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
+                 max_step: float = 0.0, solver_step: float = 1e-3, **parameters: Any):
         """`interface`: auto (co-simulation when the FMU has it) | co_simulation |
-        model_exchange (FMI 2.0: integrated here by RK4 with steps of at most `solver_step` [s],
-        inputs held over each communication step; time and state events are not handled)."""
-        self.path = Path(path)
-        self.md = read_description(self.path, name or "fmu")
+        model_exchange. Model exchange only: `solver` cvode (default) or rk4; `rtol`, `atol`
+        (None: rtol × each state's nominal) and `max_step` [s] (0: no limit) for cvode;
+        `solver_step` [s] for rk4."""
+        label = name or "fmu"
+        self.source_path = Path(path)
+        self.md = read_description(self.source_path, label)
         if interface not in ("auto", "co_simulation", "model_exchange"):
-            raise FmuError(name, None, f"interface '{interface}' is unknown. Fix: use auto, "
+            raise FmuError(label, None, f"interface '{interface}' is unknown. Fix: use auto, "
                            f"co_simulation or model_exchange.")
         self.me = interface == "model_exchange" or (interface == "auto" and
                                                      self.md.coSimulation is None)
         if (self.me and self.md.modelExchange is None) or (not self.me and
                                                            self.md.coSimulation is None):
-            raise FmuError(name, None, f"'{self.path.name}' has no {interface} interface.")
+            raise FmuError(label, None, f"'{self.source_path.name}' has no {interface} "
+                           f"interface.")
+        if solver not in SOLVERS:
+            raise FmuError(label, None, f"solver '{solver}' is unknown. Fix: use one of "
+                           f"{', '.join(SOLVERS)}.")
+        for key, value in (("rtol", rtol), ("max_step", max_step), ("solver_step", solver_step)):
+            if not isinstance(value, (int, float)) or value < 0 or value != value or \
+                    (key != "max_step" and value == 0):
+                raise FmuError(label, None, f"{key} = {value!r} must be a positive number.")
+        self.solver, self.rtol, self.max_step = solver, float(rtol), float(max_step)
+        self.atol = None if atol is None else float(atol)
         self.solver_step = float(solver_step)
-        try:
-            self.ports, self._variables = ports_of(self.md)
-        except ValueError as err:
-            raise FmuError(name, None, f"'{self.path.name}': {err} in its modelDescription.xml. "
-                           f"Fix: correct the FMU's model description (or ask its vendor).") \
-                from None
         self.fmi3 = self.md.fmiVersion.startswith("3.")
-        self._slave: Any = None
+        try:
+            self.ports, self._variables = ports_of(self.md, parameters)
+        except ValueError as err:
+            raise FmuError(label, None, f"'{self.source_path.name}': {err} in its "
+                           f"modelDescription.xml. Fix: correct the FMU's model description "
+                           f"(or ask its vendor).") from None
+        self._structural = {v.name for v in self.md.modelVariables
+                            if v.causality == "structuralParameter"}
+        self.path = runnable(self.source_path, self.md, label)
+        self.log = FmuLog(label)
+        # pythonfmu 0.7 slaves run in this interpreter (see _restore_pythonfmu_reference); they
+        # keep fmpy's default callbacks and their log is not captured
+        self._pythonfmu = (self.md.generationTool or "").startswith("PythonFMU")
+        self._fmu: Any = None
         self._unzipped: str | None = None
+        self._integrator: Integrator | None = None
         self._t = 0.0
+        self._given: set[str] = set()
+        self._wired: set[str] | None = None
+        self._read: set[str] | None = None
         super().__init__(name)
         self.variables = dict(self._variables)
         for var in self.variables.values():
@@ -206,14 +121,24 @@ class FmuComponent(Component):
             self.set_parameter(key, value)
 
     @classmethod
-    def create(cls, name: str, base_dir: Path, **construction: Any) -> "FmuComponent":
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> Component:
         path = construction.get("path")
         if not path:
             raise FmuError(name, None, "a component of kind 'fmu' needs `path:` under "
                            "`parameters:`. Fix: give the FMU file, e.g. path: fmus/plant.fmu")
         p = Path(str(path))
         rest = {k: v for k, v in construction.items() if k != "path"}
-        return cls(name, p if p.is_absolute() else base_dir / p, **rest)
+        full = p if p.is_absolute() else base_dir / p
+        if rest.pop("isolate", False):
+            from twmr.fmi.isolated import IsolatedFmu
+
+            return IsolatedFmu(name, full, **rest)
+        rest.pop("timeout", None)
+        return cls(name, full, **rest)
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        super().set_parameter(name, value)
+        self._given.add(name)
 
     # -- FMI calls --------------------------------------------------------------------------
     def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
@@ -222,219 +147,242 @@ class FmuComponent(Component):
         except Exception as exc:  # noqa: BLE001 - fmpy's FMICallException and OSError alike
             raise self._error(what, exc) from exc
 
-    def _accessors(self, type_: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
-        s = self._slave
-        if self.fmi3:
-            return {REAL: (s.getFloat64, s.setFloat64), INTEGER: (s.getInt32, s.setInt32),
-                    BOOLEAN: (s.getBoolean, s.setBoolean), STRING: (s.getString, s.setString)
-                    }[type_]
-        return {REAL: (s.getReal, s.setReal), INTEGER: (s.getInteger, s.setInteger),
-                BOOLEAN: (s.getBoolean, s.setBoolean), STRING: (s.getString, s.setString)}[type_]
+    def _accessors(self, fmi_type: str) -> tuple[Callable[..., Any], Callable[..., Any]]:
+        suffix = _call_suffix(fmi_type, self.fmi3)
+        return getattr(self._fmu, f"get{suffix}"), getattr(self._fmu, f"set{suffix}")
+
+    def prepare(self, run: Any) -> None:
+        self._wired = run.wired_inputs(self.name)
+        self._read = run.read_outputs(self.name)
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
         from fmpy import extract
 
         self._t = start
-        import fmpy
-
-        platforms = fmpy.supported_platforms(str(self.path))
-        here = fmpy.platform if not self.fmi3 else __import__("fmpy.fmi3").fmi3.platform_tuple
-        if fmpy.platform not in platforms and here not in platforms:
-            raise FmuError(self.name, start, f"FMU '{self.path.name}' has no binary for this "
-                           f"platform ({fmpy.platform}); it has: {', '.join(platforms) or 'none'}"
-                           f". Fix: get a build of the FMU for {fmpy.platform}.")
         self._unzipped = self._call("extract", extract, str(self.path),
                                     tempfile.mkdtemp(prefix="twmr-fmu-"))
-        cs = self.md.modelExchange if self.me else self.md.coSimulation
-        if self.me:
-            from fmpy.fmi2 import FMU2Model
+        iface = self.md.modelExchange if self.me else self.md.coSimulation
+        args = dict(guid=self.md.guid, unzipDirectory=self._unzipped,
+                    modelIdentifier=iface.modelIdentifier, instanceName=self.name)
+        version = "fmi3" if self.fmi3 else "fmi2"
+        what = f"{version}Instantiate" + (("ModelExchange" if self.me else "CoSimulation")
+                                           if self.fmi3 else "")
+        if self.fmi3:
+            from fmpy.fmi3 import FMU3Model, FMU3Slave
 
-            self._slave = FMU2Model(guid=self.md.guid, unzipDirectory=self._unzipped,
-                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
-            self._call("fmi2Instantiate", self._slave.instantiate)
-            self._call("fmi2SetupExperiment", self._slave.setupExperiment, None, start)
-        elif self.fmi3:
-            from fmpy.fmi3 import FMU3Slave
-
-            self._slave = FMU3Slave(guid=self.md.instantiationToken,
-                                    unzipDirectory=self._unzipped,
-                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
-            self._call("fmi3InstantiateCoSimulation", self._slave.instantiate)
+            fmu = (FMU3Model if self.me else FMU3Slave)(**args)
+            self._call(what, lambda: fmu.instantiate(loggingOn=True,
+                                                    logMessage=self.log.fmi3_logger()))
         else:
-            from fmpy.fmi2 import FMU2Slave
+            from fmpy.fmi2 import FMU2Model, FMU2Slave
 
-            self._slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self._unzipped,
-                                    modelIdentifier=cs.modelIdentifier, instanceName=self.name)
-            self._call("fmi2Instantiate", self._slave.instantiate)
-            self._call("fmi2SetupExperiment", self._slave.setupExperiment, None, start)
+            fmu = (FMU2Model if self.me else FMU2Slave)(**args)
+            callbacks = None if self._pythonfmu else self.log.fmi2_callbacks()
+            self._call(what, lambda: fmu.instantiate(callbacks=callbacks,
+                                                    loggingOn=not self._pythonfmu))
+        self._fmu = fmu  # instantiated: from here on terminate() frees it
+        if self._pythonfmu:
+            _restore_pythonfmu_reference(Path(self._unzipped))
+        if not self.fmi3:
+            self._call("fmi2SetupExperiment", fmu.setupExperiment,
+                       self.rtol if self.me else None, start)
 
     def initialize(self) -> None:
-        s = self._slave
+        f = self._fmu
+        structural = [p for p in self.ports if p.name in self._structural and
+                      p.name in self._given]
+        if structural:
+            self._call("fmi3EnterConfigurationMode", f.enterConfigurationMode)
+            self._write(structural)
+            self._call("fmi3ExitConfigurationMode", f.exitConfigurationMode)
         if self.fmi3:
-            self._call("fmi3EnterInitializationMode", s.enterInitializationMode, None,
-                       self.start_time)
+            self._call("fmi3EnterInitializationMode", f.enterInitializationMode,
+                       self.rtol if self.me else None, self.start_time)
         else:
-            self._call("fmi2EnterInitializationMode", s.enterInitializationMode)
-        self._write([p for p in self.ports if p.kind in ("parameter", "input", "state")])
-        self._call("ExitInitializationMode", s.exitInitializationMode)
+            self._call("fmi2EnterInitializationMode", f.enterInitializationMode)
+        self._write([p for p in self.ports if p.kind in ("parameter", "input", "state")
+                     and p.name not in self._structural])
+        self._call("ExitInitializationMode", f.exitInitializationMode)
+        inputs = [p for p in self.ports if p.kind == "input" and
+                  (self._wired is None or p.name in self._wired)]
+        outputs = [p for p in self.ports if p.kind in ("output", "state")]
+        read = [p for p in outputs if self._read is None or p.name in self._read]
+        feedthrough = {p.name for p in read if self.variables[p.name].depends_on}
         if self.me:
-            self._me_start()
-        self._inputs = [p for p in self.ports if p.kind == "input"]
-        self._outputs = [p for p in self.ports if p.kind in ("output", "state")]
-        self._plan = self._group(self._inputs), self._group(self._outputs)
-        self._compile()
+            self._integrator = Integrator(f, self.md, self.fmi3, self.solver, self.rtol,
+                                          self.atol, self.max_step, self.solver_step, self._call)
+            try:
+                self._integrator.start(self.start_time)
+            except Terminated:
+                raise FmuError(self.name, self.start_time, f"FMU '{self.path.name}' asked to "
+                               f"terminate during its initial event iteration.",
+                               self.log.tail()) from None
+            self._set_cont = self._plan([p for p in inputs if not p.discrete], 1)
+            self._set_disc = self._plan([p for p in inputs if p.discrete], 1)
+            self._last_disc = self._values_of(self._set_disc)
+            self._last_cont = self._values_of(self._set_cont)
+        else:
+            self._set_all = self._plan(inputs, 1)
+        self._get_ft = self._plan([p for p in read if p.name in feedthrough], 0)
+        self._get_step = self._plan([p for p in read if p.name not in feedthrough]
+                                    if self.has_feedthrough else read, 0)
+        self._inputs_set = False
         try:
-            self._read()
+            self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
             raise self._error("reading the outputs after initialization", exc) from exc
 
-    def _group(self, ports: list[_Port]) -> list[tuple[str, list[int], list[_Port]]]:
-        """Ports by type, with their value references concatenated: one FMI call per type."""
-        by: dict[str, list[_Port]] = {}
+    def _plan(self, ports: list[FmuPort], which: int) -> list[Any]:
+        """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
+        number of values and the ports [(name, scalar, count)], so each type is one call."""
+        by: dict[str, list[FmuPort]] = {}
         for p in ports:
-            by.setdefault(p.type, []).append(p)
-        return [(t, [vr for p in ps for vr in p.vrs], ps) for t, ps in by.items()]
+            by.setdefault(_call_suffix(p.fmi_type, self.fmi3), []).append(p)
+        plan = []
+        for ps in by.values():
+            fn = self._accessors(ps[0].fmi_type)[which]
+            vrs = [vr for p in ps for vr in p.vrs]
+            plan.append((fn, vrs, sum(p.count for p in ps),
+                         [(p.name, p.scalar, p.count) for p in ps]))
+        return plan
 
-    def _write(self, ports: list[_Port]) -> None:
-        d = self.__dict__
-        for type_, vrs, ps in self._group(ports):
-            values: list[Any] = []
-            for p in ps:
-                v = d[p.name]
-                values.extend((v,) if p.scalar else v)
-            if type_ == STRING:
+    def _write(self, ports: list[FmuPort]) -> None:
+        """Start values and parameters of `ports`, one call per type (initialization)."""
+        for setter, vrs, _, names in self._plan(ports, 1):
+            values = self._values(names)
+            if setter.__name__ == "setString":
                 values = [str(v) for v in values]
-            self._call(f"set {type_}", self._accessors(type_)[1], vrs, values)
+            self._call(f"{setter.__name__} of {', '.join(n for n, _, _ in names)}", setter, vrs,
+                       values)
 
-    def _compile(self) -> None:
-        """Per type: the bound fmpy setter/getter, the value references, and the ports, so a step
-        is one set call per input type, doStep, one get call per output type."""
-        def plan(groups: list[tuple[str, list[int], list[_Port]]], which: int) -> list[Any]:
-            return [(self._accessors(t)[which], vrs, [(q.name, q.scalar, len(q.vrs)) for q in ps])
-                    for t, vrs, ps in groups]
-
-        self._set_plan = plan(self._plan[0], 1)
-        self._get_plan = plan(self._plan[1], 0)
-
-    def _write_inputs(self) -> None:
+    def _values(self, names: list[tuple[str, bool, int]]) -> list[Any]:
         d = self.__dict__
-        for setter, vrs, ports in self._set_plan:
-            if len(ports) == 1:
-                name, scalar, _ = ports[0]
-                setter(vrs, (d[name],) if scalar else d[name])
+        if len(names) == 1:
+            name, scalar, _ = names[0]
+            return [d[name]] if scalar else list(d[name])
+        values: list[Any] = []
+        for name, scalar, _ in names:
+            if scalar:
+                values.append(d[name])
+            else:
+                values.extend(d[name])
+        return values
+
+    def _values_of(self, plan: list[Any]) -> list[list[Any]]:
+        return [self._values(names) for _, _, _, names in plan]
+
+    def _set(self, plan: list[Any]) -> None:
+        for setter, vrs, _, names in plan:
+            setter(vrs, self._values(names))
+
+    def _get(self, plan: list[Any]) -> None:
+        d = self.__dict__
+        for getter, vrs, count, names in plan:
+            values = getter(vrs, count) if self.fmi3 else getter(vrs)
+            if len(names) == 1:
+                name, scalar, _ = names[0]
+                d[name] = values[0] if scalar else tuple(values)
                 continue
-            values: list[Any] = []
-            for name, scalar, _ in ports:
-                if scalar:
-                    values.append(d[name])
-                else:
-                    values.extend(d[name])
-            setter(vrs, values)
-
-    def _read(self) -> None:
-        d = self.__dict__
-        for getter, vrs, ports in self._get_plan:
-            values = getter(vrs)
             k = 0
-            for name, scalar, n in ports:
+            for name, scalar, n in names:
                 d[name] = values[k] if scalar else tuple(values[k:k + n])
                 k += n
+
+    def _set_inputs(self, t: float) -> None:
+        """The wired inputs into the FMU; for model exchange a changed discrete input is set in
+        event mode (an event at t), and a changed continuous one restarts the solver."""
+        if not self.me:
+            self._set(self._set_all)
+            return
+        integ = self._integrator
+        assert integ is not None
+        if self._set_cont:
+            values = self._values_of(self._set_cont)
+            if values != self._last_cont:
+                self._set(self._set_cont)
+                self._last_cont = values
+                integ.restart()
+        if self._set_disc:
+            values = self._values_of(self._set_disc)
+            if values != self._last_disc:
+                integ.event(t, lambda: self._set(self._set_disc))
+                self._last_disc = values
 
     def evaluate(self, t: float) -> None:
         self._t = t
         try:
-            self._write_inputs()
-            self._read()
+            self._set_inputs(t)
+            self._inputs_set = True
+            self._get(self._get_ft)
+        except (FmuError, Terminated):
+            raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
-            raise self._error("get/set of inputs and outputs", exc) from exc
-
-    def _me_start(self) -> None:
-        """Event iteration after initialization, then continuous-time mode (model exchange)."""
-        import numpy as np
-
-        s = self._slave
-        while self._call("fmi2NewDiscreteStates", s.newDiscreteStates)[0]:
-            pass  # iterate until no new discrete states are needed
-        self._call("fmi2EnterContinuousTimeMode", s.enterContinuousTimeMode)
-        self._nx = self.md.numberOfContinuousStates
-        self._x = np.zeros(self._nx)
-        self._dx = np.zeros(self._nx)
-
-    def _me_step(self, t: float, h: float) -> None:
-        """RK4 over [t, t + h] with the inputs held, substeps of at most `solver_step`."""
-        from ctypes import POINTER, c_double
-
-        s, x, dx, nx = self._slave, self._x, self._dx, self._nx
-        xp, dxp = x.ctypes.data_as(POINTER(c_double)), dx.ctypes.data_as(POINTER(c_double))
-
-        def f(time: float, state: Any) -> Any:
-            x[:] = state
-            s.setTime(time)
-            s.setContinuousStates(xp, nx)
-            s.getDerivatives(dxp, nx)
-            return dx.copy()
-
-        s.getContinuousStates(xp, nx)
-        n = max(1, int(-(-h // self.solver_step)))
-        hs = h / n
-        y = x.copy()
-        for k in range(n):
-            tk = t + k * hs
-            k1 = f(tk, y)
-            k2 = f(tk + hs / 2, y + hs / 2 * k1)
-            k3 = f(tk + hs / 2, y + hs / 2 * k2)
-            k4 = f(tk + hs, y + hs * k3)
-            y = y + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        x[:] = y
-        s.setTime(t + h)
-        s.setContinuousStates(xp, nx)
-        enter_event, terminate = s.completedIntegratorStep()
-        if terminate:
-            raise FmuError(self.name, t + h, f"FMU '{self.path.name}' asked to terminate.")
+            raise self._error("setting the inputs and getting the outputs", exc) from exc
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
+        what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
+                                                          else "fmi2DoStep")
         try:
-            self._write_inputs()
-            result = self._me_step(t, h) if self.me else self._slave.doStep(t, h)
-            self._read()
+            if not self._inputs_set:
+                self._set_inputs(t)
+            self._inputs_set = False
+            if self.me:
+                assert self._integrator is not None
+                self._integrator.advance(t + h)
+                result = None
+            else:
+                result = self._fmu.doStep(t, h)
+            self._get(self._get_step)
+        except Terminated as stop:
+            raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
+                           f"the simulation (terminateSimulation).", self.log.tail()) from None
+        except FmuError:
+            raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
-            raise self._error("doStep", exc) from exc
+            raise self._error(what, exc) from exc
         if self.fmi3 and result is not None and result[1]:
             raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                           f"simulation (fmi3DoStep terminateSimulation).")
+                           f"simulation (fmi3DoStep terminateSimulation).", self.log.tail())
 
     def _error(self, what: str, exc: BaseException) -> FmuError:
         return FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
                         f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
-                        f"inputs and parameters at this time.")
+                        f"inputs and parameters at this time.", self.log.tail())
+
+    def report(self) -> dict[str, Any]:
+        if self._integrator is None:
+            return {}
+        return {"solver": self.solver, "events": self._integrator.events}
 
     def get_state(self) -> Any:
-        if not getattr(self.md.coSimulation, "canGetAndSetFMUstate", False):
+        iface = self.md.modelExchange if self.me else self.md.coSimulation
+        if self.me or not getattr(iface, "canGetAndSetFMUstate", False):
             raise FmuError(self.name, self._t, f"FMU '{self.path.name}' cannot save its state "
-                           f"(canGetAndSetFMUstate is false).")
-        get = getattr(self._slave, "getFMUState", None) or self._slave.getFMUstate
+                           f"(canGetAndSetFMUstate is false, or model exchange).")
+        get = getattr(self._fmu, "getFMUState", None) or self._fmu.getFMUstate
         return self._call("getFMUstate", get), dict(self.__dict__)
 
     def set_state(self, state: Any) -> None:
         fmu_state, values = state
-        set_ = getattr(self._slave, "setFMUState", None) or self._slave.setFMUstate
+        set_ = getattr(self._fmu, "setFMUState", None) or self._fmu.setFMUstate
         self._call("setFMUstate", set_, fmu_state)
         self.__dict__.update(values)
 
     def terminate(self) -> None:
-        if self._slave is not None:
+        """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""
+        if self._fmu is not None:
+            fmu, self._fmu = self._fmu, None
             try:
-                if not (self.md.generationTool or "").startswith("PythonFMU"):
-                    self._slave.terminate()
-                    self._slave.freeInstance()
-                # pythonfmu 0.7 FMUs run in this interpreter; their fmi2Terminate/FreeInstance
-                # release Python objects they do not own and crash a later garbage collection
-                # (seen with several instances in one process), so they are left to process exit
+                if not self._pythonfmu:  # see __init__: theirs crash a later collection
+                    fmu.terminate()
+                    fmu.freeInstance()
             except Exception:  # noqa: BLE001 - terminating after an error must not mask it
                 pass
-            self._slave = None
+        if self._integrator is not None:
+            self._integrator.close()
+            self._integrator = None
         if self._unzipped:
             shutil.rmtree(self._unzipped, ignore_errors=True)
             self._unzipped = None

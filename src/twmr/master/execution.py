@@ -69,11 +69,22 @@ class ResultWriteError(CosimError):
 class RunContext:
     """What a run offers a component before `setup` (`Component.prepare`): a folder for its own
     files (None: the run writes nothing), the base step h [s], and whether steps are paced to the
-    wall clock."""
+    wall clock. `wired` holds the (instance, input) pairs driven by a wire and `read` the
+    (instance, output) pairs the run reads (wired or recorded); None: every port."""
 
     folder: Path | None
     step: float
     paced: bool
+    wired: frozenset[tuple[str, str]] | None = None
+    read: frozenset[tuple[str, str]] | None = None
+
+    def wired_inputs(self, instance: str) -> set[str] | None:
+        """Inputs of `instance` written by the master at each step (None: all of them)."""
+        return None if self.wired is None else {p for n, p in self.wired if n == instance}
+
+    def read_outputs(self, instance: str) -> set[str] | None:
+        """Outputs of `instance` the run reads (None: all of them)."""
+        return None if self.read is None else {p for n, p in self.read if n == instance}
 
 
 class Pacer:
@@ -216,7 +227,11 @@ class Execution:
                              self.folder, self.system.source)
             for obs in self.observers:
                 self._write(obs.started, start)
-            context = RunContext(self.folder, exp.step, paced)
+            context = RunContext(
+                self.folder, exp.step, paced,
+                frozenset((c.dst, c.dst_port) for c in self.system.connections),
+                frozenset([(c.src, c.src_port) for c in self.system.connections]
+                          + list(self.signals)))
             if paced:
                 # collect now, before hardware starts (a full collection stalls every thread
                 # for tens of ms), and freeze: a collection during the paced run scans only

@@ -20,8 +20,8 @@ from twmr.core.component import Component
 from twmr.core.errors import (
     AlgebraicLoopError, CosimError, Location, Problem, ScenarioError, UnitError, WiringError,
 )
-from twmr.core.port import STRING
-from twmr.core.units import conversion
+from twmr.core.port import TEXT_TYPES
+from twmr.core.units import conversion, known_unit
 from twmr.registry import kinds, lookup, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
@@ -263,7 +263,7 @@ class _Builder:
 
     def quantity(self, value: Any, var: Any, comp: str, key: str) -> Any:
         """A number with a unit ('30 cm') converted to the variable's unit; other values as is."""
-        if var.type == STRING or not isinstance(value, str):
+        if var.type in TEXT_TYPES or not isinstance(value, str):
             return value
         try:
             return float(value)  # YAML 1.1 reads '1e-4' (no dot) as text
@@ -272,7 +272,11 @@ class _Builder:
         m = _QUANTITY.match(value)
         if not m:
             raise ValueError(f"cannot read '{value}' as a number with a unit")
-        gain, offset = conversion(m.group(2), var.element_unit(0))
+        unit = known_unit(var.element_unit(0), var.unit_definitions)
+        if unit is None:
+            raise ValueError(f"its unit '{var.element_unit(0)}' is not one that can be converted "
+                             f"to; give a plain number")
+        gain, offset = conversion(m.group(2), unit)
         return float(m.group(1)) * gain + offset
 
     def experiment(self) -> Experiment:
@@ -358,11 +362,11 @@ class _Builder:
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.data.get("record") or {}
         everything = [(n, p) for n, c in comps.items() for p, v in c.variables.items()
-                      if v.kind != "parameter" and v.type != STRING]
+                      if v.kind != "parameter" and v.type not in TEXT_TYPES]
         patterns = spec.get("signals")
         if patterns is None:
             chosen = [(n, p) for n, c in comps.items() for p, v in c.outputs.items()
-                      if v.type != STRING]
+                      if v.type not in TEXT_TYPES]
         else:
             chosen = []
             for i, pat in enumerate(patterns):

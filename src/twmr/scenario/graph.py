@@ -11,15 +11,18 @@ with the cycle printed.
 from __future__ import annotations
 
 import heapq
+import logging
 import re
 from dataclasses import dataclass
 
 from twmr.core.component import Component
 from twmr.core.errors import Location, Problem, UnitError
 from twmr.core.port import Variable
-from twmr.core.units import conversion
+from twmr.core.units import conversion, known_unit
 from twmr.registry import suggest
 from twmr.scenario.system import Connection
+
+log = logging.getLogger("twmr")
 
 _END = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_][\w]*)\s*(\[\s*([0-9:,\s]+)\s*\])?\s*$")
 
@@ -108,13 +111,33 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
                                 f"{b.type}.", "connect ports of the same type."))
         return []
     gains = []
+    unitless: list[str] = []
     for i, j in zip(sidx, didx):
         su, du = a.element_unit(i), b.element_unit(j)
-        if not su or not du:  # unspecified on one side (a generic block): no check, no scale
+        if not su or not du:  # unspecified on one side: no check, no scale
+            for end, unit, other in ((src, su, du), (dst, du, su)):
+                if not unit and other and not getattr(comps[end.comp], "generic_units", True):
+                    unitless.append(f"'{end.comp}.{end.port}' declares no unit but is wired to "
+                                    f"'{other}'")
             gains.append((1.0, 0.0))
             continue
+        ua, ub = known_unit(su, a.unit_definitions), known_unit(du, b.unit_definitions)
+        if ua is None or ub is None:
+            if su == du:  # the same unit, though not one we can convert: pass as is
+                gains.append((1.0, 0.0))
+                continue
+            unknown = [f"'{u}' ('{e.comp}.{e.port}')" for u, e, k in
+                       ((su, src, ua), (du, dst, ub)) if k is None]
+            problems.append(Problem(
+                loc, f"unit mismatch: '{src.comp}.{src.port}' element {i + 1} is in '{su}' and "
+                f"'{dst.comp}.{dst.port}' element {j + 1} in '{du}', and {' and '.join(unknown)} "
+                f"is neither a Modelica unit nor defined with a BaseUnit in the FMU's "
+                f"UnitDefinitions, so no conversion between them is known.",
+                "use the same unit string at both ends, or give the unit a BaseUnit in the FMU's "
+                "UnitDefinitions."))
+            return []
         try:
-            gains.append(conversion(su, du))
+            gains.append(conversion(ua, ub))
         except UnitError:
             problems.append(Problem(
                 loc, f"unit mismatch: '{src.comp}.{src.port}' element {i + 1} is in '{su}' but "
@@ -122,6 +145,9 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
                 f"different quantities.", "connect a port that measures the same quantity, or "
                 "fix the unit declared by one of the components."))
             return []
+    if unitless:
+        log.warning("%s: %s; the value passes unconverted. Fix: check both ends measure the "
+                    "same quantity in the same unit.", loc, "; ".join(dict.fromkeys(unitless)))
     if len(set(gains)) == 1:
         g, o = gains[0]
         return [Connection(src.comp, src.port, dst.comp, dst.port, src.index, dst.index, g, o,

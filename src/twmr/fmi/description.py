@@ -1,0 +1,274 @@
+"""What an FMU offers, read from its modelDescription.xml (through fmpy): the ports, their FMI
+types and value references, array sizes, units with the FMU's own UnitDefinitions, and direct
+feedthrough.
+
+Ports: causality input/output -> `Input`/`Output`, parameters and structural parameters (fixed or
+tunable) -> `Parameter`, with type, unit (the variable's or its declaredType's), start, min/max and
+description. An FMI 3.0 array (`<Dimension>`) is a vector port of the product of its dimensions
+(row-major), sized by the dimension's start or by the structural parameter it names; Modelica
+array names `x[1]..x[n]` are grouped into a vector port `x`. Direct feedthrough comes from
+ModelStructure (an output without dependency information depends on every input, as the standard
+says).
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from twmr.core.errors import FmuError
+from twmr.core.port import (
+    BINARY, BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, State, Variable,
+)
+from twmr.core.units import Unit
+
+_ARRAY = re.compile(r"^(.*)\[(\d+)\]$")
+#: FMI type -> port type
+PORT_TYPE = {"Real": REAL, "Float64": REAL, "Float32": REAL, "Integer": INTEGER,
+             "Enumeration": INTEGER, "Int8": INTEGER, "UInt8": INTEGER, "Int16": INTEGER,
+             "UInt16": INTEGER, "Int32": INTEGER, "UInt32": INTEGER, "Int64": INTEGER,
+             "UInt64": INTEGER, "Boolean": BOOLEAN, "String": STRING, "Binary": BINARY}
+#: value range of the FMI 3.0 integer types
+_RANGE = {f"{u}Int{b}": ((0, 2**b - 1) if u else (-2**(b - 1), 2**(b - 1) - 1))
+          for u in ("", "U") for b in (8, 16, 32, 64)}
+
+
+@dataclass
+class FmuPort:
+    """One port and the FMU variables behind it: value references in element order, the FMI
+    type of its get/set calls, and how many values they carry."""
+
+    name: str
+    kind: str
+    fmi_type: str
+    vrs: list[int]
+    count: int
+    scalar: bool
+    discrete: bool
+
+    @property
+    def type(self) -> str:
+        return PORT_TYPE[self.fmi_type]
+
+
+def read_description(path: Path, instance: str = "fmu") -> Any:
+    """fmpy's ModelDescription of `path`, with every failure as an FmuError; FMUs this importer
+    cannot run correctly (FMI 1.0, clocks, scheduled execution only) are refused here."""
+    from fmpy import read_model_description
+
+    if not path.exists():
+        raise FmuError(instance, None, f"FMU file '{path}' not found. Fix: check `path:` (relative "
+                       f"paths are taken from the scenario's folder).")
+    try:
+        md = read_model_description(str(path), validate=False)
+    except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds (zip, XML, schema)
+        raise FmuError(instance, None, f"'{path}' is not a readable FMU ({type(exc).__name__}: "
+                       f"{exc}). Fix: check the file is an FMU (a zip with modelDescription.xml)."
+                       ) from None
+    if md.fmiVersion.startswith("1."):
+        raise FmuError(instance, None, f"'{path}' is an FMI 1.0 FMU, which is not supported. Fix: "
+                       f"export it as FMI 2.0 or 3.0 co-simulation or model exchange.")
+    if md.coSimulation is None and md.modelExchange is None:
+        what = "only scheduled execution" if md.scheduledExecution is not None else "no interface"
+        raise FmuError(instance, None, f"'{path}' offers {what}; this importer runs co-simulation "
+                       f"and model-exchange FMUs. Fix: export it as FMI 2.0/3.0 co-simulation or "
+                       f"model exchange.")
+    clocks = [v.name for v in md.modelVariables if v.type == "Clock"]
+    if clocks:
+        raise FmuError(instance, None, f"'{path}' has clocks ({', '.join(clocks[:5])}); FMI 3.0 "
+                       f"clocked partitions are not supported by this importer. Fix: export the "
+                       f"FMU without clocks (a fixed-step co-simulation FMU samples on its own).")
+    return md
+
+
+def unit_definitions(md: Any) -> dict[str, Unit]:
+    """The FMU's UnitDefinitions that carry a BaseUnit, as units (SI = factor * value + offset)."""
+    defined: dict[str, Unit] = {}
+    for u in getattr(md, "unitDefinitions", None) or []:
+        b = u.baseUnit
+        if u.name and b is not None:
+            exps = (b.kg, b.m, b.s, b.A, b.K, b.mol, b.cd, b.rad)
+            defined[u.name] = Unit(u.name, float(b.factor), tuple(int(e) for e in exps),
+                                   float(b.offset))
+    return defined
+
+
+def _unit(v: Any) -> str:
+    unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
+    return unit or ""
+
+
+def _values(v: Any, text: str | None, type_: str, count: int) -> list[Any]:
+    """`count` start values of `v` from its start text (FMI 3.0 arrays: space-separated)."""
+    if text is None:
+        return [{STRING: "", BOOLEAN: False, BINARY: b"", REAL: 0.0}.get(type_, 0)] * count
+    if type_ == STRING:
+        return [str(text)] * count
+    items = str(text).split() or [""]
+    if len(items) == 1 and count > 1:
+        items = items * count
+    if len(items) != count:
+        raise ValueError(f"variable '{v.name}' has {len(items)} start values for "
+                         f"{count} elements")
+    out: list[Any] = []
+    for raw in items:
+        try:
+            if type_ == BOOLEAN:
+                out.append({"true": True, "1": True, "false": False, "0": False}[raw.lower()])
+            elif type_ == BINARY:
+                out.append(bytes.fromhex(raw[2:] if raw.lower().startswith("0x") else raw))
+            elif type_ == REAL:
+                out.append(float(raw))
+            else:
+                out.append(int(raw) if re.fullmatch(r"[-+]?\d+", raw) else int(float(raw)))
+        except (ValueError, KeyError):
+            raise ValueError(f"variable '{v.name}' has start=\"{raw}\", which is not a valid "
+                             f"{type_}") from None
+    return out
+
+
+def structural_values(md: Any, given: dict[str, Any]) -> dict[int, int]:
+    """Value of every structural parameter by value reference: `given` by the scenario, else
+    its start."""
+    values: dict[int, int] = {}
+    for v in md.modelVariables:
+        if v.causality == "structuralParameter":
+            raw = given.get(v.name, v.start)
+            try:
+                values[v.valueReference] = int(raw) if raw is not None else 0
+            except (TypeError, ValueError):
+                raise ValueError(f"structural parameter '{v.name}' = {raw!r} is not an "
+                                 f"integer") from None
+    return values
+
+
+def _size(v: Any, structural: dict[int, int]) -> int | None:
+    """Number of elements of an FMI 3.0 array variable (None: a scalar)."""
+    dims = getattr(v, "dimensions", None) or []
+    if not dims:
+        return None
+    n = 1
+    for d in dims:
+        if d.start is not None:
+            n *= int(d.start)
+        elif d.valueReference in structural:
+            n *= structural[d.valueReference]
+        else:
+            raise ValueError(f"variable '{v.name}' has a dimension given by value reference "
+                             f"{d.valueReference}, which is not a structural parameter")
+    return n
+
+
+def _kind(v: Any) -> str | None:
+    if v.causality == "input":
+        return "input"
+    if v.causality == "output":
+        return "state" if getattr(v, "initial", None) == "exact" else "output"
+    if v.causality in ("parameter", "structuralParameter") and \
+            v.variability in ("fixed", "tunable"):
+        return "parameter"
+    return None
+
+
+def ports_of(md: Any, given: dict[str, Any] | None = None
+             ) -> tuple[list[FmuPort], dict[str, Variable]]:
+    """Ports (grouped arrays) and their Variable descriptors from a ModelDescription; `given`
+    holds the scenario's parameter values (structural parameters size the arrays)."""
+    structural = structural_values(md, given or {})
+    defined = unit_definitions(md)
+    groups: dict[tuple[str, str], list[tuple[int, Any]]] = {}
+    order: list[tuple[str, str]] = []
+    for v in md.modelVariables:
+        kind = _kind(v)
+        if kind is None or v.type not in PORT_TYPE:
+            continue
+        m = _ARRAY.match(v.name) if not getattr(v, "dimensions", None) else None
+        key = (m.group(1), kind) if m else (v.name, kind)
+        idx = int(m.group(2)) if m else 0
+        if key not in groups:
+            groups[key] = []
+            order.append(key)
+        groups[key].append((idx, v))
+    ports: list[FmuPort] = []
+    variables: dict[str, Variable] = {}
+    port_of_var: dict[int, str] = {}
+    for key in order:
+        name, kind = key
+        items = sorted(groups[key], key=lambda x: x[0])
+        scalar = len(items) == 1 and items[0][0] == 0
+        if not scalar and ([i for i, _ in items] != list(range(1, len(items) + 1))
+                           or len({v.type for _, v in items}) > 1):
+            # not a complete 1..n array of one type: every element is its own scalar port
+            for i, v in items:
+                _add(ports, variables, f"{name}_{i}", kind, [v], structural, defined)
+                port_of_var[id(v)] = f"{name}_{i}"
+            continue
+        _add(ports, variables, name, kind, [v for _, v in items], structural, defined)
+        for _, v in items:
+            port_of_var[id(v)] = name
+    inputs = [p.name for p in ports if p.kind == "input"]
+    deps: dict[str, set[str]] = {}
+    for unknown in getattr(md, "outputs", []) or []:
+        port = port_of_var.get(id(unknown.variable))
+        if port is None or variables[port].kind == "state":
+            continue  # a state never depends directly on inputs
+        if unknown.dependencies is None:
+            deps.setdefault(port, set()).update(inputs)
+        else:
+            deps.setdefault(port, set()).update(
+                port_of_var[id(d)] for d in unknown.dependencies
+                if port_of_var.get(id(d)) in inputs)
+    for p in ports:
+        if p.kind == "output":
+            var = variables[p.name]
+            assert isinstance(var, Output)
+            var.depends_on = tuple(sorted(deps.get(p.name, set(inputs))))
+    return ports, variables
+
+
+def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: str,
+         vs: list[Any], structural: dict[int, int], defined: dict[str, Unit]) -> None:
+    fmi_type = vs[0].type
+    type_ = PORT_TYPE[fmi_type]
+    size = _size(vs[0], structural) if len(vs) == 1 else None
+    count = size if size is not None else len(vs)
+    if size is not None:
+        starts = _values(vs[0], vs[0].start, type_, size)
+    else:
+        starts = [_values(v, v.start, type_, 1)[0] for v in vs]
+    cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter}[kind]
+    kwargs: dict[str, Any] = {"type": type_, "description": vs[0].description or ""}
+    if type_ in (REAL, INTEGER):
+        units = tuple(_unit(v) for v in vs) if size is None else (_unit(vs[0]),)
+        kwargs["unit"] = units[0] if len(set(units)) == 1 else units
+        kwargs["unit_definitions"] = defined
+        low, high = _RANGE.get(fmi_type, (None, None))
+        kwargs["min"], kwargs["max"] = _bound(vs[0], "min", low), _bound(vs[0], "max", high)
+    scalar = len(vs) == 1 and size is None
+    if scalar:
+        var = cls(start=starts[0], **kwargs)
+    else:
+        kwargs["size"] = count
+        var = cls(start=tuple(starts), **kwargs)
+    var.name = name
+    variables[name] = var
+    discrete = all(v.variability in ("discrete", "fixed", "tunable") or
+                   (v.type not in ("Real", "Float64", "Float32")) for v in vs)
+    ports.append(FmuPort(name, kind, fmi_type, [v.valueReference for v in vs], count, scalar,
+                         discrete))
+
+
+def _bound(v: Any, which: str, default: int | None) -> Any:
+    """min/max of the variable (as a number) or the type's range; None when unbounded."""
+    raw = getattr(v, which, None)
+    if raw is None:
+        raw = getattr(getattr(v, "declaredType", None), which, None)
+    if raw is None:
+        return default
+    try:
+        value = float(raw)
+    except (TypeError, ValueError):
+        return default
+    return value if math.isfinite(value) else default
