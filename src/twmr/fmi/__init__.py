@@ -56,7 +56,8 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
 def describe_fmu(path: str | Path) -> str:
     """`fmu_interface` as text for `twmr inspect`."""
     info = fmu_interface(path)
-    kinds = ", ".join(k.replace("_", "-") for k in info["interfaces"])
+    kinds = ", ".join({"co_simulation": "co-simulation", "model_exchange": "model exchange"}[k]
+                      for k in info["interfaces"])
     runs = {"yes": "can run it", "no": "CANNOT run it (no binary for this platform)"}.get(
         info["runs_here"], "runs it " + info["runs_here"])
     lines = [f"{info['file']}: FMI {info['fmi_version']} ({kinds}), model "
