@@ -1,0 +1,188 @@
+"""The worker process of an `IsolatedFmu`: ``python -u -m twmr.fmi.worker FD TMP PATH`` runs one
+`FmuComponent` and answers its parent's calls on the socket FD, so whatever the FMU does (crash,
+exit(), hang) ends this process only. TMP is its temporary folder (also its TMPDIR), removed by
+the parent, or here when the parent has gone; PATH, the FMU, is there for `ps` only.
+
+Protocol, one message each way per call (multiprocessing.connection framing): the request is the
+pickled ``(method, args)``, the reply ``(0, value)``, ``(1, the CosimError raised)`` or ``(2, text
+of any other exception)``. A step is ``("do_step", (t, h, input values))`` answered by ``(0, output
+values)``, in the port orders `initialize` was given (the wired inputs, the outputs read).
+
+Both sides wait for the other by polling the socket for up to `SPIN` seconds before they block:
+a process that blocks for each step is woken up tens of microseconds late, which would cost more
+than the step itself.
+
+The worker ignores Ctrl-C (its parent stops it) and ends as soon as its standard input reaches end
+of file, that is when the parent has gone, even in the middle of an FMU call.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import pickle
+import select
+import shutil
+import signal
+import sys
+import threading
+import time
+from multiprocessing.connection import Connection
+from typing import Any
+
+from twmr.core.errors import CosimError
+from twmr.fmi.fmu import FmuComponent
+from twmr.master.execution import RunContext
+
+#: how long a side polls for the other's message before it blocks [s]
+SPIN = 2e-4
+#: set once the worker ends on its own: the lifeline then leaves the final clean-up alone
+_ending = threading.Event()
+
+
+class _Server:
+    """The worker's `FmuComponent` and the calls the parent may make on it."""
+
+    def __init__(self) -> None:
+        self.fmu: Any = None
+        self.values: dict[str, Any] = {}
+        self.inputs: tuple[str, ...] = ()
+        self.outputs: tuple[str, ...] = ()
+        self.saved: list[Any] = []
+
+    def create(self, name: str, path: str, kwargs: dict[str, Any],
+               values: dict[str, Any]) -> None:
+        self.fmu = FmuComponent(name, path, **kwargs)
+        for key, value in values.items():
+            self.fmu.set_parameter(key, value)
+        self.values = self.fmu.__dict__
+
+    def prepare(self, folder: Any, step: float, paced: bool, wired: set[str] | None,
+                read: set[str] | None) -> None:
+        """The parent's `RunContext`, narrowed to this instance's wired inputs and read outputs."""
+        def pairs(ports: set[str] | None) -> frozenset[tuple[str, str]] | None:
+            return None if ports is None else frozenset((self.fmu.name, p) for p in ports)
+
+        self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read)))
+
+    def setup(self, start: float, stop: float | None) -> None:
+        self.fmu.setup(start, stop)
+
+    def initialize(self, values: dict[str, Any], inputs: tuple[str, ...],
+                   outputs: tuple[str, ...]) -> dict[str, Any]:
+        """Every output after initialization; later calls return only `outputs`."""
+        self.values.update(values)
+        self.inputs, self.outputs = inputs, outputs
+        self.fmu.initialize()
+        return {n: self.values[n] for n in self.fmu.outputs}
+
+    def evaluate(self, t: float, inputs: tuple[Any, ...]) -> list[Any]:
+        d = self.values
+        d.update(zip(self.inputs, inputs))
+        self.fmu.evaluate(t)
+        return [d[n] for n in self.outputs]
+
+    def do_step(self, t: float, h: float, inputs: tuple[Any, ...]) -> list[Any]:
+        d = self.values
+        d.update(zip(self.inputs, inputs))
+        self.fmu.do_step(t, h)
+        return [d[n] for n in self.outputs]
+
+    def get_state(self) -> int:
+        """The FMU state stays here; the parent gets its index."""
+        self.saved.append(self.fmu.get_state())
+        return len(self.saved) - 1
+
+    def set_state(self, index: int) -> None:
+        self.fmu.set_state(self.saved[index])
+
+    def terminate(self) -> dict[str, Any]:
+        """The FMU's `report()`, taken before it is terminated."""
+        figures = self.fmu.report()
+        self.fmu.terminate()
+        return figures
+
+
+def wait(poller: select.poll, timeout: float | None) -> bool:
+    """Whether the socket registered with `poller` became readable (a message, or closed) within
+    `timeout` [s] (None: no limit); polls for `SPIN` s first, then blocks."""
+    end = time.perf_counter() + SPIN
+    while not poller.poll(0):
+        os.sched_yield()  # the other side may be waiting for this CPU
+        if time.perf_counter() > end:
+            return bool(poller.poll(None if timeout is None else timeout * 1e3))
+    return True
+
+
+def _exit_with_parent(tmp: str) -> None:
+    """Block on standard input, which only the parent holds open; at its EOF remove `tmp` and end
+    the process."""
+    while sys.stdin.buffer.read(4096):
+        pass
+    if not _ending.is_set():
+        shutil.rmtree(tmp, ignore_errors=True)
+        os._exit(1)
+
+
+def serve(conn: Connection) -> None:
+    """Answer calls on `conn` until `terminate` or the parent closes it."""
+    server = _Server()
+    poller = select.poll()
+    poller.register(conn.fileno(), select.POLLIN)
+    while True:
+        wait(poller, None)
+        try:
+            call, args = pickle.loads(conn.recv_bytes())
+        except EOFError:
+            return
+        try:
+            reply: tuple[int, Any] = (0, getattr(server, call)(*args))
+        except CosimError as exc:
+            reply = (1, exc)
+        except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
+            reply = (2, f"{type(exc).__name__}: {exc}")
+        try:
+            data = pickle.dumps(reply, pickle.HIGHEST_PROTOCOL)
+        except Exception:  # noqa: BLE001 - an error whose arguments do not pickle
+            data = pickle.dumps((2, f"{type(reply[1]).__name__}: {reply[1]}"))
+        try:
+            conn.send_bytes(data)
+        except OSError:  # the parent has gone
+            return
+        if call == "terminate":
+            return
+
+
+def _log_to_stderr() -> None:
+    """The FMU's messages to stderr, as the parent's `twmr.fmu` logger would show them
+    (TWMR_FMU_LOG=all: `twmr run --fmu-log`, every message)."""
+    import logging
+
+    from twmr.fmi import log as fmu_log
+
+    fmu_log.show_all = os.environ.get("TWMR_FMU_LOG") == "all"
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    logger = logging.getLogger("twmr.fmu")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO if fmu_log.show_all else logging.WARNING)
+    logger.propagate = False
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Serve one FMU; `argv` is FD TMP PATH (see the module's docstring)."""
+    args = sys.argv[1:] if argv is None else argv
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _log_to_stderr()
+    threading.Thread(target=_exit_with_parent, args=(args[1],), name="twmr-lifeline",
+                     daemon=True).start()
+    serve(Connection(int(args[0])))
+    _ending.set()
+    shutil.rmtree(args[1], ignore_errors=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    ctypes.CDLL(None).fflush(None)  # the FMU's own C output
+    os._exit(0)  # no interpreter shutdown: an FMU left loaded may crash it
+
+
+if __name__ == "__main__":
+    main()
