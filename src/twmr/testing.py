@@ -39,7 +39,9 @@ class Harness:
         params = dict(parameters or {})
         construction = {k: params.pop(k) for k in kind.construction_parameters if k in params}
         self.component: Component = kind.create(name, Path(base_dir), **construction)
-        for key, value in {**params, **(initial or {})}.items():
+        values = {**params, **(initial or {})}
+        for key, value in sorted(values.items(), key=lambda kv: kv[0] not in
+                                 self.component.sizing_parameters):
             self._check(key, ("parameter",) if key in params else ("input", "state"))
             self.component.set_parameter(key, value)
         self.start, self.stop, self.h = start, stop, step

@@ -30,6 +30,8 @@ class Component:
     construction_parameters: ClassVar[tuple[str, ...]] = ()
     #: hardware in the loop: runs are paced to the wall clock unless the scenario says otherwise
     needs_realtime: ClassVar[bool] = False
+    #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
+    sizing_parameters: frozenset[str] = frozenset()
 
     def __init__(self, name: str = "", **parameters: Any):
         self.name = name or type(self).__name__

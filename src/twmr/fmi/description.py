@@ -100,15 +100,20 @@ def _unit(v: Any) -> str:
     return unit or ""
 
 
-def _values(v: Any, text: str | None, type_: str, count: int) -> list[Any]:
-    """`count` start values of `v` from its start text (FMI 3.0 arrays: space-separated)."""
+def _values(v: Any, text: str | None, type_: str, count: int, resized: bool = False
+            ) -> list[Any]:
+    """`count` start values of `v` from its start text (FMI 3.0 arrays: space-separated). An
+    array `resized` by a structural parameter keeps its first values (a repeated one fills it);
+    the FMU is not told these, only the values the scenario gives."""
     if text is None:
         return [{STRING: "", BOOLEAN: False, BINARY: b"", REAL: 0.0}.get(type_, 0)] * count
     if type_ == STRING:
         return [str(text)] * count
     items = str(text).split() or [""]
-    if len(items) == 1 and count > 1:
-        items = items * count
+    if (len(items) == 1 or (resized and len(set(items)) == 1)) and count > 1:
+        items = items[:1] * count
+    if resized and len(items) != count:
+        items = (items + ["0"] * count)[:count]
     if len(items) != count:
         raise ValueError(f"variable '{v.name}' has {len(items)} start values for "
                          f"{count} elements")
@@ -235,7 +240,8 @@ def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: 
     size = _size(vs[0], structural) if len(vs) == 1 else None
     count = size if size is not None else len(vs)
     if size is not None:
-        starts = _values(vs[0], vs[0].start, type_, size)
+        resized = any(d.start is None for d in vs[0].dimensions)
+        starts = _values(vs[0], vs[0].start, type_, size, resized)
     else:
         starts = [_values(v, v.start, type_, 1)[0] for v in vs]
     cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter}[kind]

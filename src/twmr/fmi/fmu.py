@@ -99,8 +99,8 @@ class FmuComponent(Component):
             raise FmuError(label, None, f"'{self.source_path.name}': {err} in its "
                            f"modelDescription.xml. Fix: correct the FMU's model description "
                            f"(or ask its vendor).") from None
-        self._structural = {v.name for v in self.md.modelVariables
-                            if v.causality == "structuralParameter"}
+        self.sizing_parameters = frozenset(v.name for v in self.md.modelVariables
+                                           if v.causality == "structuralParameter")
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
         # pythonfmu 0.7 slaves run in this interpreter (see _restore_pythonfmu_reference); they
@@ -139,6 +139,21 @@ class FmuComponent(Component):
     def set_parameter(self, name: str, value: Any) -> None:
         super().set_parameter(name, value)
         self._given.add(name)
+        if name in self.sizing_parameters:
+            self._resize()
+
+    def _resize(self) -> None:
+        """Ports again with the structural parameters' present values; a port whose size changed
+        gets its new descriptor and start value."""
+        given = {n: self.__dict__[n] for n in self.sizing_parameters}
+        try:
+            self.ports, variables = ports_of(self.md, given)
+        except ValueError as err:
+            raise ValueError(f"{err} (in the FMU's modelDescription.xml)") from None
+        for key, var in variables.items():
+            if var.size != self.variables[key].size:
+                self.variables[key] = var
+                self.__dict__[key] = var.start
 
     # -- FMI calls --------------------------------------------------------------------------
     def _call(self, what: str, fn: Callable[..., Any], *args: Any) -> Any:
@@ -190,7 +205,7 @@ class FmuComponent(Component):
 
     def initialize(self) -> None:
         f = self._fmu
-        structural = [p for p in self.ports if p.name in self._structural and
+        structural = [p for p in self.ports if p.name in self.sizing_parameters and
                       p.name in self._given]
         if structural:
             self._call("fmi3EnterConfigurationMode", f.enterConfigurationMode)
@@ -201,8 +216,10 @@ class FmuComponent(Component):
                        self.rtol if self.me else None, self.start_time)
         else:
             self._call("fmi2EnterInitializationMode", f.enterInitializationMode)
-        self._write([p for p in self.ports if p.kind in ("parameter", "input", "state")
-                     and p.name not in self._structural])
+        # the inputs (open ones keep these values), and the parameters and start values the
+        # scenario gave: the others are the FMU's own
+        self._write([p for p in self.ports if p.kind == "input" or
+                     (p.name in self._given and p.name not in self.sizing_parameters)])
         self._call("ExitInitializationMode", f.exitInitializationMode)
         inputs = [p for p in self.ports if p.kind == "input" and
                   (self._wired is None or p.name in self._wired)]

@@ -238,7 +238,8 @@ class _Builder:
 
     def configure(self, comp: Component, name: str, values: dict[str, Any], section: str,
                   allowed: tuple[str, ...]) -> None:
-        for key, value in values.items():
+        for key, value in sorted(values.items(), key=lambda kv: kv[0] not in
+                                 comp.sizing_parameters):
             loc = self.at("components", name, section, key)
             var = comp.variables.get(key)
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
