@@ -160,3 +160,23 @@ def test_model_exchange_interface_is_integrated(lag2, solver, bound) -> None:
     expected = 2.0 * 1.5 * (1.0 - np.exp(-r["time"] / 0.25))
     err = np.max(np.abs(r["lag.y[1]"] - expected))
     assert 0 < err < bound
+
+
+def test_failed_instantiation_carries_the_log_and_frees_nothing(tmp_path, monkeypatch) -> None:
+    from fmpy.fmi2 import FMU2Slave
+
+    calls: list[str] = []
+    for name in ("terminate", "freeInstance"):
+        monkeypatch.setattr(FMU2Slave, name, lambda self, _n=name: calls.append(_n))
+    faulty = build_c_fmu("faulty", tmp_path)
+    scenario = f"""
+components:
+  refuse: {{kind: fmu, parameters: {{path: {faulty}}}}}
+open: [refuse.u]
+experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
+"""
+    with pytest.raises(FmuError) as err:
+        simulate(loads(scenario, source="fmu.yaml"))
+    assert "fmi2Instantiate failed" in str(err.value)
+    assert any("instantiation refused on purpose" in line for line in err.value.log)
+    assert calls == []

@@ -7,7 +7,9 @@ INFO when the run shows the whole log (`twmr run --fmu-log`).
 from __future__ import annotations
 
 import collections
+import itertools
 import logging
+import weakref
 from typing import Any
 
 log = logging.getLogger("twmr.fmu")
@@ -16,6 +18,47 @@ _STATUS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 KEEP = 20
 #: set by `twmr run --fmu-log`: every FMU message is shown (logged at INFO)
 show_all = False
+
+
+_keys = itertools.count(1)
+_by_key: dict[int, "weakref.ref[FmuLog]"] = {}
+_logger: list[Any] = []
+
+
+def _dispatch(env: Any, name: Any, status: int, category: Any, message: Any) -> None:
+    """The one Python FMI 2.0 logger of the process: to the FmuLog whose key is the instance's
+    componentEnvironment; others (fmpy's own default callbacks) are printed as fmpy does."""
+    ref = _by_key.get(env or 0)
+    log_ = ref() if ref is not None else None
+    if log_ is None:
+        from fmpy.fmi2 import printLogMessage
+
+        printLogMessage(env, name, status, category, message)
+        return
+    log_.add(int(status), _text(category), _text(message))
+
+
+def _fmi2_logger() -> Any:
+    """The logger every FmuLog hands its FMI 2.0 FMUs: fmpy's native proxy, which formats the
+    printf-style arguments ctypes cannot pass and calls `_dispatch`. The proxy keeps a single,
+    process-wide target, so it is pointed at `_dispatch` once and for the life of the process
+    (a per-instance target would dangle once that instance is gone)."""
+    if not _logger:
+        from ctypes import byref
+
+        from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+        target = fmi2CallbackLoggerTYPE(_dispatch)
+        holder = fmi2CallbackFunctions()
+        holder.logger = target
+        try:
+            from fmpy.logging import addLoggerProxy
+
+            addLoggerProxy(byref(holder))
+        except Exception:  # noqa: BLE001 - no proxy for this platform: messages unformatted
+            pass
+        _logger.extend([target, holder, holder.logger])
+    return _logger[2]
 
 
 def _text(raw: Any) -> str:
@@ -45,30 +88,22 @@ class FmuLog:
         return list(self.lines)
 
     def fmi2_callbacks(self) -> Any:
-        """fmi2CallbackFunctions whose logger (behind fmpy's printf-formatting proxy) lands
-        here."""
+        """fmi2CallbackFunctions whose logger lands here (see `_fmi2_logger`)."""
+        from ctypes import c_void_p
+
         from fmpy.fmi2 import (
-            fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
+            calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions, free,
         )
-        from fmpy.fmi2 import calloc, free
 
-        def logger(env: Any, name: Any, status: int, category: Any, message: Any) -> None:
-            self.add(int(status), _text(category), _text(message))
-
+        key = next(_keys)
+        _by_key[key] = weakref.ref(self)
         callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        callbacks.logger = _fmi2_logger()
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        from ctypes import byref
-
-        try:
-            from fmpy.logging import addLoggerProxy
-
-            addLoggerProxy(byref(callbacks))
-        except Exception:  # noqa: BLE001 - no proxy for this platform: messages unformatted
-            pass
-        self._keep.append((callbacks, logger))
+        callbacks.componentEnvironment = c_void_p(key)
+        self._keep.append(callbacks)
         return callbacks
 
     def fmi3_logger(self) -> Any:

@@ -47,6 +47,11 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     defaults(c);
     if (cb) c->cb = *cb;
     c->name = name;
+    if (strcmp(name, "refuse") == 0) { /* an instance named 'refuse' fails to instantiate */
+        log_msg(c, fmi2Error, "logStatusError", "faulty: instantiation refused on purpose");
+        free(c);
+        return NULL;
+    }
     log_msg(c, fmi2OK, "logAll", "faulty: instantiated");
     return c;
 }
