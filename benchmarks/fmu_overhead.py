@@ -1,15 +1,40 @@
-"""FMU overhead: a chain of three FMUs (the C test FMU `lag2`, built here), 100,000 steps,
-stepped (a) by a hand-written loop of fmpy calls (setReal, doStep, getReal) and (b) by the master
-from a scenario (rows kept in memory by a `ResultStore`; the time is `Outcome.wall_time`, which
-includes instantiating the FMUs); also fmpy's own `simulate_fmu` of one FMU per step.
-Last line: one JSON object."""
+"""FMU overhead: what the master costs over a hand-written loop of fmpy calls, for chains of the C
+test FMUs (tests/fmus/, built here into a temporary folder). All figures come from one run; every
+master time is `Outcome.wall_time` (the stepping alone: instantiating and initializing the FMUs are
+not in it), the best of two runs, rows kept in memory by a `ResultStore`; every hand-loop time is
+the loop alone, the best of two.
+
+Last line: one JSON object with
+
+* lag2 chain (three `lag2`, src -> a.u[1], a.u[2]; a.y -> b.u -> c.u; c.y recorded every 100
+  steps), 100,000 steps of 1 ms: `steps`, `fmus` (3), `hand_loop_s` (setReal, doStep, getReal per
+  FMU and step), `master_s`, `ratio` = master_s / hand_loop_s, `target_ratio` (1.2), and those per
+  FMU and step: `hand_us_per_fmu_step`, `master_us_per_fmu_step`; `simulate_fmu_us_per_step`:
+  fmpy's own `simulate_fmu` of one lag2, 20,000 steps (it includes its set-up).
+* `mixed`, mixed-type chain (three `mixed2`: src -> a.r1, a.r1o -> b.r1, b.r1o -> c.r1, every other
+  input open, c.r1o recorded every 100 steps; r1o = 2 r1 is direct feedthrough), 100,000 steps:
+  `hand_loop_s` (per step, along the chain at t: setReal r1, getReal r1o of a, then b, then c;
+  then doStep of all three: 3 FMI calls per FMU), `master_s`, `ratio` (master / hand),
+  `target_ratio`, `hand_us_per_fmu_step`, `master_us_per_fmu_step`; `master_calls_per_fmu_step`:
+  the FMI calls the master makes per FMU and step (fmpy's FMU2Slave set/get of every type and
+  doStep counted: the calls of a 2,000-step run less those of a 1,000-step run, over 1,000 steps
+  and 3 FMUs, so set-up and initialization drop out; a hand loop makes 3), `master_calls_by_kind`
+  (the same per method), `hand_calls_per_fmu_step` (3).
+* `isolation`, one `lag2` fed by a constant source, 20,000 steps, with and without
+  `isolate: true` (the FMU in a worker process, `twmr.fmi.isolated`): `steps`,
+  `in_process_us_per_step`, `isolated_us_per_step` (master wall time per step, the whole system),
+  `overhead_us_per_step` = isolated - in process (the cost per step of one isolated FMU), `ratio`
+  (isolated / in process); if the isolated run fails, `error` holds its message instead.
+"""
 from __future__ import annotations
 
+import functools
 import json
 import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
@@ -35,20 +60,64 @@ experiment: {start: 0.0, stop: %(stop)r, step: 0.001}
 record: {signals: [c.y], decimation: 100}
 """
 
+MIXED_SCENARIO = """
+components:
+  src: {kind: constant, parameters: {value: 1.0}}
+  a: {kind: fmu, parameters: {path: %(fmu)s}}
+  b: {kind: fmu, parameters: {path: %(fmu)s}}
+  c: {kind: fmu, parameters: {path: %(fmu)s}}
+connections:
+  - src.y -> a.r1
+  - a.r1o -> b.r1
+  - b.r1o -> c.r1
+open: [a.r2, a.i1, a.i2, a.b1, a.s1, b.r2, b.i1, b.i2, b.b1, b.s1, c.r2, c.i1, c.i2, c.b1, c.s1]
+experiment: {start: 0.0, stop: %(stop)r, step: 0.001}
+record: {signals: [c.r1o], decimation: 100}
+"""
 
-def hand_loop(fmu: Path, n: int, h: float) -> float:
+SINGLE_SCENARIO = """
+components:
+  src: {kind: constant, parameters: {value: 1.0}}
+  a: {kind: fmu, parameters: {path: %(fmu)s%(extra)s}}
+connections:
+  - src.y -> a.u[1]
+  - src.y -> a.u[2]
+experiment: {start: 0.0, stop: %(stop)r, step: 0.001}
+record: {signals: [a.y], decimation: 100}
+"""
+
+#: the fmpy FMU2Slave methods counted as FMI calls of a co-simulation step
+COUNTED = ("setReal", "getReal", "setInteger", "getInteger", "setBoolean", "getBoolean",
+           "setString", "getString", "doStep")
+
+
+def slaves(fmu: Path, names: str = "abc") -> list[FMU2Slave]:
+    """Instantiated and initialized fmpy slaves of `fmu`, one per name."""
     md = read_model_description(str(fmu))
-    slaves = []
-    for name in "abc":
-        s = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+    unzipped = extract(str(fmu))
+    out = []
+    for name in names:
+        s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped,
                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         s.instantiate()
         s.setupExperiment(startTime=0.0)
         s.enterInitializationMode()
         s.exitInitializationMode()
-        slaves.append(s)
+        out.append(s)
+    return out
+
+
+def free(instances: list[FMU2Slave]) -> None:
+    for s in instances:
+        s.terminate()
+        s.freeInstance()
+
+
+def hand_loop(fmu: Path, n: int, h: float) -> float:
+    """The lag2 chain: inputs from the previous step's outputs, then doStep, then getReal."""
+    instances = slaves(fmu)
     u, y = [2, 3], [4, 5]
-    a, b, c = slaves
+    a, b, c = instances
     t0 = time.perf_counter()
     ya = yb = [0.0, 0.0]
     for k in range(n):
@@ -62,34 +131,126 @@ def hand_loop(fmu: Path, n: int, h: float) -> float:
         ya, yb = a.getReal(y), b.getReal(y)
         c.getReal(y)
     wall = time.perf_counter() - t0
-    for s in slaves:
-        s.terminate()
-        s.freeInstance()
+    free(instances)
     return wall
+
+
+def hand_loop_mixed(fmu: Path, n: int, h: float) -> float:
+    """The mixed2 chain, direct feedthrough: along the chain at t set r1 and get r1o, then step
+    all three."""
+    instances = slaves(fmu)
+    r1, r1o = [0], [6]
+    a, b, c = instances
+    one = [1.0]
+    t0 = time.perf_counter()
+    for k in range(n):
+        t = k * h
+        a.setReal(r1, one)
+        ya = a.getReal(r1o)
+        b.setReal(r1, ya)
+        yb = b.getReal(r1o)
+        c.setReal(r1, yb)
+        c.getReal(r1o)
+        a.doStep(t, h)
+        b.doStep(t, h)
+        c.doStep(t, h)
+    wall = time.perf_counter() - t0
+    expected = [8.0]
+    got = c.getReal(r1o)
+    free(instances)
+    assert got == expected, got
+    return wall
+
+
+def master_run(text: str, n: int) -> float:
+    """Wall time [s] of the master stepping the scenario `text` (n steps, rows every 100)."""
+    store = ResultStore()
+    outcome = Execution(loads(text, source="bench.yaml"), [store]).run()
+    assert outcome.status == "completed" and len(store.data()) == n // 100 + 1, outcome
+    return outcome.wall_time
+
+
+def count_calls(text_of: Any, n1: int = 1000, n2: int = 2000) -> dict[str, float]:
+    """FMI calls per FMU and step the master makes (FMU2Slave methods wrapped with counters):
+    those of an n2-step run less those of an n1-step run, over (n2 - n1) steps and 3 FMUs."""
+    counts = dict.fromkeys(COUNTED, 0)
+    saved = {m: FMU2Slave.__dict__.get(m) for m in COUNTED}
+
+    def counting(name: str, fn: Any) -> Any:
+        @functools.wraps(fn)  # keeps __name__: the master looks at setter.__name__
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            counts[name] += 1
+            return fn(*args, **kwargs)
+        return wrapper
+
+    runs = []
+    try:
+        for m in COUNTED:
+            setattr(FMU2Slave, m, counting(m, getattr(FMU2Slave, m)))
+        for n in (n1, n2):
+            for m in COUNTED:
+                counts[m] = 0
+            master_run(text_of(n), n)
+            runs.append(dict(counts))
+    finally:
+        for m, original in saved.items():
+            if original is None:
+                delattr(FMU2Slave, m)
+            else:
+                setattr(FMU2Slave, m, original)
+    per = {m: (runs[1][m] - runs[0][m]) / (n2 - n1) / 3 for m in COUNTED}
+    return {m: round(v, 3) for m, v in per.items() if v}
+
+
+def isolation(fmu: Path, n: int, h: float) -> dict[str, Any]:
+    """One lag2 stepped by the master, in process and isolated (worker process)."""
+    def text(extra: str) -> str:
+        return SINGLE_SCENARIO % {"fmu": fmu, "stop": n * h, "extra": extra}
+
+    plain = min(master_run(text(""), n) for _ in range(2))
+    out: dict[str, Any] = {"steps": n, "in_process_us_per_step": round(plain / n * 1e6, 2)}
+    try:
+        iso = min(master_run(text(", isolate: true"), n) for _ in range(2))
+    except Exception as exc:  # noqa: BLE001 - reported, not raised: isolation may be unfinished
+        out["error"] = f"{type(exc).__name__}: {exc}"
+        return out
+    out.update(isolated_us_per_step=round(iso / n * 1e6, 2),
+               overhead_us_per_step=round((iso - plain) / n * 1e6, 2),
+               ratio=round(iso / plain, 3))
+    return out
 
 
 def main() -> None:
     n, h = 100_000, 1e-3
     with tempfile.TemporaryDirectory() as tmp:
         fmu = build_c_fmu("lag2", Path(tmp))
+        mixed = build_c_fmu("mixed2", Path(tmp))
         hand = min(hand_loop(fmu, n, h) for _ in range(2))
-        walls = []
-        for _ in range(2):
-            store = ResultStore()
-            ex = Execution(loads(SCENARIO % {"fmu": fmu, "stop": n * h}, source="chain.yaml"),
-                           [store])
-            outcome = ex.run()
-            assert outcome.status == "completed" and len(store.data()) == n // 100 + 1, outcome
-            walls.append(outcome.wall_time)
-        master = min(walls)
+        master = min(master_run(SCENARIO % {"fmu": fmu, "stop": n * h}, n) for _ in range(2))
         t0 = time.perf_counter()
         simulate_fmu(str(fmu), stop_time=20.0, step_size=h, output_interval=h)
         sim_per_step = (time.perf_counter() - t0) / 20000
+
+        def mixed_text(steps: int) -> str:
+            return MIXED_SCENARIO % {"fmu": mixed, "stop": steps * h}
+
+        hand_m = min(hand_loop_mixed(mixed, n, h) for _ in range(2))
+        master_m = min(master_run(mixed_text(n), n) for _ in range(2))
+        calls = count_calls(mixed_text)
+        iso = isolation(fmu, 20_000, h)
     figures = {"steps": n, "fmus": 3, "hand_loop_s": round(hand, 3), "master_s": round(master, 3),
                "ratio": round(master / hand, 3), "target_ratio": 1.2,
                "hand_us_per_fmu_step": round(hand / n / 3 * 1e6, 2),
                "master_us_per_fmu_step": round(master / n / 3 * 1e6, 2),
-               "simulate_fmu_us_per_step": round(sim_per_step * 1e6, 2)}
+               "simulate_fmu_us_per_step": round(sim_per_step * 1e6, 2),
+               "mixed": {"steps": n, "fmus": 3, "hand_loop_s": round(hand_m, 3),
+                         "master_s": round(master_m, 3), "ratio": round(master_m / hand_m, 3),
+                         "target_ratio": 1.2,
+                         "hand_us_per_fmu_step": round(hand_m / n / 3 * 1e6, 2),
+                         "master_us_per_fmu_step": round(master_m / n / 3 * 1e6, 2),
+                         "master_calls_per_fmu_step": round(sum(calls.values()), 3),
+                         "master_calls_by_kind": calls, "hand_calls_per_fmu_step": 3},
+               "isolation": iso}
     print(json.dumps(figures))
 
 

@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import operator
 import shutil
 import tempfile
 from pathlib import Path
@@ -252,7 +253,8 @@ class FmuComponent(Component):
 
     def _plan(self, ports: list[FmuPort], which: int) -> list[Any]:
         """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
-        number of values and the ports [(name, scalar, count)], so each type is one call."""
+        number of values, the ports [(name, scalar, count)] and a function gathering their
+        values (for a setter), so each type is one call."""
         by: dict[str, list[FmuPort]] = {}
         for p in ports:
             by.setdefault(_call_suffix(p.fmi_type, self.fmi3), []).append(p)
@@ -260,14 +262,25 @@ class FmuComponent(Component):
         for ps in by.values():
             fn = self._accessors(ps[0].fmi_type)[which]
             vrs = [vr for p in ps for vr in p.vrs]
-            plan.append((fn, vrs, sum(p.count for p in ps),
-                         [(p.name, p.scalar, p.count) for p in ps]))
+            names = [(p.name, p.scalar, p.count) for p in ps]
+            plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
         return plan
+
+    def _gather(self, names: list[tuple[str, bool, int]]) -> Callable[[], list[Any]]:
+        """A function returning the present values of ports `names`, flattened."""
+        d = self.__dict__
+        if len(names) == 1:
+            name, scalar, _ = names[0]
+            return (lambda: [d[name]]) if scalar else (lambda: list(d[name]))
+        if all(scalar for _, scalar, _ in names):
+            get = operator.itemgetter(*(name for name, _, _ in names))
+            return lambda: list(get(d))
+        return lambda: self._values(names)
 
     def _write(self, ports: list[FmuPort]) -> None:
         """Start values and parameters of `ports`, one call per type (initialization)."""
-        for setter, vrs, _, names in self._plan(ports, 1):
-            values = self._values(names)
+        for setter, vrs, _, names, gather in self._plan(ports, 1):
+            values = gather()
             if setter.__name__ == "setString":
                 values = [str(v) for v in values]
             self._call(f"{setter.__name__} of {', '.join(n for n, _, _ in names)}", setter, vrs,
@@ -286,16 +299,18 @@ class FmuComponent(Component):
                 values.extend(d[name])
         return values
 
-    def _values_of(self, plan: list[Any]) -> list[list[Any]]:
-        return [self._values(names) for _, _, _, names in plan]
+    @staticmethod
+    def _values_of(plan: list[Any]) -> list[list[Any]]:
+        return [gather() for *_, gather in plan]
 
-    def _set(self, plan: list[Any]) -> None:
-        for setter, vrs, _, names in plan:
-            setter(vrs, self._values(names))
+    @staticmethod
+    def _set(plan: list[Any]) -> None:
+        for setter, vrs, _, _, gather in plan:
+            setter(vrs, gather())
 
     def _get(self, plan: list[Any]) -> None:
         d = self.__dict__
-        for getter, vrs, count, names in plan:
+        for getter, vrs, count, names, _ in plan:
             values = getter(vrs, count) if self.fmi3 else getter(vrs)
             if len(names) == 1:
                 name, scalar, _ = names[0]
@@ -329,9 +344,14 @@ class FmuComponent(Component):
     def evaluate(self, t: float) -> None:
         self._t = t
         try:
-            self._set_inputs(t)
+            if self.me:
+                self._set_inputs(t)
+            else:
+                for setter, vrs, _, _, gather in self._set_all:
+                    setter(vrs, gather())
             self._inputs_set = True
-            self._get(self._get_ft)
+            if self._get_ft:
+                self._get(self._get_ft)
         except (FmuError, Terminated):
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
@@ -339,25 +359,30 @@ class FmuComponent(Component):
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
-        what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
-                                                          else "fmi2DoStep")
         try:
-            if not self._inputs_set:
+            if self._inputs_set:
+                self._inputs_set = False
+            elif self.me:
                 self._set_inputs(t)
-            self._inputs_set = False
+            else:
+                for setter, vrs, _, _, gather in self._set_all:
+                    setter(vrs, gather())
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
                 result = None
             else:
                 result = self._fmu.doStep(t, h)
-            self._get(self._get_step)
+            if self._get_step:
+                self._get(self._get_step)
         except Terminated as stop:
             raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
                            f"the simulation (terminateSimulation).", self.log.tail()) from None
         except FmuError:
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
+                                                              else "fmi2DoStep")
             raise self._error(what, exc) from exc
         if self.fmi3 and result is not None and result[1]:
             raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
