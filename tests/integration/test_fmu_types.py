@@ -29,7 +29,7 @@ def fmus(tmp_path_factory) -> dict[str, str]:
     return {n: str(build_c_fmu(n, d, fmi3=True)) for n in ("types3", "clock3")}
 
 
-def chain(path: str, interface: str) -> str:
+def chain(path: str, interface: str, isolate: bool = False) -> str:
     """a (inputs from `initial:`) -> b, every output of a wired to b's input of the same type."""
     initial = ", ".join(f"{t}_input: {v!r}".replace("False", "false") for t, v in GIVEN.items())
     wires = "\n".join(f"  - a.{t}_output -> b.{t}_input" for t in NUMERIC + ("String", "Binary"))
@@ -37,7 +37,8 @@ def chain(path: str, interface: str) -> str:
 components:
   a:
     kind: fmu
-    parameters: {{path: {path}, interface: {interface}, n: 2, gains: [2.0, -3.0]}}
+    parameters: {{path: {path}, interface: {interface}, gains: [2.0, -3.0], n: 2,
+                 isolate: {str(isolate).lower()}}}
     initial: {{{initial}, String_input: "hé llo", Binary_input: "00ff10", vec_in: [4, 5, 6]}}
   b: {{kind: fmu, parameters: {{path: {path}, interface: {interface}}}}}
 connections:
@@ -50,9 +51,13 @@ experiment: {{start: 0.0, stop: 0.3, step: 0.1}}
 """
 
 
-@pytest.mark.parametrize("interface", ["co_simulation", "model_exchange"])
-def test_every_type_passes_through_two_fmus(fmus, interface) -> None:
-    system = loads(chain(fmus["types3"], interface), source="types.yaml")
+@pytest.mark.parametrize("interface, isolate", [("co_simulation", False),
+                                               ("model_exchange", False),
+                                               ("co_simulation", True)])
+def test_every_type_passes_through_two_fmus(fmus, interface, isolate) -> None:
+    """Also with the structural parameter n given after the array it sizes, and with `a` in a
+    worker process."""
+    system = loads(chain(fmus["types3"], interface, isolate), source="types.yaml")
     a = system.components["a"]
     assert a.variables["scaled"].size == 2 and a.variables["gains"].size == 2
     r = simulate(system)

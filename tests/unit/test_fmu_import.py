@@ -180,3 +180,18 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
     assert "fmi2Instantiate failed" in str(err.value)
     assert any("instantiation refused on purpose" in line for line in err.value.log)
     assert calls == []
+
+
+@pytest.mark.parametrize("setting, message", [
+    ("solver: euler", "solver 'euler' is unknown"),
+    ("rtol: -1.0e-6", "rtol = -1e-06 must be a positive number"),
+    ("solver_step: 0", "solver_step = 0 must be a positive number"),
+    ("isolate: 'yes'", "isolate: 'yes' is not true or false"),
+    ("isolate: true, timeout: 0", "timeout 0 is not positive"),
+    ("interface: model_exchange, solver: rk4, k: [1, 2]", "expected a scalar"),
+])
+def test_bad_fmu_settings_are_refused_at_check_with_their_line(lag2, setting, message) -> None:
+    text = (SCENARIO % lag2).replace("T: 0.25}", f"T: 0.25, {setting}}}")
+    with pytest.raises(ScenarioError) as err:
+        loads(text, source="fmu.yaml")
+    assert "fmu.yaml:6" in str(err.value) and message in str(err.value)

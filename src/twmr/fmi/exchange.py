@@ -54,9 +54,9 @@ class Integrator:
         self.next_event: float | None = None
         self.events = 0
         self._solver: Any = None
-        me = md.modelExchange
-        self.completed_needed = not getattr(me, "completedIntegratorStepNotNeeded", False) \
-            if fmi3 else bool(getattr(me, "needsCompletedIntegratorStep", True))
+        # fmpy reads FMI 3.0's needsCompletedIntegratorStep and FMI 2.0's
+        # completedIntegratorStepNotNeeded into this one flag
+        self.completed_needed = bool(md.modelExchange.needsCompletedIntegratorStep)
 
     # -- event iteration ---------------------------------------------------------------------
     def _iterate(self, t: float) -> None:

@@ -130,7 +130,11 @@ class FmuComponent(Component):
         p = Path(str(path))
         rest = {k: v for k, v in construction.items() if k != "path"}
         full = p if p.is_absolute() else base_dir / p
-        if rest.pop("isolate", False):
+        isolate = rest.pop("isolate", False)
+        if not isinstance(isolate, bool):
+            raise FmuError(name, None, f"isolate: {isolate!r} is not true or false. Fix: write "
+                           f"isolate: true to run the FMU in a worker process of its own.")
+        if isolate:
             from twmr.fmi.isolated import IsolatedFmu
 
             return IsolatedFmu(name, full, **rest)

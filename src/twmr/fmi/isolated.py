@@ -78,9 +78,16 @@ class IsolatedFmu(Component):
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         return self._desc.check(given)
 
+    @property
+    def sizing_parameters(self) -> frozenset[str]:  # type: ignore[override]
+        return self._desc.sizing_parameters
+
     def set_parameter(self, name: str, value: Any) -> None:
         self._desc.set_parameter(name, value)
         self.__dict__[name] = self._given[name] = self._desc.__dict__[name]
+        if name in self.sizing_parameters:  # arrays resized: the description's ports again
+            self.variables = dict(self._desc.variables)
+            self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})
 
     def _settable(self) -> dict[str, Any]:
         return {n: self.__dict__[n] for n, v in self.variables.items()
