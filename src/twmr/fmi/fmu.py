@@ -39,6 +39,14 @@ def _call_suffix(fmi_type: str, fmi3: bool) -> str:
     return "Int64" if fmi_type == "Enumeration" else fmi_type
 
 
+def _text_getter(get: Callable[..., list[Any]]) -> Callable[..., list[str]]:
+    """fmpy's getString, with the bytes some versions return decoded (UTF-8)."""
+    def get_text(*args: Any) -> list[str]:
+        return [v.decode("utf-8", "replace") if isinstance(v, bytes) else v for v in get(*args)]
+
+    return get_text
+
+
 def _restore_pythonfmu_reference(unzipped: Path) -> None:
     """pythonfmu 0.6.4-0.7.0's fmi2Instantiate (findClass) releases a reference to the slave
     module's dict that it only borrowed, one per instance: the dict is later freed while in use
@@ -265,6 +273,8 @@ class FmuComponent(Component):
         plan = []
         for ps in by.values():
             fn = self._accessors(ps[0].fmi_type)[which]
+            if which == 0 and ps[0].fmi_type == "String":
+                fn = _text_getter(fn)
             vrs = [vr for p in ps for vr in p.vrs]
             names = [(p.name, p.scalar, p.count) for p in ps]
             plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
