@@ -195,3 +195,13 @@ def test_bad_fmu_settings_are_refused_at_check_with_their_line(lag2, setting, me
     with pytest.raises(ScenarioError) as err:
         loads(text, source="fmu.yaml")
     assert "fmu.yaml:6" in str(err.value) and message in str(err.value)
+
+
+def test_a_library_not_named_after_the_model_identifier_is_refused_when_loaded(lag2,
+                                                                                tmp_path) -> None:
+    renamed = tmp_path / "renamed.fmu"
+    with zipfile.ZipFile(lag2) as zin, zipfile.ZipFile(renamed, "w") as zout:
+        for item in zin.namelist():
+            zout.writestr(item.replace("lag2.so", "other.so"), zin.read(item))
+    with pytest.raises(FmuError, match=r"binaries/linux64/lag2\.so"):
+        FmuComponent("x", renamed)

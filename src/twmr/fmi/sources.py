@@ -32,6 +32,19 @@ def has_binary(path: Path, md: Any) -> bool:
     return bool(set(fmpy.supported_platforms(str(path))) & set(binary_folders(md)))
 
 
+def _missing_libraries(path: Path, md: Any) -> list[str]:
+    """binaries/<platform>/<modelIdentifier><ext> the FMU lacks, for each interface it has."""
+    import fmpy
+
+    with zipfile.ZipFile(path) as z:
+        names = set(z.namelist())
+    ext = fmpy.sharedLibraryExtension
+    wanted = {i.modelIdentifier for i in (md.coSimulation, md.modelExchange) if i is not None}
+    return sorted(f"binaries/{binary_folders(md)[0]}/{ident}{ext}" for ident in wanted
+                  if not any(f"binaries/{folder}/{ident}{ext}" in names
+                             for folder in binary_folders(md)))
+
+
 def cache_dir() -> Path:
     root = os.environ.get("TWMR_CACHE_DIR") or Path.home() / ".cache" / "twmr"
     return Path(root) / "fmus"
@@ -51,6 +64,12 @@ def runnable(path: Path, md: Any, instance: str) -> Path:
     import fmpy
 
     if has_binary(path, md):
+        missing = _missing_libraries(path, md)
+        if missing:
+            raise FmuError(instance, None, f"FMU '{path.name}' has a binaries folder for this "
+                           f"platform but not the shared library its model description names "
+                           f"({', '.join(missing)}). Fix: rebuild the FMU so the library is named "
+                           f"after its modelIdentifier.")
         return path
     platforms = ", ".join(fmpy.supported_platforms(str(path))) or "none"
     if not md.buildConfigurations or not md.buildConfigurations[0].sourceFileSets:
