@@ -1,14 +1,14 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
-`twmr.load`, `twmr.simulate`, `twmr.read_result` (see `twmr.api`); imported on first use, so
-`import twmr` stays light.
+`twmr.load`, `twmr.simulate`, `twmr.read_result`, `twmr.sweep` (see `twmr.api`); imported on
+first use, so `import twmr` stays light.
 """
 from __future__ import annotations
 
 from typing import Any
 
 __version__ = "0.2.0"
-__all__ = ["load", "simulate", "read_result", "Result", "Scenario", "__version__"]
+__all__ = ["load", "simulate", "sweep", "read_result", "Result", "Scenario", "__version__"]
 
 
 def __getattr__(name: str) -> Any:

@@ -25,7 +25,7 @@ from twmr.observers.base import Observer
 from twmr.result import Result, read_result
 from twmr.scenario.system import System
 
-__all__ = ["Scenario", "load", "simulate", "read_result", "Result"]
+__all__ = ["Scenario", "load", "simulate", "sweep", "read_result", "Result"]
 log = logging.getLogger("twmr.run")
 
 
@@ -244,3 +244,25 @@ def _add_metrics(result: Result, fns: dict[str, Callable[[Result], dict[str, Any
         from twmr.observers.summary import FILENAME, write_summary
 
         write_summary(result.summary, folder / FILENAME)
+
+
+def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples: int = 20,
+          method: str = "random", seed: int = 0, out: str | Path | None = None,
+          workers: int | None = None, scheduler: str | None = None,
+          metrics: Sequence[str] = (), overrides: Sequence[str] = (),
+          keep_signals: bool = False, progress: bool = False) -> Any:
+    """Run `scenario` once per sample of `vary` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC
+    uniform:LO:HI, normal:MU:SIGMA, values:A,B,C or grid:LO:HI:N) on Dask: `workers` local
+    worker processes (default: the cores) or the cluster at `scheduler`. Rows go to
+    `out/runs.parquet` (default sweeps/<scenario name>); runs already there are skipped.
+    Returns a `twmr.sweeps.SweepOutcome` (`.frame()` is the table as a DataFrame)."""
+    from twmr.sweeps import spec_from
+    from twmr.sweeps import sweep as run_sweep
+
+    texts = [f"{k}={v}" for k, v in vary.items()] if isinstance(vary, dict) else list(vary)
+    spec = spec_from(str(scenario), texts, samples=samples, method=method, seed=seed,
+                     metrics=list(metrics), fixed=list(overrides))
+    folder = Path(out) if out is not None else Path("sweeps") / (Path(str(scenario)).stem or
+                                                                   "scenario")
+    return run_sweep(spec, folder, workers=workers, scheduler=scheduler,
+                     keep_signals=keep_signals, progress=progress)

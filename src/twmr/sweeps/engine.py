@@ -1,0 +1,236 @@
+"""`sweep`: the runs of a `SweepSpec` on a Dask cluster — a local one of worker processes, or an
+existing one by its scheduler address — with the rows collected into `DIR/runs.parquet`.
+
+- Each finished run's row is appended at once to `DIR/runs.jsonl` (flushed), so a sweep that is
+  killed loses no finished run; `runs.parquet` is written from all rows at the end, also after
+  Ctrl-C.
+- A run's id is a hash of its overrides: a second invocation on the same folder skips every run
+  already done (ok or failed) and runs only the new ones.
+- A run that fails is a row with its error; a worker that dies (e.g. a crash inside an FMU) makes
+  Dask retry the run elsewhere, then record it as failed.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from twmr.sweeps.run import RunTask, execute
+from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
+
+log = logging.getLogger("twmr.sweep")
+JOURNAL, TABLE = "runs.jsonl", "runs.parquet"
+
+
+@dataclass
+class SweepOutcome:
+    """What a sweep did: every row of the folder (earlier runs included), how many runs it ran
+    now, how many of those failed, and whether it was interrupted."""
+
+    rows: list[dict[str, Any]]
+    ran: int
+    failed: int
+    skipped: int
+    folder: Path
+    interrupted: bool = False
+
+    def frame(self) -> Any:
+        """The rows as a pandas DataFrame (as in runs.parquet)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows)
+
+
+def _overrides(values: dict[str, Any], varies: list[Vary], base: dict[str, Any]) -> list[str]:
+    """`comp.param=value` texts for one run; elements of one vector are merged into it."""
+    out: dict[str, Any] = {}
+    for v in varies:
+        key, index = v.target
+        value = values[v.name]
+        if index is None:
+            out[key] = value
+        else:
+            vector = list(out.get(key, base[key]))
+            vector[index] = value
+            out[key] = vector
+    return [f"{k}={json.dumps(v)}" for k, v in out.items()]
+
+
+def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
+    """The scenario's own value of every vector an element of which is varied."""
+    comps = scenario.system.components
+    bases: dict[str, Any] = {}
+    for v in varies:
+        key, index = v.target
+        if index is None:
+            continue
+        comp, _, param = key.partition(".")
+        if comp not in comps or param not in comps[comp].variables:
+            raise SweepError(f"--vary {v.name}: the scenario has no '{key}'. Fix: name a "
+                             f"component's parameter, state or input.")
+        value = comps[comp].get(param)
+        if not isinstance(value, tuple) or index >= len(value):
+            size = len(value) if isinstance(value, tuple) else "a scalar"
+            raise SweepError(f"--vary {v.name}: '{key}' has {size} element(s); element "
+                             f"{index + 1} does not exist. Fix: index from 1 to its size.")
+        bases[key] = value
+    return bases
+
+
+def _read_rows(folder: Path) -> list[dict[str, Any]]:
+    """Rows already in the folder: runs.parquet, then any journal a killed sweep left."""
+    rows: dict[str, dict[str, Any]] = {}
+    table = folder / TABLE
+    if table.exists():
+        import pyarrow.parquet as pq
+
+        for row in pq.read_table(table).to_pylist():
+            rows[row["run_id"]] = row
+    journal = folder / JOURNAL
+    if journal.exists():
+        for line in journal.read_text().splitlines():
+            try:
+                row = json.loads(line)
+            except ValueError:
+                continue  # a line cut short when the sweep was killed
+            rows[row["run_id"]] = row
+    return list(rows.values())
+
+
+def write_table(rows: list[dict[str, Any]], folder: Path) -> Path:
+    """runs.parquet from `rows` (written whole, then renamed); the journal is then removed."""
+    import pandas as pd
+
+    frame = pd.DataFrame(rows)
+    if "sample" in frame:
+        frame = frame.sort_values("sample", kind="stable").reset_index(drop=True)
+    target = folder / TABLE
+    partial = folder / f".{TABLE}.{os.getpid()}.part"
+    frame.to_parquet(partial, index=False)
+    os.replace(partial, target)
+    (folder / JOURNAL).unlink(missing_ok=True)
+    return target
+
+
+def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """(client, cluster or None): a LocalCluster of worker processes, or the given scheduler."""
+    from dask.distributed import Client, LocalCluster
+
+    for name in ("distributed", "distributed.nanny", "distributed.scheduler",
+                 "distributed.worker", "distributed.core", "distributed.http.proxy"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as err:
+            raise SweepError(f"--scheduler {scheduler}: no Dask scheduler answers there "
+                             f"({err}). Fix: start one with `dask scheduler` and workers with "
+                             f"`dask worker {scheduler}`, or leave --scheduler out.") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
+          scheduler: str | None = None, keep_signals: bool = False,
+          progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None
+          ) -> SweepOutcome:
+    """Run the sweep `spec` into folder `out` (see the module's docstring). Raises SweepError
+    (or the scenario's ScenarioError) before anything runs when the sweep is ill-formed."""
+    from twmr.api import load
+
+    table = spec.samples_table()
+    scenario = load(spec.scenario, list(spec.fixed))
+    bases = _bases(scenario, spec.vary)
+    first = _overrides(table[0], spec.vary, bases)
+    load(spec.scenario, [*spec.fixed, *first])  # every NAME is checked before anything runs
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    done = _read_rows(folder)
+    done_ids = {r["run_id"] for r in done}
+    tasks: list[RunTask] = []
+    for i, values in enumerate(table):
+        rid = run_id(values, spec.fixed)
+        if rid in done_ids:
+            continue  # done before, or the same overrides drawn twice: the same run
+        done_ids.add(rid)
+        keep = str(folder / "runs" / rid) if keep_signals else None
+        tasks.append(RunTask(rid, i, values, [*spec.fixed, *_overrides(values, spec.vary, bases)],
+                             scenario.source, scenario.content if isinstance(
+                                 scenario.content, str) else json.dumps(scenario.content),
+                             str(scenario.base_dir), list(spec.metrics), keep))
+    skipped = len(table) - len(tasks)
+    outcome = SweepOutcome(done, 0, 0, skipped, folder)
+    if not tasks:
+        write_table(done, folder)
+        return outcome
+    client, cluster = _client(workers, scheduler)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(tasks), unit="run", dynamic_ncols=True, desc="sweep")
+    journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
+    try:
+        from dask.distributed import as_completed
+
+        futures = client.map(execute, tasks, pure=False, key=[f"run-{t.run_id}" for t in tasks])
+        by_key = {f.key: t for f, t in zip(futures, tasks)}
+        for future in as_completed(futures):
+            task = by_key[future.key]
+            if future.status == "finished":
+                row = future.result()
+            else:  # the worker died under it (several times) or the task was lost
+                row = {"run_id": task.run_id, "sample": task.sample, **task.values,
+                       "status": "failed", "error": f"the worker running it failed: "
+                       f"{future.exception()!r}", "wall_time_s": math.nan,
+                       "step_time_s": math.nan, "worker": ""}
+            journal.write(json.dumps(row, default=_plain) + "\n")
+            journal.flush()
+            outcome.rows.append(row)
+            outcome.ran += 1
+            outcome.failed += row["status"] != "ok"
+            if on_row is not None:
+                on_row(row)
+            if bar is not None:
+                bar.set_postfix(failed=outcome.failed, refresh=False)
+                bar.update(1)
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+        client.cancel(futures)
+    finally:
+        if bar is not None:
+            bar.close()
+        journal.close()
+        try:
+            client.close(timeout=10)
+            if cluster is not None:
+                cluster.close(timeout=10)
+        except Exception:  # noqa: BLE001 - closing after Ctrl-C must not hide the rows
+            log.debug("closing the Dask cluster failed", exc_info=True)
+        write_table(outcome.rows, folder)
+    return outcome
+
+
+def _plain(value: Any) -> Any:
+    """JSON for numpy scalars and tuples in rows."""
+    if hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, tuple):
+        return list(value)
+    return str(value)
+
+
+def spec_from(scenario: str, vary: Sequence[str | Vary], **options: Any) -> SweepSpec:
+    """A SweepSpec from a scenario path and `NAME=SPEC` texts (or Vary objects)."""
+    from twmr.sweeps.spec import parse_vary
+
+    varies = [v if isinstance(v, Vary) else parse_vary(v) for v in vary]
+    spec = SweepSpec(str(scenario), varies, **options)
+    spec.check()
+    return spec
