@@ -1,5 +1,6 @@
-"""`twmr` command line: run | check | components | plot | inspect | export, plus the subcommands
-installed packages register (`twmr.commands` entry points: compare, emulate-drive, replay).
+"""`twmr` command line: run | check | sweep | sweep-report | components | plot | inspect | export,
+plus the subcommands installed packages register (`twmr.commands` entry points: compare,
+emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
@@ -155,6 +156,61 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from twmr.sweeps import SweepError, SweepSpec, parse_vary, read_sweep_file, sweep
+
+    path = Path(args.scenario)
+    file: dict[str, Any] = {}
+    scenario = str(path)
+    if _is_sweep_file(path):
+        file = read_sweep_file(path)
+        if not file.get("scenario"):
+            raise SweepError(f"{path}: no 'scenario:'. Fix: name the scenario file to sweep.")
+        target = Path(str(file["scenario"]))
+        scenario = str(target if target.is_absolute() else path.parent / target)
+    vary = {v.name: v for v in file.get("vary", [])}
+    vary.update({v.name: v for v in (parse_vary(text) for text in args.vary)})
+    metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()] or \
+        list(file.get("metrics") or [])
+
+    def option(name: str, default: Any) -> Any:
+        given = getattr(args, name)
+        return given if given is not None else file.get(name, default)
+
+    spec = SweepSpec(scenario, list(vary.values()), samples=option("samples", 20),
+                     method=option("method", "random"), seed=option("seed", 0),
+                     metrics=metrics, fixed=[*(file.get("set") or []), *args.set])
+    out = Path(option("out", None) or Path("sweeps") / Path(scenario).stem)
+    outcome = sweep(spec, out, workers=option("workers", None),
+                    scheduler=option("scheduler", None),
+                    keep_signals=args.keep_signals or bool(file.get("keep_signals")),
+                    progress=not getattr(args, "quiet", False))
+    log.info("sweep: %d run(s) done now (%d failed), %d already done; %s", outcome.ran,
+             outcome.failed, outcome.skipped, out / "runs.parquet")
+    return 0
+
+
+def _is_sweep_file(path: Path) -> bool:
+    """A YAML file with 'vary:' at its top level is a sweep file, not a scenario."""
+    import yaml
+
+    if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file():
+        return False
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8", errors="replace"))
+    except yaml.YAMLError:
+        return False
+    return isinstance(data, dict) and "vary" in data
+
+
+def cmd_sweep_report(args: argparse.Namespace) -> int:
+    from twmr.sweeps.report import sweep_report
+
+    for written in sweep_report(Path(args.folder), Path(args.out) if args.out else None):
+        print(written)
+    return 0
+
+
 def _parse_set(text: str) -> tuple[str, Any]:
     import yaml
 
@@ -218,6 +274,34 @@ def parser() -> argparse.ArgumentParser:
     pl.add_argument("result")
     pl.add_argument("--out")
     pl.set_defaults(fn=cmd_plot)
+    sw = sub.add_parser("sweep", parents=[common],
+                        help="run a scenario over varied parameters (Monte Carlo) on Dask")
+    sw.add_argument("scenario", help="the scenario, or a sweep file (YAML with vary:)")
+    sw.add_argument("--vary", action="append", default=[], metavar="NAME=SPEC",
+                    help="NAME (an override, e.g. plant.scale or plant.pose[1]) and SPEC: "
+                         "uniform:LO:HI, normal:MU:SIGMA, values:A,B,C or grid:LO:HI:N "
+                         "(repeatable)")
+    sw.add_argument("--samples", type=int, help="number of runs (random, lhs); default 20")
+    sw.add_argument("--method", choices=("random", "lhs", "grid"),
+                    help="sampling: random draws, Latin hypercube, or the full grid")
+    sw.add_argument("--seed", type=int, help="seed of the draws (default 0)")
+    where = sw.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int,
+                       help="local Dask worker processes (default: the cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="an existing Dask cluster, e.g. tcp://host:8786")
+    sw.add_argument("--out", help="folder of runs.parquet (default sweeps/<scenario name>)")
+    sw.add_argument("--metrics", action="append", default=[], metavar="NAME",
+                    help="registered metric sets per run (e.g. tracking); repeatable")
+    sw.add_argument("--keep-signals", action="store_true",
+                    help="keep each run's signals in <out>/runs/<run id>/")
+    with_set(sw)
+    sw.set_defaults(fn=cmd_sweep)
+    sr = sub.add_parser("sweep-report", parents=[common],
+                        help="summary table and plots of a sweep folder")
+    sr.add_argument("folder")
+    sr.add_argument("--out", help="where the report goes (default <folder>/report)")
+    sr.set_defaults(fn=cmd_sweep_report)
     i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component")
     i.add_argument("fmu")
     i.add_argument("--json", action="store_true",

@@ -15,6 +15,8 @@ import json
 import logging
 import math
 import os
+import signal
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -58,6 +60,32 @@ def _overrides(values: dict[str, Any], varies: list[Vary], base: dict[str, Any])
             vector[index] = value
             out[key] = vector
     return [f"{k}={json.dumps(v)}" for k, v in out.items()]
+
+
+def _check_names(scenario: Any, varies: list[Vary]) -> None:
+    """Every NAME is an override of this scenario (its values are each run's business: a value
+    out of range fails that run only)."""
+    from twmr.registry import suggest
+
+    comps = scenario.system.components
+    for v in varies:
+        key, index = v.target
+        comp, _, param = key.partition(".")
+        if comp == "experiment":
+            known = ["start", "stop", "step", "algorithm", "realtime"]
+        elif comp in comps:
+            known = ["step_multiple"] + [n for n, var in comps[comp].variables.items()
+                                         if var.kind in ("parameter", "state", "input")]
+        else:
+            raise SweepError(f"--vary {v.name}: the scenario has no component '{comp}'"
+                             f"{suggest(comp, list(comps))}. Fix: use one of "
+                             f"{', '.join(comps)}, or 'experiment'.")
+        if param not in known:
+            raise SweepError(f"--vary {v.name}: '{comp}' has no parameter, state or input "
+                             f"'{param}'{suggest(param, known)}. Fix: use one of "
+                             f"{', '.join(known)}.")
+        if index is not None and comp == "experiment":
+            raise SweepError(f"--vary {v.name}: experiment settings have no elements.")
 
 
 def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
@@ -131,8 +159,18 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
                              f"({err}). Fix: start one with `dask scheduler` and workers with "
                              f"`dask worker {scheduler}`, or leave --scheduler out.") from None
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+    if n < 1:
+        raise SweepError(f"--workers {workers}: give at least 1.")
+    # the workers start with Ctrl-C ignored (a terminal sends it to the whole process group):
+    # this process stops them, after saving the rows
+    ignore = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ignore else None
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        if ignore:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
@@ -146,11 +184,11 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
 
     table = spec.samples_table()
     scenario = load(spec.scenario, list(spec.fixed))
+    _check_names(scenario, spec.vary)
     bases = _bases(scenario, spec.vary)
-    first = _overrides(table[0], spec.vary, bases)
-    load(spec.scenario, [*spec.fixed, *first])  # every NAME is checked before anything runs
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
+    _write_description(spec, folder)
     done = _read_rows(folder)
     done_ids = {r["run_id"] for r in done}
     tasks: list[RunTask] = []
@@ -200,9 +238,11 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
             if bar is not None:
                 bar.set_postfix(failed=outcome.failed, refresh=False)
                 bar.update(1)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         outcome.interrupted = True
         client.cancel(futures)
+        stop.partial_results = folder  # type: ignore[attr-defined] - shown by the CLI
+        raise
     finally:
         if bar is not None:
             bar.close()
@@ -215,6 +255,14 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
             log.debug("closing the Dask cluster failed", exc_info=True)
         write_table(outcome.rows, folder)
     return outcome
+
+
+def _write_description(spec: SweepSpec, folder: Path) -> None:
+    """sweep.json: what the folder's runs vary and how they were drawn (for the report)."""
+    described = {"scenario": spec.scenario, "vary": {v.name: v.text for v in spec.vary},
+                 "samples": spec.samples, "method": spec.method, "seed": spec.seed,
+                 "metrics": list(spec.metrics), "set": list(spec.fixed)}
+    (folder / "sweep.json").write_text(json.dumps(described, indent=2) + "\n")
 
 
 def _plain(value: Any) -> Any:

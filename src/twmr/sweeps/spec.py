@@ -46,6 +46,13 @@ class Vary:
     args: tuple[Any, ...]
 
     @property
+    def text(self) -> str:
+        """The SPEC as written, e.g. 'uniform:0.9:1.1'."""
+        if self.kind == "values":
+            return "values:" + ",".join(str(a) for a in self.args)
+        return ":".join([self.kind, *(f"{a:g}" for a in self.args)])
+
+    @property
     def target(self) -> tuple[str, int | None]:
         """(override key 'comp.param', 0-based element or None)."""
         m = _NAME.match(self.name)
@@ -92,7 +99,7 @@ def parse_vary(text: str, where: str = "--vary") -> Vary:
         if kind == "values":
             import yaml
 
-            values = [yaml.safe_load(v) for v in rest.split(",")] if rest else []
+            values = [_scalar(yaml.safe_load(v)) for v in rest.split(",")] if rest else []
             if not values or any(v is None for v in values):
                 raise ValueError("give at least one value, separated by commas")
             return Vary(name, kind, tuple(values))
@@ -114,6 +121,16 @@ def parse_vary(text: str, where: str = "--vary") -> Vary:
         raise SweepError(f"{where} {text!r}: {err}. Fix: {hint}.") from None
     raise SweepError(f"{where} {text!r}: '{spec}' is not a distribution this sweep knows. "
                      f"Fix: {hint}.")
+
+
+def _scalar(value: Any) -> Any:
+    """A YAML scalar, with '1e-3'-style text (YAML 1.1 reads it as text) as a number."""
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
 
 
 @dataclass
