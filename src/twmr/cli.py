@@ -187,6 +187,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                     progress=not getattr(args, "quiet", False))
     log.info("sweep: %d run(s) done now (%d failed), %d already done; %s", outcome.ran,
              outcome.failed, outcome.skipped, out / "runs.parquet")
+    if outcome.ran and outcome.failed == outcome.ran:
+        first = next(r["error"] for r in outcome.rows if r["status"] != "ok")
+        raise SweepError(f"every run of the sweep failed (their errors are in "
+                         f"{out / 'runs.parquet'}); the first: {first}")
+    if outcome.failed:
+        log.warning("%d run(s) failed; their errors are in %s (`twmr sweep-report %s` lists "
+                    "them)", outcome.failed, out / "runs.parquet", out)
     return 0
 
 

@@ -64,6 +64,7 @@ def _all_subclasses(cls: type) -> list[type]:
 def test_every_error_class_round_trips_through_pickle() -> None:
     import twmr.fmi.fmu  # noqa: F401 - error classes defined by every part of the engine
     import twmr.hw.drive  # noqa: F401
+    import twmr.sweeps  # noqa: F401
 
     loc = E.Location("s.yaml", 3, "components.a")
     samples = {E.ScenarioError: ([E.Problem(loc, "bad", "fix it")],),
@@ -81,6 +82,9 @@ def test_every_error_class_round_trips_through_pickle() -> None:
             assert (back.instance, back.time) == (err.instance, err.time)
         if isinstance(err, E.ScenarioError):
             assert back.problems == err.problems
+    with_log = E.FmuError("f", 0.5, "doStep failed", ["[ERROR] a", "[WARNING] b"])
+    back = pickle.loads(pickle.dumps(with_log))
+    assert back.log == with_log.log and str(back) == str(with_log)
 
 
 def test_experiment_override_in_exponent_notation_without_a_dot() -> None:

@@ -17,6 +17,7 @@ import math
 import os
 import signal
 import threading
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -158,16 +159,19 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             raise SweepError(f"--scheduler {scheduler}: no Dask scheduler answers there "
                              f"({err}). Fix: start one with `dask scheduler` and workers with "
                              f"`dask worker {scheduler}`, or leave --scheduler out.") from None
+    if workers is not None and workers < 1:
+        raise SweepError(f"--workers {workers}: give at least 1 (or leave it out: one per "
+                         f"core).")
     n = workers or os.cpu_count() or 1
-    if n < 1:
-        raise SweepError(f"--workers {workers}: give at least 1.")
     # the workers start with Ctrl-C ignored (a terminal sends it to the whole process group):
     # this process stops them, after saving the rows
     ignore = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ignore else None
     try:
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+        with warnings.catch_warnings():  # e.g. "port 8787 is already in use"
+            warnings.simplefilter("ignore")
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
     finally:
         if ignore:
             signal.signal(signal.SIGINT, previous)
