@@ -174,3 +174,22 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_keeps_the_finished_runs(tmp_path) ->
             break
         time.sleep(0.2)
     assert alive.stdout.strip() == ""
+
+
+def test_a_run_that_crashes_its_worker_is_a_row_and_the_others_finish(tmp_path) -> None:
+    from tests.fmu_build import build_c_fmu
+
+    faulty = build_c_fmu("faulty", tmp_path)
+    scenario = tmp_path / "faulty.yaml"
+    scenario.write_text(f"""
+components:
+  f: {{kind: fmu, parameters: {{path: {faulty}, fail_after: 5}}}}
+open: [f.u]
+experiment: {{start: 0.0, stop: 0.2, step: 0.01}}
+""")
+    outcome = twmr.sweep(scenario, ["f.mode=values:0,1"], method="grid", workers=2,
+                         out=tmp_path / "crash")  # mode 1: a segmentation fault in doStep
+    table = outcome.frame().set_index("f.mode")
+    assert table.loc[0, "status"] == "ok"
+    assert table.loc[1, "status"] == "failed"
+    assert "worker process running it died" in table.loc[1, "error"]

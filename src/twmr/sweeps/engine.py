@@ -151,7 +151,7 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 
     for name in ("distributed", "distributed.nanny", "distributed.scheduler",
                  "distributed.worker", "distributed.core", "distributed.http.proxy"):
-        logging.getLogger(name).setLevel(logging.ERROR)
+        logging.getLogger(name).setLevel(logging.CRITICAL)  # failures are the rows' business
     if scheduler:
         try:
             return Client(scheduler, timeout="10s"), None
@@ -229,9 +229,8 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
                 row = future.result()
             else:  # the worker died under it (several times) or the task was lost
                 row = {"run_id": task.run_id, "sample": task.sample, **task.values,
-                       "status": "failed", "error": f"the worker running it failed: "
-                       f"{future.exception()!r}", "wall_time_s": math.nan,
-                       "step_time_s": math.nan, "worker": ""}
+                       "status": "failed", "error": _lost(future.exception()),
+                       "wall_time_s": math.nan, "step_time_s": math.nan, "worker": ""}
             journal.write(json.dumps(row, default=_plain) + "\n")
             journal.flush()
             outcome.rows.append(row)
@@ -259,6 +258,15 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
             log.debug("closing the Dask cluster failed", exc_info=True)
         write_table(outcome.rows, folder)
     return outcome
+
+
+def _lost(exc: BaseException | None) -> str:
+    """The error of a run whose worker process died under it."""
+    if type(exc).__name__ == "KilledWorker":
+        return ("the worker process running it died each time it was tried (a crash inside "
+                "native code, e.g. an FMU, or the memory limit). Fix: run this case alone with "
+                "`twmr run` (with `isolate: true` on its FMUs) to see what happens.")
+    return f"the run was lost by Dask: {type(exc).__name__}: {exc}"
 
 
 def _write_description(spec: SweepSpec, folder: Path) -> None:
