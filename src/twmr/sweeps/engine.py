@@ -171,7 +171,7 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         with warnings.catch_warnings():  # e.g. "port 8787 is already in use"
             warnings.simplefilter("ignore")
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.ERROR)
     finally:
         if ignore:
             signal.signal(signal.SIGINT, previous)
