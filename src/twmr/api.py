@@ -255,7 +255,10 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
     uniform:LO:HI, normal:MU:SIGMA, values:A,B,C or grid:LO:HI:N) on Dask: `workers` local
     worker processes (default: the cores) or the cluster at `scheduler`. Rows go to
     `out/runs.parquet` (default sweeps/<scenario name>); runs already there are skipped.
-    Returns a `twmr.sweeps.SweepOutcome` (`.frame()` is the table as a DataFrame)."""
+    Returns a `twmr.sweeps.SweepOutcome` (`.frame()` is the table as a DataFrame).
+
+    Local workers are processes started by `multiprocessing`'s spawn: a script that calls this
+    needs the usual `if __name__ == "__main__":` guard."""
     from twmr.sweeps import spec_from
     from twmr.sweeps import sweep as run_sweep
 

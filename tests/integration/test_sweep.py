@@ -193,3 +193,13 @@ experiment: {{start: 0.0, stop: 0.2, step: 0.01}}
     assert table.loc[0, "status"] == "ok"
     assert table.loc[1, "status"] == "failed"
     assert "worker process running it died" in table.loc[1, "error"]
+
+
+def test_a_folder_of_another_scenario_or_metrics_is_refused(cluster, tmp_path) -> None:
+    args = dict(out=tmp_path / "one", scheduler=cluster, overrides=SHORT, method="grid")
+    twmr.sweep(PAPER, ["plant.scale=values:1.0"], **args)
+    smc = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
+    with pytest.raises(SweepError, match="another scenario"):
+        twmr.sweep(smc, ["plant.scale=values:1.0"], **args)
+    with pytest.raises(SweepError, match="other --metrics"):
+        twmr.sweep(PAPER, ["plant.scale=values:1.0"], metrics=["tracking"], **args)

@@ -190,9 +190,12 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
     scenario = load(spec.scenario, list(spec.fixed))
     _check_names(scenario, spec.vary)
     bases = _bases(scenario, spec.vary)
-    folder = Path(out)
+    folder = Path(out).resolve()  # absolute: workers on a shared file system write there
+    content = scenario.content if isinstance(scenario.content, str) else \
+        json.dumps(scenario.content, sort_keys=True)
+    _same_sweep(spec, content, folder)
     folder.mkdir(parents=True, exist_ok=True)
-    _write_description(spec, folder)
+    _write_description(spec, content, folder)
     done = _read_rows(folder)
     done_ids = {r["run_id"] for r in done}
     tasks: list[RunTask] = []
@@ -203,9 +206,8 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
         done_ids.add(rid)
         keep = str(folder / "runs" / rid) if keep_signals else None
         tasks.append(RunTask(rid, i, values, [*spec.fixed, *_overrides(values, spec.vary, bases)],
-                             scenario.source, scenario.content if isinstance(
-                                 scenario.content, str) else json.dumps(scenario.content),
-                             str(scenario.base_dir), list(spec.metrics), keep))
+                             scenario.source, content, str(scenario.base_dir),
+                             list(spec.metrics), keep))
     skipped = len(table) - len(tasks)
     outcome = SweepOutcome(done, 0, 0, skipped, folder)
     if not tasks:
@@ -269,11 +271,40 @@ def _lost(exc: BaseException | None) -> str:
     return f"the run was lost by Dask: {type(exc).__name__}: {exc}"
 
 
-def _write_description(spec: SweepSpec, folder: Path) -> None:
-    """sweep.json: what the folder's runs vary and how they were drawn (for the report)."""
-    described = {"scenario": spec.scenario, "vary": {v.name: v.text for v in spec.vary},
-                 "samples": spec.samples, "method": spec.method, "seed": spec.seed,
-                 "metrics": list(spec.metrics), "set": list(spec.fixed)}
+def _digest(text: str) -> str:
+    import hashlib
+
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _same_sweep(spec: SweepSpec, content: str, folder: Path) -> None:
+    """A folder holds the runs of one scenario (its text), one set of `--set` overrides and one
+    metric selection; the varied parameters and the sampling may grow from call to call."""
+    described = folder / "sweep.json"
+    if not described.exists():
+        return
+    try:
+        before = json.loads(described.read_text())
+    except ValueError:
+        return
+    now = {"scenario_sha256": _digest(content), "set": list(spec.fixed),
+           "metrics": list(spec.metrics)}
+    what = {"scenario_sha256": "another scenario (or another version of its file)",
+            "set": "other --set overrides", "metrics": "other --metrics"}
+    for key, value in now.items():
+        if key in before and before[key] != value:
+            raise SweepError(f"{folder} holds a sweep of {what[key]} ({key}: {before[key]!r}, "
+                             f"now {value!r}); its runs would be mixed with these. Fix: give "
+                             f"another --out, or the same {key.split('_')[0]} as before.")
+
+
+def _write_description(spec: SweepSpec, content: str, folder: Path) -> None:
+    """sweep.json: what the folder's runs vary and how they were drawn (for the report and the
+    next invocation)."""
+    described = {"scenario": spec.scenario, "scenario_sha256": _digest(content),
+                 "vary": {v.name: v.text for v in spec.vary}, "samples": spec.samples,
+                 "method": spec.method, "seed": spec.seed, "metrics": list(spec.metrics),
+                 "set": list(spec.fixed)}
     (folder / "sweep.json").write_text(json.dumps(described, indent=2) + "\n")
 
 
