@@ -84,6 +84,7 @@ def test_unknown_to_known_unit_is_refused_naming_both(fmus) -> None:
     msg = str(err.value)
     assert "units.yaml:" in msg and "'degF'" in msg and "'widget'" in msg
     assert "b.temp_in" in msg and "BaseUnit" in msg
+    assert "not connected" not in msg  # the refused wire's input is not reported twice
 
 
 def test_unitless_to_united_is_warned_about_at_check(fmus, caplog) -> None:

@@ -205,3 +205,29 @@ def test_a_library_not_named_after_the_model_identifier_is_refused_when_loaded(l
             zout.writestr(item.replace("lag2.so", "other.so"), zin.read(item))
     with pytest.raises(FmuError, match=r"binaries/linux64/lag2\.so"):
         FmuComponent("x", renamed)
+
+
+def test_an_fmi2_fmu_that_ends_the_simulation_says_so(tmp_path) -> None:
+    faulty = build_c_fmu("faulty", tmp_path)
+    scenario = f"""
+components:
+  f: {{kind: fmu, parameters: {{path: {faulty}, mode: 6, fail_after: 4}}}}
+open: [f.u]
+experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
+"""
+    with pytest.raises(FmuError, match="asked to terminate the simulation.*fmi2Terminated"):
+        simulate(loads(scenario, source="fmu.yaml"))
+
+
+def test_inspect_of_a_bad_start_value_is_an_error_not_a_traceback(lag2, tmp_path) -> None:
+    from twmr.fmi import describe_fmu
+
+    bad = tmp_path / "badstart.fmu"
+    with zipfile.ZipFile(lag2) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for item in zin.namelist():
+            data = zin.read(item)
+            if item == "modelDescription.xml":
+                data = data.replace(b'<Real start="2.0"/>', b'<Real start="two"/>')
+            zout.writestr(item, data)
+    with pytest.raises(FmuError, match="start=\"two\", which is not a valid Real"):
+        describe_fmu(bad)

@@ -14,6 +14,7 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
     causality, FMI type, port type, unit, size, start, depends_on)."""
     import fmpy
 
+    from twmr.core.errors import FmuError
     from twmr.fmi.description import ports_of, read_description
     from twmr.fmi.sources import has_binary
 
@@ -23,7 +24,11 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
     sources = bool(md.buildConfigurations and md.buildConfigurations[0].sourceFileSets)
     runs = "yes" if has_binary(path, md) else ("after compiling its C sources" if sources
                                                else "no")
-    ports, variables = ports_of(md)
+    try:
+        ports, variables = ports_of(md)
+    except ValueError as err:
+        raise FmuError(path.stem, None, f"'{path.name}': {err} in its modelDescription.xml. Fix: "
+                       f"correct the FMU's model description (or ask its vendor).") from None
     causality = {"input": "input", "output": "output", "state": "output",
                  "parameter": "parameter"}
     out: dict[str, Any] = {

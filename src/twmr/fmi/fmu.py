@@ -395,12 +395,27 @@ class FmuComponent(Component):
         except FmuError:
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            if self._fmi2_terminated():
+                raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
+                               f"simulation (fmi2DoStep returned fmi2Discard and "
+                               f"fmi2Terminated is true).", self.log.tail()) from None
             what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
                                                               else "fmi2DoStep")
             raise self._error(what, exc) from exc
         if self.fmi3 and result is not None and result[1]:
             raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
                            f"simulation (fmi3DoStep terminateSimulation).", self.log.tail())
+
+    def _fmi2_terminated(self) -> bool:
+        """After a discarded fmi2DoStep: whether the FMU says it has terminated."""
+        if self.me or self.fmi3:
+            return False
+        try:
+            from fmpy.fmi2 import fmi2Terminated
+
+            return bool(self._fmu.getBooleanStatus(fmi2Terminated))
+        except Exception:  # noqa: BLE001 - the status is optional in FMI 2.0
+            return False
 
     def _error(self, what: str, exc: BaseException) -> FmuError:
         return FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "

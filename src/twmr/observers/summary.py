@@ -43,7 +43,8 @@ class SignalSummary(Observer):
             self._min = np.fmin(self._min, np.nanmin(block, axis=0))
             self._max = np.fmax(self._max, np.nanmax(block, axis=0))
         finite = np.isfinite(block)
-        self._squares += np.where(finite, block * block, 0.0).sum(axis=0)
+        with np.errstate(over="ignore"):  # |x| > 1e154: its square is inf, so is the rms
+            self._squares += np.where(finite, block * block, 0.0).sum(axis=0)
         self._count += finite.sum(axis=0)
 
     def signals(self) -> dict[str, dict[str, Any]]:

@@ -75,6 +75,7 @@ class _Builder:
             self.data, self.lines = read(text, source)
         self.problems: list[Problem] = []
         self.overridden: dict[tuple[Any, ...], str] = {}
+        self.miswired: set[tuple[str, str]] = set()  # inputs of wires refused
 
     def at(self, *path: Any) -> Location:
         for n in range(len(path), 0, -1):
@@ -321,7 +322,10 @@ class _Builder:
                 self.problems.append(Problem(loc, f"cannot read the connection '{text}': {err}.",
                                              "write 'component.output -> component.input'."))
                 continue
-            conns += wire(comps, src, dst, loc, self.problems)
+            made = wire(comps, src, dst, loc, self.problems)
+            if not made:  # reported; its input is not reported again as unconnected
+                self.miswired.add((dst.comp, dst.port))
+            conns += made
         return conns
 
     def check_drivers(self, comps: dict[str, Component], conns: list[Connection]) -> None:
@@ -352,7 +356,7 @@ class _Builder:
         for name, comp in comps.items():
             for port, var in comp.inputs.items():
                 missing = [j for j in range(var.width) if (name, port, j) not in driven]
-                if missing and (name, port) not in opened:
+                if missing and (name, port) not in opened | self.miswired:
                     which = "" if len(missing) == var.width else \
                         f" (elements {', '.join(str(j + 1) for j in missing)})"
                     self.problems.append(Problem(

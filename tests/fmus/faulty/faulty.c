@@ -16,7 +16,7 @@
 
 #define NR 3 /* Real: y, y2, u */
 #define NI 2 /* Integer: fail_after, mode */
-typedef struct { double r[NR]; int i[NI]; long count; double time; fmi2CallbackFunctions cb; fmi2String name; } Inst;
+typedef struct { double r[NR]; int i[NI]; long count; double time; fmi2CallbackFunctions cb; fmi2String name; int terminated; } Inst;
 typedef struct { double r[NR]; int i[NI]; long count; double time; } State;
 
 static void log_msg(Inst *c, fmi2Status s, const char *cat, const char *msg) {
@@ -24,7 +24,7 @@ static void log_msg(Inst *c, fmi2Status s, const char *cat, const char *msg) {
 }
 static fmi2Status bad_vr(Inst *c) { log_msg(c, fmi2Error, "error", "invalid value reference"); return fmi2Error; }
 static void defaults(Inst *c) {
-    memset(c->r, 0, sizeof(c->r)); c->i[0] = 1000000; c->i[1] = 0; c->count = 0; c->time = 0;
+    memset(c->r, 0, sizeof(c->r)); c->i[0] = 1000000; c->i[1] = 0; c->count = 0; c->time = 0; c->terminated = 0;
 }
 static void sleep_10ms(void) {
 #ifdef _WIN32
@@ -123,6 +123,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
             return fmi2Error;
         }
         case 5: i->r[0] = NAN; break;
+        case 6: i->terminated = 1; return fmi2Discard; /* the model ends the simulation */
         default: break;
         }
     }
@@ -132,5 +133,9 @@ fmi2Status fmi2CancelStep(fmi2Component c) { return fmi2Error; }
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *v) { return fmi2Error; }
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *v) { *v = ((Inst *)c)->time; return fmi2OK; }
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *v) { return fmi2Error; }
-fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v) { return fmi2Error; }
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v) {
+    if (s != fmi2Terminated) return fmi2Error;
+    *v = ((Inst *)c)->terminated ? fmi2True : fmi2False;
+    return fmi2OK;
+}
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *v) { return fmi2Error; }
