@@ -53,24 +53,63 @@ def derivative(x: float, y: float, th: float, wR: float, wL: float,
     return dx, dy, varpi, (m11 * fR - m12 * fL) / det, (m11 * fL - m12 * fR) / det
 
 
+#: codes of the slip profiles the plant evaluates itself (`slip_disturbance.model`); 0: none given
+HELD, PAPER, NO_SLIP, CONSTANT, STEP, MUD = 0, 1, 2, 3, 4, 5
+#: length of the profile descriptor: code, slip gain, disturbance gain, slip value (3),
+#: disturbance value (2), step time, mud centre (2), mud radius
+DESCRIPTOR = 12
+
+
 @njit(cache=True, error_model="numpy")
-def rk4(n: int, hs: float, x: float, y: float, th: float, wR: float, wL: float,
+def slip_at(p: tuple, t: float, x: float, y: float
+            ) -> tuple[float, float, float, float, float, float, float, float]:
+    """Slip rates [m/s], slip accelerations [m/s2] and disturbance [N.m] of profile `p` (a
+    descriptor, see DESCRIPTOR) at time t [s] with M at (x, y) [m] (Sec. IV-A for `paper`)."""
+    code, g, gd = p[0], p[1], p[2]
+    if code == PAPER:
+        c, s = math.cos(t), math.sin(t)
+        return (g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
+                gd * 2.0 * math.sin(3.0 * t), gd * 2.0 * math.cos(3.0 * t))
+    on = code == CONSTANT or (code == STEP and t >= p[8]) or (
+        code == MUD and math.hypot(x - p[9], y - p[10]) <= p[11])
+    if not on:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return g * p[3], g * p[4], g * p[5], 0.0, 0.0, 0.0, gd * p[6], gd * p[7]
+
+
+@njit(cache=True, error_model="numpy")
+def rk4(n: int, hs: float, t0: float, x: float, y: float, th: float, wR: float, wL: float,
         tR: float, tL: float, muR: float, muL: float, dl: float, muR2: float, muL2: float,
-        dl2: float, tdR: float, tdL: float, m11: float, m12: float, q1: float, q2: float,
-        m_G: float, a: float, r: float, b: float
+        dl2: float, tdR: float, tdL: float, p: tuple, m11: float, m12: float, q1: float,
+        q2: float, m_G: float, a: float, r: float, b: float
         ) -> tuple[float, float, float, float, float, float, float]:
-    """`n` classical RK4 steps of size `hs` [s] with the inputs held (zero-order hold); returns
-    the new state and the centre of mass G (eq. 4 minus eq. 11: G = M + a (cos, sin))."""
-    for _ in range(n):
+    """`n` classical RK4 steps of size `hs` [s] from t0 [s]; returns the new state and the centre
+    of mass G (eq. 4 minus eq. 11: G = M + a (cos, sin)). Torques are held over the steps (the
+    controller's zero-order hold); slip and disturbance too, unless the descriptor `p` gives
+    their profile, which is then evaluated at every RK4 stage (its time and stage position)."""
+    live = p[0] != HELD
+    for i in range(n):
+        t = t0 + i * hs
+        if live:
+            muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(p, t, x, y)
         k1 = derivative(x, y, th, wR, wL, tR, tL, muR, muL, dl, muR2, muL2, dl2, tdR, tdL,
                         m11, m12, q1, q2, m_G, a, r, b)
-        k2 = derivative(x + hs / 2 * k1[0], y + hs / 2 * k1[1], th + hs / 2 * k1[2],
+        x2, y2 = x + hs / 2 * k1[0], y + hs / 2 * k1[1]
+        if live:
+            muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(p, t + hs / 2, x2, y2)
+        k2 = derivative(x2, y2, th + hs / 2 * k1[2],
                         wR + hs / 2 * k1[3], wL + hs / 2 * k1[4], tR, tL, muR, muL, dl, muR2,
                         muL2, dl2, tdR, tdL, m11, m12, q1, q2, m_G, a, r, b)
-        k3 = derivative(x + hs / 2 * k2[0], y + hs / 2 * k2[1], th + hs / 2 * k2[2],
+        x3, y3 = x + hs / 2 * k2[0], y + hs / 2 * k2[1]
+        if live:
+            muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(p, t + hs / 2, x3, y3)
+        k3 = derivative(x3, y3, th + hs / 2 * k2[2],
                         wR + hs / 2 * k2[3], wL + hs / 2 * k2[4], tR, tL, muR, muL, dl, muR2,
                         muL2, dl2, tdR, tdL, m11, m12, q1, q2, m_G, a, r, b)
-        k4 = derivative(x + hs * k3[0], y + hs * k3[1], th + hs * k3[2], wR + hs * k3[3],
+        x4, y4 = x + hs * k3[0], y + hs * k3[1]
+        if live:
+            muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(p, t + hs, x4, y4)
+        k4 = derivative(x4, y4, th + hs * k3[2], wR + hs * k3[3],
                         wL + hs * k3[4], tR, tL, muR, muL, dl, muR2, muL2, dl2, tdR, tdL,
                         m11, m12, q1, q2, m_G, a, r, b)
         x += hs / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])

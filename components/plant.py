@@ -1,11 +1,15 @@
 """The three-wheeled mobile robot with wheel slip: kinematics eqs (1)-(4), (11), dynamics eq. (8).
 
 State: pose of the rear-axle midpoint M (x_M, y_M, theta) and wheel speeds nu = (phi_R', phi_L').
-Inputs held over a step (zero-order hold); the model is integrated by classical RK4 with
-ceil(h / internal_step) equal substeps, compiled with numba (`_model.rk4`).
+The model is integrated by classical RK4 with ceil(h / internal_step) equal substeps, compiled
+with numba (`_model.rk4`). Torques are held over a step (the controller's zero-order hold). Slip
+and disturbance are held too, unless `slip_model` is wired from a `slip_disturbance` block: the
+plant then evaluates that profile at every RK4 stage, so the slip is continuous in time and
+halving `internal_step` converges to the continuous-input solution (the held slip inputs are then
+not used).
 
-Implemented exactly as printed in the paper (see ../shared/paper/NOTES.md): B has no factor a and
-m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta), y_G = y_M + a sin(theta)
+Implemented exactly as printed in the paper (docs/model.md lists our errata): B has no factor a
+and m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta), y_G = y_M + a sin(theta)
 (eq. 4 minus eq. 11). `scale` multiplies every mass and inertia (m_G, m_W, I_G, I_D, I_W): the
 paper runs the plant at +25 % (scale 1.25) against the controller's nominal values.
 """
@@ -13,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from twmr.components._model import inertia, rk4
+from twmr.components._model import DESCRIPTOR, inertia, rk4
 from twmr.core import Component, Input, Output, Parameter, State
 
 
@@ -36,6 +40,9 @@ class TwmrPlant(Component):
     slip_rate = Input(size=3, unit="m/s", description="(mu_R', mu_L', delta')")
     slip_accel = Input(size=3, unit="m/s2", description="(mu_R'', mu_L'', delta'')")
     disturbance = Input(size=2, unit="N.m", description="external disturbance tau_d")
+    slip_model = Input(size=DESCRIPTOR, optional=True,
+                       description="slip profile to evaluate inside the integration (wire "
+                                   "slip.model here); unwired: the held slip inputs are used")
 
     pose = State((0.0, 0.0, 0.0), size=3, unit=("m", "m", "rad"), description="(x_M, y_M, theta)")
     wheel_speed = State((0.0, 0.0), size=2, unit="rad/s", description="(phi_R', phi_L')")
@@ -50,7 +57,8 @@ class TwmrPlant(Component):
         self._coef = self.coefficients
         self._h = 0.0
         rk4(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-            *self._coef)  # load the compiled kernel now, not in the first (maybe paced) step
+            0.0, tuple(self.slip_model), *self._coef)  # compiled kernel loaded now, not in
+        # the first (maybe paced) step
         self._com()
 
     @property
@@ -66,9 +74,9 @@ class TwmrPlant(Component):
         if h != self._h:  # substeps for this step size
             self._n = max(1, math.ceil(h / self.internal_step - 1e-9))
             self._hs, self._h = h / self._n, h
-        x, y, th, wR, wL, xg, yg = rk4(self._n, self._hs, *self.pose, *self.wheel_speed,
+        x, y, th, wR, wL, xg, yg = rk4(self._n, self._hs, t, *self.pose, *self.wheel_speed,
                                        *self.torque, *self.slip_rate, *self.slip_accel,
-                                       *self.disturbance, *self._coef)
+                                       *self.disturbance, self.slip_model, *self._coef)
         self.pose = (x, y, th)
         self.wheel_speed = (wR, wL)
         self.com = (xg, yg)

@@ -12,6 +12,10 @@ Profiles:
   low-pass of `bandwidth` [Hz], scaled by `slip_value` / `disturbance_value` as standard
   deviations; its derivative is the filter's state derivative. Deterministic for a seed and step.
 `slip_gain` and `disturbance_gain` scale the two parts (0 switches either off).
+
+Output `model` hands the plant the profile itself (a descriptor: `_model.DESCRIPTOR`), so the
+plant evaluates it at its own integration stages instead of holding the values over each step
+(`random` is a sampled signal: its descriptor says "held").
 """
 from __future__ import annotations
 
@@ -19,6 +23,7 @@ import math
 
 import numpy as np
 
+from twmr.components._model import CONSTANT, DESCRIPTOR, HELD, MUD, NO_SLIP, PAPER, STEP
 from twmr.core import Component, Input, Output, Parameter, STRING
 
 PROFILES = ("paper", "none", "constant", "step", "mud", "random")
@@ -44,6 +49,8 @@ class SlipDisturbance(Component):
     slip_rate = Output(size=3, unit="m/s", depends_on=("pose",))
     slip_accel = Output(size=3, unit="m/s2", depends_on=("pose",))
     disturbance = Output(size=2, unit="N.m", depends_on=("pose",))
+    model = Output(size=DESCRIPTOR, description="the profile for the plant to evaluate itself "
+                                                "(wire it to plant.slip_model)")
 
     def initialize(self) -> None:
         if self.profile not in PROFILES:
@@ -51,6 +58,11 @@ class SlipDisturbance(Component):
         self._rng = np.random.default_rng(self.seed)
         self._noise = [0.0] * 5
         self._dnoise = [0.0] * 5
+        code = {"paper": PAPER, "none": NO_SLIP, "constant": CONSTANT, "step": STEP,
+                "mud": MUD}.get(self.profile, HELD)
+        self.model = (float(code), float(self.slip_gain), float(self.disturbance_gain),
+                      *map(float, self.slip_value), *map(float, self.disturbance_value),
+                      float(self.step_time), *map(float, self.mud_center), float(self.mud_radius))
         self.evaluate(self.start_time)
 
     def evaluate(self, t: float) -> None:

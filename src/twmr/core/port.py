@@ -132,8 +132,11 @@ def _flatten(value: Any) -> list[Any]:
 
 @dataclass
 class Input(Variable):
-    """A value the component reads; set by the master from a connection (or its start value)."""
+    """A value the component reads; set by the master from a connection (or its start value).
+    An `optional` input may stay unwired without being listed under `open:` (its start value
+    then means "not given", which the component handles)."""
 
+    optional: bool = False
     kind = "input"
 
 

@@ -356,7 +356,7 @@ class _Builder:
         for name, comp in comps.items():
             for port, var in comp.inputs.items():
                 missing = [j for j in range(var.width) if (name, port, j) not in driven]
-                if missing and (name, port) not in opened | self.miswired:
+                if missing and (name, port) not in opened | self.miswired and not var.optional:
                     which = "" if len(missing) == var.width else \
                         f" (elements {', '.join(str(j + 1) for j in missing)})"
                     self.problems.append(Problem(
