@@ -26,9 +26,13 @@ _CLASS = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String
 
 
 def element_names(comp: Component) -> list[tuple[str, str, int | None]]:
-    """(FMI name, variable, element index or None) for every exported element, in order."""
+    """(FMI name, variable, element index or None) for every exported element, in order.
+    Optional inputs are not exported: an FMU importer must wire or open every input, so the
+    exported block keeps them at their start values (what an unwired optional input means)."""
     out = []
     for var in comp.variables.values():
+        if getattr(var, "optional", False):
+            continue
         value = comp.__dict__[var.name]
         if var.size is None:
             out.append((var.name, var.name, None))
