@@ -5,12 +5,14 @@ The controller samples its inputs at each communication point t and outputs the 
 paper says is unmeasured: x1' = kappa nu + R(theta) p_T' (eq. 15 with xi_1's slip terms dropped).
 
 Singularity (det kappa = -r^2 e_p1 / (2b)): the law is applied to a look-ahead point P = M + L
-(cos theta, sin theta) on the body axis, x1 = e_p - [L, 0] (NOTES.md). kappa is unchanged (the
-same matrix for that point), and the equilibrium e_p1 = L > 0 lies off the singular line, on the
-side where the heading is stable for a target ahead; the cost is a steady offset of about L between
-M and T. A sign-preserving clamp |e_p1| >= eps_singular in kappa keeps tau finite even at
-e_p1 = 0 exactly (during the transient). `lookahead = 0` gives the law exactly as printed (with
-the clamp only).
+(cos theta, sin theta) on the body axis, x1 = e_p - [L, 0] (docs/model.md). kappa is unchanged
+(the same matrix for that point), and the equilibrium e_p1 = L lies off the singular line; the
+cost is a steady offset of about |L| between M and T. Which sign is stable depends on the motion:
+the default L = -0.05 m (5 cm behind M) is the one every shipped scenario uses; with +0.05 m
+trajectory 1 settles only at 29 s (MSE_x 0.053 against 0.0104; `twmr run
+scenarios/paper_trajectory1_asmc.yaml --set ctrl.lookahead=0.05 --metrics tracking`). A
+sign-preserving clamp |e_p1| >= eps_singular in kappa keeps tau finite even at e_p1 = 0 exactly
+(during the transient). `lookahead = 0` gives the law exactly as printed (with the clamp only).
 """
 from __future__ import annotations
 
@@ -34,7 +36,8 @@ class TrackingController(Component):
     lam = Parameter(13.0, unit="1/s", min=0.0, description="lambda, x2 = x1' + lambda x1")
     vartheta = Parameter(20.0, unit="1/s", min=0.0, description="sliding surface s = vartheta x1 + x2")
     k = Parameter(20.0, min=0.0, description="switching gain, eq. (32)")
-    lookahead = Parameter(0.05, unit="m", description="look-ahead L of the tracked point")
+    lookahead = Parameter(-0.05, unit="m", description="look-ahead L of the tracked point "
+                                                        "(negative: behind M)")
     eps_singular = Parameter(1e-3, unit="m", min=1e-12, description="clamp of |e_p1| in kappa")
     phi = Parameter(0.0, min=0.0, description="boundary layer: sat(s/phi) instead of sgn(s); 0 = sgn")
     torque_limit = Parameter(0.0, unit="N.m", min=0.0, description="|tau| limit; 0 = none")

@@ -16,9 +16,14 @@ K_t = K_e = 0.06, N = 20, I_max 40 A: 48 N.m at the wheel).
 
 Measured speed and angle are sampled at the end of each step from the wheel speed input held over
 it (an encoder), so they do not depend directly on inputs.
+
+A command beyond twice the drive's limit (I_max eta_g N K_t in `dc` mode, `rated_torque` in
+`ideal` mode, which applies it anyway) is implausible for the robot: the run's output warns about
+the first one, once.
 """
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 import numpy as np
@@ -40,6 +45,9 @@ class MotorDriver(Component):
     V_max = Parameter(24.0, unit="V", min=0.0, description="supply voltage (PWM saturation)")
     I_max = Parameter(40.0, unit="A", min=0.0, description="current limit")
     bandwidth = Parameter(2000.0, unit="rad/s", min=0.0, description="current loop bandwidth")
+    rated_torque = Parameter(50.0, unit="N.m", min=0.0,
+                             description="ideal mode: the wheel torque a drive of this robot can "
+                                         "give (commands beyond twice it are warned about)")
 
     torque_command = Input(size=2, unit="N.m", description="(tau_R, tau_L) requested")
     wheel_speed = Input(size=2, unit="rad/s", description="load (wheel) speed, for back-EMF")
@@ -53,6 +61,9 @@ class MotorDriver(Component):
         self._i = [0.0, 0.0]
         self._z = [0.0, 0.0]
         self._h = 0.0
+        limit = self._kt() * self.I_max if self.mode == "dc" else self.rated_torque
+        self._limit = limit
+        self._implausible = 2.0 * limit if limit > 0.0 else float("inf")
         self.evaluate(self.start_time)
 
     def armature(self) -> Any:
@@ -74,7 +85,20 @@ class MotorDriver(Component):
     def _kt(self) -> float:
         return self.efficiency * self.gear * self.K_t
 
+    def _warn(self, t: float) -> None:
+        """Once per run: a command beyond twice the drive's limit."""
+        c = self.torque_command
+        logging.getLogger("twmr.run").warning(
+            "component '%s': torque command (%.4g, %.4g) N.m at t = %.6g s is far beyond the "
+            "drive's limit of %.4g N.m%s. Fix: check the controller's gains and the start "
+            "(this warning is given once per run).", self.name, c[0], c[1], t, self._limit,
+            "; it is applied as is (mode ideal)" if self.mode == "ideal" else "")
+        self._implausible = float("inf")
+
     def evaluate(self, t: float) -> None:
+        c = self.torque_command
+        if abs(c[0]) > self._implausible or abs(c[1]) > self._implausible:
+            self._warn(t)
         if self.mode == "ideal":
             self.torque = self.torque_command
         else:
