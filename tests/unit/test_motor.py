@@ -78,3 +78,18 @@ def test_encoder_integrates_the_wheel_speed() -> None:
     m.step(100)  # 1 s at 10 ms
     assert m["angle"] == pytest.approx((2.0, -1.0))
     assert m["measured_speed"] == (2.0, -1.0)
+
+
+@pytest.mark.parametrize("mode, limit", [("ideal", 50.0), ("dc", 48.0)])
+def test_an_implausible_command_is_warned_about_once(mode, limit, caplog) -> None:
+    m = motor(mode=mode)
+    with caplog.at_level("WARNING", logger="twmr.run"):
+        m.set(torque_command=(1.9 * limit, -1.9 * limit))  # within twice the limit: no word
+        m.step(3)
+        m.set(torque_command=(9.2e4, 0.0))
+        m.step(3)
+        m.set(torque_command=(-5e5, 0.0))
+        m.step(3)
+    warned = [r.getMessage() for r in caplog.records if r.name == "twmr.run"]
+    assert len(warned) == 1 and "92000" in warned[0].replace(",", "").replace("9.2e+04", "92000")
+    assert f"limit of {limit:g} N.m" in warned[0]
