@@ -56,8 +56,8 @@ def derivative(x: float, y: float, th: float, wR: float, wL: float,
 #: codes of the slip profiles the plant evaluates itself (`slip_disturbance.model`); 0: none given
 HELD, PAPER, NO_SLIP, CONSTANT, STEP, MUD = 0, 1, 2, 3, 4, 5
 #: length of the profile descriptor: code, slip gain, disturbance gain, slip value (3),
-#: disturbance value (2), step time, mud centre (2), mud radius
-DESCRIPTOR = 12
+#: disturbance value (2), step time, mud centre (2), mud radius, phase of the paper profile
+DESCRIPTOR = 13
 
 
 @njit(cache=True, error_model="numpy")
@@ -67,9 +67,10 @@ def slip_at(p: tuple, t: float, x: float, y: float
     descriptor, see DESCRIPTOR) at time t [s] with M at (x, y) [m] (Sec. IV-A for `paper`)."""
     code, g, gd = p[0], p[1], p[2]
     if code == PAPER:
-        c, s = math.cos(t), math.sin(t)
+        tp = t + p[12]
+        c, s = math.cos(tp), math.sin(tp)
         return (g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
-                gd * 2.0 * math.sin(3.0 * t), gd * 2.0 * math.cos(3.0 * t))
+                gd * 2.0 * math.sin(3.0 * tp), gd * 2.0 * math.cos(3.0 * tp))
     on = code == CONSTANT or (code == STEP and t >= p[8]) or (
         code == MUD and math.hypot(x - p[9], y - p[10]) <= p[11])
     if not on:

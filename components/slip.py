@@ -2,7 +2,7 @@
 
 Profiles:
 - `paper`: [mu_R' mu_L' delta'] = [1 + cos t, 1 + sin t, cos t] m/s, tau_d = [2 sin 3t, 2 cos 3t]
-  N.m (Sec. IV-A), with the exact derivatives;
+  N.m (Sec. IV-A), with the exact derivatives; `phase` [s] shifts it (t + phase);
 - `none`: all zero;
 - `constant`: `slip_value`, `disturbance_value`;
 - `step`: zero before `step_time`, the constant values from then on (derivative 0: an ideal step);
@@ -38,6 +38,7 @@ class SlipDisturbance(Component):
                            description="slip (mu_R', mu_L', delta') of constant/step/mud/random")
     disturbance_value = Parameter((1.0, 1.0), size=2, unit="N.m", description="tau_d of those")
     step_time = Parameter(1.0, unit="s")
+    phase = Parameter(0.0, unit="s", description="time shift of the paper profile")
     mud_center = Parameter((0.0, 0.0), size=2, unit="m")
     mud_radius = Parameter(1.0, unit="m", min=0.0)
     bandwidth = Parameter(1.0, unit="Hz", min=1e-6)
@@ -62,16 +63,18 @@ class SlipDisturbance(Component):
                 "mud": MUD}.get(self.profile, HELD)
         self.model = (float(code), float(self.slip_gain), float(self.disturbance_gain),
                       *map(float, self.slip_value), *map(float, self.disturbance_value),
-                      float(self.step_time), *map(float, self.mud_center), float(self.mud_radius))
+                      float(self.step_time), *map(float, self.mud_center), float(self.mud_radius),
+                      float(self.phase))
         self.evaluate(self.start_time)
 
     def evaluate(self, t: float) -> None:
         zero3 = (0.0, 0.0, 0.0)
         p = self.profile
         if p == "paper":
-            rate = (1.0 + math.cos(t), 1.0 + math.sin(t), math.cos(t))
-            accel = (-math.sin(t), math.cos(t), -math.sin(t))
-            dist = (2.0 * math.sin(3.0 * t), 2.0 * math.cos(3.0 * t))
+            tp = t + self.phase
+            rate = (1.0 + math.cos(tp), 1.0 + math.sin(tp), math.cos(tp))
+            accel = (-math.sin(tp), math.cos(tp), -math.sin(tp))
+            dist = (2.0 * math.sin(3.0 * tp), 2.0 * math.cos(3.0 * tp))
         elif p == "none":
             rate, accel, dist = zero3, zero3, (0.0, 0.0)
         elif p in ("constant", "step", "mud"):

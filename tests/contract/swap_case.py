@@ -38,6 +38,12 @@ def swapped(names: tuple[str, ...], fmu_dir: Path) -> str:
 
 
 if __name__ == "__main__":
+    import gc
+
+    # pythonfmu 0.7 slaves mishandle Python references: a garbage collection while they live
+    # crashes this interpreter now and then (open issue: standalone C FMUs replace them); the
+    # cyclic collector is off so the comparison of trajectories is what this case tests
+    gc.disable()
     fmu_dir, out, names = Path(sys.argv[1]), Path(sys.argv[2]), tuple(sys.argv[3:])
     np.save(out, np.array(simulate(loads(swapped(names, fmu_dir), source="swapped.yaml"))))
     sys.stdout.flush()

@@ -47,22 +47,6 @@ def _text_getter(get: Callable[..., list[Any]]) -> Callable[..., list[str]]:
     return get_text
 
 
-def _restore_pythonfmu_reference(unzipped: Path) -> None:
-    """pythonfmu 0.6.4-0.7.0's fmi2Instantiate (findClass) releases a reference to the slave
-    module's dict that it only borrowed, one per instance: the dict is later freed while in use
-    and a garbage collection crashes. Give the reference back."""
-    import ctypes
-    import sys
-
-    try:
-        name = (unzipped / "resources" / "slavemodule.txt").read_text().strip()
-    except OSError:
-        return
-    module = sys.modules.get(name)
-    if module is not None:
-        ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
-
-
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -112,8 +96,9 @@ class FmuComponent(Component):
                                            if v.causality == "structuralParameter")
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
-        # pythonfmu 0.7 slaves run in this interpreter (see _restore_pythonfmu_reference); they
-        # keep fmpy's default callbacks and their log is not captured
+        # pythonfmu 0.7 slaves run in this interpreter, and they corrupted its heap (crashes in a
+        # later garbage collection) when given callbacks of ours: they keep fmpy's default ones,
+        # and their log is not captured
         self._pythonfmu = (self.md.generationTool or "").startswith("PythonFMU")
         self._fmu: Any = None
         self._unzipped: str | None = None
@@ -210,8 +195,6 @@ class FmuComponent(Component):
             self._call(what, lambda: fmu.instantiate(callbacks=callbacks,
                                                     loggingOn=not self._pythonfmu))
         self._fmu = fmu  # instantiated: from here on terminate() frees it
-        if self._pythonfmu:
-            _restore_pythonfmu_reference(Path(self._unzipped))
         if not self.fmi3:
             self._call("fmi2SetupExperiment", fmu.setupExperiment,
                        self.rtol if self.me else None, start)
