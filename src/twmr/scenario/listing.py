@@ -28,10 +28,14 @@ def describe(system: System) -> str:
             f"  (converted: x {c.gain:g}{f' + {c.offset:g}' if c.offset else ''})"
         lines.append(f"  {c}  [{a.unit_text} -> {b.unit_text}]{conv}")
         driven.add((c.dst, c.dst_port))
-    opened = [f"{n}.{p} = {v.start!r}" for n, comp in system.components.items()
-              for p, v in comp.inputs.items() if (n, p) not in driven]
+    unwired = [(n, p, v) for n, comp in system.components.items()
+               for p, v in comp.inputs.items() if (n, p) not in driven]
+    opened = [f"{n}.{p} = {v.start!r}" for n, p, v in unwired if not v.optional]
     if opened:
         lines.append("open inputs (start values): " + ", ".join(opened))
+    optional = [f"{n}.{p}" for n, p, v in unwired if v.optional]
+    if optional:
+        lines.append("optional inputs left unwired: " + ", ".join(optional))
     rec = ", ".join(f"{n}.{p}" for n, p in system.record.signals)
     lines.append(f"recorded every {system.record.decimation} step(s): {rec}")
     return "\n".join(lines)
