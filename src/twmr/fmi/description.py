@@ -48,10 +48,6 @@ class FmuPort:
     scalar: bool
     discrete: bool
 
-    @property
-    def type(self) -> str:
-        return PORT_TYPE[self.fmi_type]
-
 
 def read_description(path: Path, instance: str = "fmu") -> Any:
     """fmpy's ModelDescription of `path`, with every failure as an FmuError; FMUs this importer

@@ -101,13 +101,13 @@ class Integrator:
         self._restart(t)
 
     def _restart(self, t: float) -> None:
-        if self.solver_name == "cvode":
-            if self._solver is None:
-                self._solver = self._cvode(t)
-            else:
-                self._solver.reset(t)
-        if self.nz:
-            self.fmu.getEventIndicators(self._pz, self.nz)
+        """CVODE starts afresh at t (RK4 keeps no history)."""
+        if self.solver_name != "cvode":
+            return
+        if self._solver is None:
+            self._solver = self._cvode(t)
+        else:
+            self._solver.reset(t)
 
     def _cvode(self, t: float) -> Any:
         from fmpy.sundials import CVodeSolver

@@ -98,10 +98,7 @@ def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
         if index is None:
             continue
         comp, _, param = key.partition(".")
-        if comp not in comps or param not in comps[comp].variables:
-            raise SweepError(f"--vary {v.name}: the scenario has no '{key}'. Fix: name a "
-                             f"component's parameter, state or input.")
-        value = comps[comp].get(param)
+        value = comps[comp].get(param)  # the name is known: _check_names ran first
         if not isinstance(value, tuple) or index >= len(value):
             size = len(value) if isinstance(value, tuple) else "a scalar"
             raise SweepError(f"--vary {v.name}: '{key}' has {size} element(s); element "
