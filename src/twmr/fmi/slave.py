@@ -1,8 +1,9 @@
 """`TwmrSlave`: the pythonfmu slave that runs a native component inside an exported FMU.
 
-An exported FMU holds a tiny script `class <Model>(TwmrSlave): KIND = ...; PARAMETERS = ...`; at
-run time the FMU's embedded Python imports this module, so **twmr-cosim must be installed in the
-Python that runs the FMU** (pythonfmu loads the Python found on the machine).
+An exported FMU holds a tiny script `class <Model>(TwmrSlave): KIND = ...; PARAMETERS = ...`
+(or `COMPONENT = <a Component class>` for a class of the user's); at run time the FMU's binary
+(`pyfmu_wrapper/pyslave.c`) imports it in the Python interpreter of the host process, so **the host
+must be Python with twmr-cosim installed**; otherwise the FMU logs that and fmi2Instantiate fails.
 
 Every port element becomes one FMI variable, named `port[i]` for vector ports as Modelica tools do;
 inputs and outputs are read and written straight in the component's values; states are outputs
@@ -42,14 +43,16 @@ def element_names(comp: Component) -> list[tuple[str, str, int | None]]:
 
 
 class TwmrSlave(Fmi2Slave):
-    """Base of exported FMUs: a native component of kind `KIND` with `PARAMETERS` applied."""
+    """Base of exported FMUs: a component of class `COMPONENT` (or of the registered kind `KIND`)
+    with `PARAMETERS` applied."""
 
     KIND = ""
+    COMPONENT: type[Component] | None = None
     PARAMETERS: dict[str, Any] = {}
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)
-        cls = lookup(self.KIND)
+        cls = self.COMPONENT or lookup(self.KIND)
         self.description = (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else ""
         self.comp = cls(self.instance_name)
         for key, value in self.PARAMETERS.items():
