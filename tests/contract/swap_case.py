@@ -1,8 +1,8 @@
 """Run the paper scenario with some blocks swapped for their exported FMUs; save the result.
 
-Usage: python swap_case.py FMU_DIR OUT.npy [BLOCK ...]. Run in its own process by the contract
-test: pythonfmu 0.7 FMUs execute inside the running interpreter and several of them in one process
-crash at teardown, so each case gets a fresh interpreter.
+Usage: python swap_case.py FMU_DIR OUT.npy [BLOCK ...]. The contract test runs each case in a
+process of its own: the exported FMUs execute Python inside the running interpreter, and a fresh
+one per case keeps the cases independent.
 """
 from __future__ import annotations
 
@@ -38,15 +38,5 @@ def swapped(names: tuple[str, ...], fmu_dir: Path) -> str:
 
 
 if __name__ == "__main__":
-    import gc
-
-    # pythonfmu 0.7 slaves mishandle Python references: a garbage collection while they live
-    # crashes this interpreter now and then (open issue: standalone C FMUs replace them); the
-    # cyclic collector is off so the comparison of trajectories is what this case tests
-    gc.disable()
     fmu_dir, out, names = Path(sys.argv[1]), Path(sys.argv[2]), tuple(sys.argv[3:])
     np.save(out, np.array(simulate(loads(swapped(names, fmu_dir), source="swapped.yaml"))))
-    sys.stdout.flush()
-    import os
-
-    os._exit(0)  # skip interpreter teardown: pythonfmu instances are left to the OS

@@ -96,9 +96,11 @@ class FmuComponent(Component):
                                            if v.causality == "structuralParameter")
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
-        # pythonfmu 0.7 slaves run in this interpreter, and they corrupted its heap (crashes in a
-        # later garbage collection) when given callbacks of ours: they keep fmpy's default ones,
-        # and their log is not captured
+        # FMUs built by pythonfmu itself (generationTool "PythonFMU x"; not twmr's Python exports,
+        # which carry a binary of ours) run in this interpreter with pythonfmu's binary, whose
+        # fmi2Instantiate releases a reference to the slave module's dict it does not own (0.6.4
+        # to 0.7.0): the heap gets corrupted and a later free or collection crashes. They keep
+        # fmpy's default callbacks, are never terminated nor freed, and their log is not captured
         self._pythonfmu = (self.md.generationTool or "").startswith("PythonFMU")
         self._fmu: Any = None
         self._unzipped: str | None = None
@@ -429,7 +431,7 @@ class FmuComponent(Component):
         if self._fmu is not None:
             fmu, self._fmu = self._fmu, None
             try:
-                if not self._pythonfmu:  # see __init__: theirs crash a later collection
+                if not self._pythonfmu:  # see __init__: pythonfmu's own binary
                     fmu.terminate()
                     fmu.freeInstance()
             except Exception:  # noqa: BLE001 - terminating after an error must not mask it
