@@ -72,6 +72,14 @@ for i in range(100):
 print("cycles", i + 1)
 """
 
+#: simulate_fmu three times in one process (pythonfmu's binary failed the second fmi2Instantiate)
+AGAIN = """
+import sys
+from fmpy import simulate_fmu
+runs = [simulate_fmu(sys.argv[1], stop_time=0.5, output_interval=0.01) for _ in range(3)]
+print(all((r == runs[0]).all() for r in runs), len(runs[0]))
+"""
+
 SIMULATE = """
 import sys
 from fmpy import simulate_fmu
@@ -157,6 +165,12 @@ def test_100_instantiate_free_cycles_in_one_process(fmus) -> None:
     done = run(CYCLES, str(fmus["asmc"]))
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.split() == ["cycles", "100"]
+
+
+def test_simulate_fmu_again_in_the_same_process(fmus) -> None:
+    done = run(AGAIN, str(fmus["smc"]))
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["True", "51"]
 
 
 @pytest.mark.parametrize("kind", ["twmr_plant", "asmc", "smc"])
