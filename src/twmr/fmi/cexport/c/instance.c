@@ -49,7 +49,8 @@ int inst_set(Instance *s, size_t index, size_t n, const double *values) {
             inst_log(s, ST_ERROR, "logStatusError", "variable '%s' cannot be set now", NAME[i]);
             return ST_ERROR;
         }
-        if (values[j] < MIN[i] || values[j] > MAX[i] || values[j] != values[j]) {
+        if ((KIND[i] == 'f' || KIND[i] == 't') &&
+            (values[j] < MIN[i] || values[j] > MAX[i] || values[j] != values[j])) {
             inst_log(s, ST_ERROR, "logStatusError", "'%s' = %g is outside [%g, %g]", NAME[i],
                      values[j], MIN[i], MAX[i]);
             return ST_ERROR;

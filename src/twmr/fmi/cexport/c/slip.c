@@ -3,7 +3,11 @@
 #include <math.h>
 #include "kernel.h"
 
-enum { HELD, PAPER, NO_SLIP, CONSTANT, STEP, MUD };  /* as components/_model.py */
+/* profile codes, as components/_model.py (macros: PROFILE selects code at compile time) */
+#define PAPER 1
+#define NO_SLIP 2
+#define CONSTANT 3
+#define STEP 4
 
 void kernel_eval(Model *m) {
     double *v = m->v, t = m->time, rate[3] = {0.0, 0.0, 0.0}, accel[3] = {0.0, 0.0, 0.0};
