@@ -7,17 +7,22 @@ paper says is unmeasured: x1' = kappa nu + R(theta) p_T' (eq. 15 with xi_1's sli
 Singularity (det kappa = -r^2 e_p1 / (2b)): the law is applied to a look-ahead point P = M + L
 (cos theta, sin theta) on the body axis, x1 = e_p - [L, 0] (docs/model.md). kappa is unchanged
 (the same matrix for that point), and the equilibrium e_p1 = L lies off the singular line; the
-cost is a steady offset of about |L| between M and T. Which sign is stable depends on the motion:
-the default L = -0.05 m (5 cm behind M) is the one every shipped scenario uses; with +0.05 m
-trajectory 1 settles only at 29 s (MSE_x 0.053 against 0.0104; `twmr run
-scenarios/paper_trajectory1_asmc.yaml --set ctrl.lookahead=0.05 --metrics tracking`). A
-sign-preserving clamp |e_p1| >= eps_singular in kappa keeps tau finite even at e_p1 = 0 exactly
-(during the transient). `lookahead = 0` gives the law exactly as printed (with the clamp only).
+cost is a steady offset of about |L| between M and T. The stable side is the one where L and the
+target's body-frame speed share a sign, i.e. the robot's driving direction: `drive: forward` puts
+P ahead of M (L = +lookahead), `backward` behind it, `auto` chooses at the start (see
+`start_direction`). A sign-preserving clamp |e_p1| >= eps_singular in kappa keeps tau finite at
+e_p1 = 0 (during the transient); `lookahead = 0` gives the law as printed with the clamp only.
+
+Actuation: each wheel's torque is limited to `torque_limit` (the drive's 48 N.m by default; 0 = no
+limit), by clipping each wheel or by scaling both. The defaults (eta in asmc, eps_singular, phi,
+torque_limit) are the bounded-torque configuration of docs/reproduction.md, not Table II's.
 """
 from __future__ import annotations
 
+import math
+
 from twmr.components._model import inertia, tracking_law
-from twmr.core import Component, Input, Output, Parameter
+from twmr.core import STRING, Component, Input, Output, Parameter
 
 
 class TrackingController(Component):
@@ -34,13 +39,22 @@ class TrackingController(Component):
     m_G = Parameter(30.0, unit="kg", min=1e-6)
     # gains (Table II)
     lam = Parameter(13.0, unit="1/s", min=0.0, description="lambda, x2 = x1' + lambda x1")
-    vartheta = Parameter(20.0, unit="1/s", min=0.0, description="sliding surface s = vartheta x1 + x2")
+    vartheta = Parameter(20.0, unit="1/s", min=0.0,
+                         description="sliding surface s = vartheta x1 + x2")
     k = Parameter(20.0, min=0.0, description="switching gain, eq. (32)")
-    lookahead = Parameter(-0.05, unit="m", description="look-ahead L of the tracked point "
-                                                        "(negative: behind M)")
-    eps_singular = Parameter(1e-3, unit="m", min=1e-12, description="clamp of |e_p1| in kappa")
-    phi = Parameter(0.0, min=0.0, description="boundary layer: sat(s/phi) instead of sgn(s); 0 = sgn")
-    torque_limit = Parameter(0.0, unit="N.m", min=0.0, description="|tau| limit; 0 = none")
+    lookahead = Parameter(0.05, unit="m", min=0.0,
+                          description="distance |L| of the tracked point from M on the body axis")
+    drive = Parameter("auto", type=STRING,
+                      description="forward: the point ahead of M (L > 0) | backward: behind | "
+                                  "auto: chosen at the start from where the target goes")
+    eps_singular = Parameter(0.5, unit="m", min=1e-12, description="clamp of |e_p1| in kappa")
+    phi = Parameter(0.2, min=0.0,
+                    description="boundary layer: sat(s/phi) instead of sgn(s); 0 = sgn")
+    torque_limit = Parameter(48.0, unit="N.m", min=0.0,
+                             description="|tau| limit of each wheel (the drive's); 0 = none")
+    saturation = Parameter("clip", type=STRING,
+                           description="clip: each wheel to the limit | scale: both wheels by one "
+                                       "factor (keeps the direction of tau)")
 
     pose = Input(size=3, unit=("m", "m", "rad"), description="(x_M, y_M, theta)")
     wheel_speed = Input(size=2, unit="rad/s", description="nu = (phi_R', phi_L')")
@@ -54,11 +68,26 @@ class TrackingController(Component):
     s = Output(size=2, depends_on=_deps, description="sliding variable, eq. (25)")
 
     def initialize(self) -> None:
+        if self.saturation not in ("clip", "scale"):
+            raise ValueError(f"unknown saturation '{self.saturation}'; use 'clip' or 'scale'")
+        if self.drive not in ("auto", "forward", "backward"):
+            raise ValueError(f"unknown drive '{self.drive}'; use 'auto', 'forward' or 'backward'")
+        self.direction = self.drive if self.drive != "auto" else self.start_direction()
+        L = self.lookahead if self.direction == "forward" else -self.lookahead
         self.m11, self.m12, _, _ = inertia(self.a, self.I_G, self.I_D, self.I_W, self.r, self.b,
                                            self.m_W, self.m_G)
         self._gains = (self.m11, self.m12, self.m_G, self.r, self.b, self.lam, self.vartheta,
-                       self.k, self.lookahead, self.eps_singular, self.phi)
+                       self.k, L, self.eps_singular, self.phi)
         self.evaluate(self.start_time)
+
+    def start_direction(self) -> str:
+        """'forward' when the target, one second ahead, lies in front of M along the body axis
+        (e_p1 + v_T1 * 1 s >= 0, eq. 9 with the target's velocity), else 'backward'."""
+        x, y, th = self.pose
+        (xT, yT), (vx, vy) = self.ref_position, self.ref_velocity
+        c, s = math.cos(th), math.sin(th)
+        ahead = c * (xT - x) + s * (yT - y) + (c * vx + s * vy) * 1.0
+        return "forward" if ahead >= 0.0 else "backward"
 
     def adaptive_term(self) -> tuple[float, float]:
         """d_hat of eq. (32); zero for plain SMC."""
@@ -69,8 +98,13 @@ class TrackingController(Component):
             *self.pose, *self.wheel_speed, *self.ref_position, *self.ref_velocity,
             *self.adaptive_term(), *self._gains)
         lim = self.torque_limit
-        if lim > 0.0:
-            tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
+        self.saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
+        if self.saturated:
+            if self.saturation == "scale":
+                f = lim / max(abs(tR), abs(tL))
+                tR, tL = tR * f, tL * f
+            else:
+                tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
         self.torque = (tR, tL)
         self.s = (s1, s2)
         self.error = (e1, e2)

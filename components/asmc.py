@@ -9,15 +9,18 @@ clamp of |e_p1|). d_hat is integrated exactly for s held over the step: d_hat +=
 from __future__ import annotations
 
 from twmr.components._tracking import TrackingController
-from twmr.core import Output, Parameter
+from twmr.core import BOOLEAN, Output, Parameter
 
 
 class AsmcController(TrackingController):
     """ASMC, paper eqs (9)-(33): sliding-mode law with the adaptive estimate d_hat of eq. (33)."""
 
     kind = "asmc"
-    eta = Parameter(7.0, min=0.0, description="adaptation gain, eq. (33)")
+    eta = Parameter(0.1, min=0.0, description="adaptation gain, eq. (33) (Table II: 7)")
     d_hat0 = Parameter((0.0, 0.0), size=2, description="initial adaptive estimate d_hat(0)")
+    d_hat_limit = Parameter(0.0, min=0.0, description="projection: |d_hat_i| <= this; 0 = none")
+    hold_saturated = Parameter(True, type=BOOLEAN,
+                               description="anti-windup: hold d_hat while the torque is limited")
     d_hat = Output(size=2, description="adaptive estimate of d, eq. (33)")
 
     def initialize(self) -> None:
@@ -28,6 +31,12 @@ class AsmcController(TrackingController):
         return self.d_hat
 
     def do_step(self, t: float, h: float) -> None:
+        if self.saturated and self.hold_saturated:
+            return
         s1, s2 = self.s
         d1, d2 = self.d_hat
-        self.d_hat = (d1 + self.eta * s1 * h, d2 + self.eta * s2 * h)  # eq. (33)
+        d1, d2 = d1 + self.eta * s1 * h, d2 + self.eta * s2 * h  # eq. (33)
+        m = self.d_hat_limit
+        if m > 0.0:
+            d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
+        self.d_hat = (d1, d2)

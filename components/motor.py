@@ -1,6 +1,7 @@
 """Motor driver of each wheel: torque command in; applied torque, measured speed and angle out.
 
-`mode: ideal` applies the command exactly (the paper's assumption). `mode: dc` models a geared DC
+`mode: ideal` applies the command exactly (the paper's assumption), limited to `torque_max` per
+wheel when that is set. `mode: dc` models a geared DC
 motor per wheel with a PI current loop:
 
     L di/dt = V - R i - K_e N omega_wheel        (armature; N = gear ratio)
@@ -17,9 +18,9 @@ K_t = K_e = 0.06, N = 20, I_max 40 A: 48 N.m at the wheel).
 Measured speed and angle are sampled at the end of each step from the wheel speed input held over
 it (an encoder), so they do not depend directly on inputs.
 
-A command beyond twice the drive's limit (I_max eta_g N K_t in `dc` mode, `rated_torque` in
-`ideal` mode, which applies it anyway) is implausible for the robot: the run's output warns about
-the first one, once.
+A command beyond twice the drive's limit (I_max eta_g N K_t in `dc` mode; in `ideal` mode
+`torque_max`, or `rated_torque` when no limit is set and the command is applied anyway) is
+implausible for the robot: the run's output warns about the first one, once.
 """
 from __future__ import annotations
 
@@ -45,6 +46,8 @@ class MotorDriver(Component):
     V_max = Parameter(24.0, unit="V", min=0.0, description="supply voltage (PWM saturation)")
     I_max = Parameter(40.0, unit="A", min=0.0, description="current limit")
     bandwidth = Parameter(2000.0, unit="rad/s", min=0.0, description="current loop bandwidth")
+    torque_max = Parameter(0.0, unit="N.m", min=0.0,
+                           description="ideal mode: applied |torque| limit of each wheel; 0 = none")
     rated_torque = Parameter(50.0, unit="N.m", min=0.0,
                              description="ideal mode: the wheel torque a drive of this robot can "
                                          "give (commands beyond twice it are warned about)")
@@ -61,7 +64,8 @@ class MotorDriver(Component):
         self._i = [0.0, 0.0]
         self._z = [0.0, 0.0]
         self._h = 0.0
-        limit = self._kt() * self.I_max if self.mode == "dc" else self.rated_torque
+        limit = self._kt() * self.I_max if self.mode == "dc" else (
+            self.torque_max or self.rated_torque)
         self._limit = limit
         self._implausible = 2.0 * limit if limit > 0.0 else float("inf")
         self.evaluate(self.start_time)
@@ -100,7 +104,8 @@ class MotorDriver(Component):
         if abs(c[0]) > self._implausible or abs(c[1]) > self._implausible:
             self._warn(t)
         if self.mode == "ideal":
-            self.torque = self.torque_command
+            m = self.torque_max
+            self.torque = (min(m, max(-m, c[0])), min(m, max(-m, c[1]))) if m > 0.0 else c
         else:
             kt = self._kt()
             self.torque = (kt * self._i[0], kt * self._i[1])

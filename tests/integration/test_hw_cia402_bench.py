@@ -53,24 +53,26 @@ def test_real_description_enable_torque_and_feedback(name: str) -> None:
 
 def test_paper_scenario_with_cia402_drives_is_close_to_the_simulated_motor() -> None:
     """Target torque travels as an INTEGER16 per mille of the rated torque (100 N.m here: steps of
-    0.1 N.m, at most 3277 N.m), so the plant sees the law's torque rounded to 0.1 N.m. The law
-    chatters by hundreds of N.m, so the rounding shifts the transient: measured, the tracking
-    errors of the two runs differ by 2e-6 m over 0.1 s and by up to 0.5 m after 1 s, while both
-    track. Bound asserted: identical to 1e-4 m over 0.1 s, tracking MSE within 50 % of the
-    simulated motor's, and tracking error below 0.5 m after 2 s in both."""
+    0.1 N.m), so the plant sees the law's torque rounded to 0.1 N.m. With the paper scenario's
+    48 N.m limit and boundary layer the loop does not amplify the rounding much: measured, the
+    tracking errors of the two runs differ by 6e-8 m over 0.1 s, 2e-5 m over 2 s and 8.5e-5 m over
+    4 s. Bounds asserted: 1e-4 m over 0.1 s, 1e-3 m over the 4 s, MSE within 1 %, and both runs
+    within 0.3 m of the target after 3.5 s (the transient from the paper's start)."""
     text = SCENARIO.read_text().replace("stop: 30.0", "stop: 4.0")
     native = np.array(simulate(loads(text, source="native.yaml")))
-    swapped = text.replace("kind: motor_driver\n    parameters: {mode: ideal}",
+    swapped = text.replace("kind: motor_driver\n    parameters: {mode: ideal, torque_max: 48.0}",
                            f"kind: can_drive\n    parameters: {{protocol: cia402, "
                            f"channel: co-{uuid.uuid4().hex[:6]}, node_ids: [1, 2], "
-                           f"rated_torque: 100000, torque_limit: 3000.0}}")
+                           f"rated_torque: 100000, torque_limit: 48.0}}")
+    assert swapped != text
     result = np.array(simulate(loads(swapped, source="bench.yaml")))
     a, b = tracking_metrics(native), tracking_metrics(result)
-    assert b["mse_x"] == pytest.approx(a["mse_x"], rel=0.5)
-    assert b["mse_y"] == pytest.approx(a["mse_y"], rel=0.5)
+    assert b["mse_x"] == pytest.approx(a["mse_x"], rel=0.01)
+    assert b["mse_y"] == pytest.approx(a["mse_y"], rel=0.01)
     t, ex, ey = errors(native)
     _, bx, by = errors(result)
     early = t <= 0.1
     assert np.max(np.hypot(ex - bx, ey - by)[early]) < 1e-4
+    assert np.max(np.hypot(ex - bx, ey - by)) < 1e-3
     for tt, x, y in ((t, ex, ey), (t, bx, by)):
-        assert np.max(np.hypot(x, y)[tt >= 2.0]) < 0.5
+        assert np.max(np.hypot(x, y)[tt >= 3.5]) < 0.3

@@ -1,31 +1,69 @@
-"""The paper's scenarios end to end: they build, run, and ASMC beats SMC on every Table III metric.
-
-The loop is sensitive (NOTES.md), so only the ordering the paper reports is asserted, not figures.
-"""
+"""The paper's scenarios end to end: physical torque, plant-step convergence, and the ASMC's
+advantage over the SMC in each of several realisations (the loop is sensitive: single runs are not
+asserted; docs/reproduction.md gives the spreads over 100 realisations)."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
-from twmr.components.metrics import tracking_metrics
 from twmr.master import simulate
 from twmr.scenario import load
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "reproduction"
 
 
-@pytest.fixture(scope="module")
-def table() -> dict[str, dict[str, float]]:
-    return {name: tracking_metrics(simulate(load(SCENARIOS / f"paper_trajectory1_{name}.yaml")))
-            for name in ("asmc", "smc")}
+PAPER = sorted(SCENARIOS.glob("paper_*.yaml"))
+LIMIT = 48.0  # N.m per wheel, the limit every paper scenario states
+ROBUST = ("settling_time_y", "peak_error_x", "peak_error_y", "mse_x", "mse_y")
 
 
-@pytest.mark.parametrize("metric", ["settling_time_x", "settling_time_y", "peak_error_x",
-                                    "peak_error_y", "mse_x", "mse_y"])
-def test_asmc_beats_smc_on_table_iii(table, metric: str) -> None:
-    assert table["asmc"][metric] < table["smc"][metric]
+@pytest.mark.parametrize("path", PAPER, ids=lambda p: p.stem)
+def test_torque_stays_within_the_stated_limit(path: Path) -> None:
+    system = load(path)
+    assert system.components["motor"].torque_max == LIMIT
+    data = simulate(system)
+    for signal in ("ctrl.torque", "motor.torque"):
+        peak = max(np.abs(data[f"{signal}[{i}]"]).max() for i in (1, 2))
+        assert 0.0 < peak <= LIMIT, signal
+
+
+def test_plant_step_converges_in_the_closed_loop() -> None:
+    """First 2 s of trajectory 1, slip evaluated inside the plant: halving the plant's RK4 step
+    (communication step 1 ms) changes the state by round-off only, and less each time."""
+    def final(step: float) -> np.ndarray:
+        data = simulate(load(SCENARIOS / "paper_trajectory1_asmc.yaml",
+                             [f"plant.internal_step={step}", "experiment.stop=2.0"]))
+        return np.array([data[c][-1] for c in ("plant.pose[1]", "plant.pose[2]", "plant.pose[3]",
+                                               "plant.wheel_speed[1]", "plant.wheel_speed[2]")])
+
+    states = [final(h) for h in (1e-3, 5e-4, 2.5e-4)]
+    diffs = [np.max(np.abs(b - a)) for a, b in zip(states, states[1:])]
+    assert diffs[0] < 1e-9
+    assert diffs[1] < diffs[0] / 4
+
+
+def test_asmc_beats_smc_in_each_realisation(tmp_path: Path) -> None:
+    """The first 10 realisations of docs/reproduction's sweep files (start within 1 mm, plant
+    step 1 or 0.1 ms, slip phase), paired: the ASMC is lower than the SMC on the five metrics it
+    wins in 100 of 100 realisations (its x settling time wins in 83 of 100 only)."""
+    import twmr
+
+    frames = {}
+    for kind in ("asmc", "smc"):
+        file = yaml.safe_load((DOCS / f"trajectory1_{kind}.yaml").read_text())
+        outcome = twmr.sweep(SCENARIOS / f"paper_trajectory1_{kind}.yaml", file["vary"],
+                             samples=10, seed=file["seed"], method=file["method"],
+                             metrics=["tracking"], out=tmp_path / kind, workers=2)
+        frames[kind] = outcome.frame().sort_values("sample").reset_index(drop=True)
+    a, s = frames["asmc"], frames["smc"]
+    assert list(a["slip.phase"]) == list(s["slip.phase"])
+    assert (a["status"] == "ok").all() and (s["status"] == "ok").all()
+    for metric in ROBUST:
+        assert (a[metric] < s[metric]).all(), metric
 
 
 @pytest.mark.parametrize("path", sorted(SCENARIOS.glob("*.yaml")), ids=lambda p: p.stem)

@@ -16,7 +16,9 @@ R, B, LAM, VTH, K = 0.15, 0.75, 13.0, 20.0, 20.0
 
 
 def controller(cls=AsmcController, **kw) -> Harness:
-    """An initialized harness around a controller with parameters `kw`, on [0, 10] s, h = 1 ms."""
+    """An initialized harness around a controller with parameters `kw`, on [0, 10] s, h = 1 ms;
+    the law as printed (sgn, no torque limit, 1 mm singularity clamp) unless `kw` says otherwise."""
+    kw = {"phi": 0.0, "torque_limit": 0.0, "eps_singular": 1e-3, "drive": "backward", **kw}
     return Harness(cls, name="ctrl", parameters=kw, stop=10.0).initialize()
 
 
@@ -46,7 +48,7 @@ def numpy_law(c, pose, nu, pT, vT, d_hat, L):
 @pytest.mark.parametrize("L", [0.0, 0.05, -0.1])
 def test_law_matches_numpy_transcription(seed: int, L: float) -> None:
     rng = np.random.default_rng(seed)
-    c = controller(lookahead=L, d_hat0=tuple(rng.normal(size=2)))
+    c = controller(lookahead=abs(L), drive="forward" if L >= 0 else "backward", d_hat0=tuple(rng.normal(size=2)))
     c.set(pose=tuple(rng.normal(size=3)), wheel_speed=tuple(rng.normal(size=2) * 5))
     c.set(ref_position=tuple(rng.normal(size=2)), ref_velocity=tuple(rng.normal(size=2)))
     c.evaluate()
@@ -109,7 +111,7 @@ def test_nominal_closed_loop_drives_lyapunov_function_down() -> None:
     d is not observable) falls by orders of magnitude from a 0.5 m offset."""
     plant = Harness(TwmrPlant, name="plant", initial={"pose": (0.0, 0.0, 0.0)}, stop=5.0)
     plant.initialize()
-    ctrl = controller(lookahead=0.05, phi=0.5)
+    ctrl = controller(lookahead=0.05, drive="forward", phi=0.5)
 
     def V() -> float:
         x1 = np.array(ctrl["error"]) - np.array([0.05, 0.0])
