@@ -51,22 +51,25 @@ def _variant(ctrl: dict, ref: dict, motor: dict, plant: dict, slip: dict, kind: 
     comps["ctrl"] = {"kind": kind, "parameters": ctrl}
     for name, params in (("ref", ref), ("motor", motor), ("plant", plant), ("slip", slip)):
         comps[name]["parameters"] = params
-    if inside:
-        data["connections"].append("slip.model -> plant.slip_model")
+    wire = "slip.model -> plant.slip_model"
+    data["connections"] = [c for c in data["connections"] if c != wire] + ([wire] if inside
+                                                                           else [])
     return data
 
 
 VARIANTS = {
-    "smc_circle_noslip": _variant({"phi": 0.02}, {"shape": "circle", "radius": 5.0,
-                                                  "omega": 0.3}, {"mode": "ideal"},
-                                  {"scale": 1.0}, {"profile": "none"}, kind="smc"),
+    "smc_circle_noslip": _variant({"phi": 0.02, "drive": "forward", "saturation": "scale"},
+                                  {"shape": "circle", "radius": 5.0, "omega": 0.3},
+                                  {"mode": "ideal"}, {"scale": 1.0}, {"profile": "none"},
+                                  kind="smc"),
     "asmc_lemniscate_mud_dc": _variant(
-        {"phi": 0.05, "torque_limit": 40.0, "eta": 5.0, "d_hat0": [0.5, -0.5]},
+        {"phi": 0.05, "torque_limit": 40.0, "eta": 5.0, "d_hat0": [0.5, -0.5],
+         "hold_saturated": False, "d_hat_limit": 3.0},
         {"shape": "lemniscate", "radius": 2.0, "omega": 0.2, "center": [0.4, -0.1]},
         {"mode": "dc"}, {"scale": 1.1, "internal_step": 4e-4},
         {"profile": "mud", "mud_center": [0.3, 0.0], "mud_radius": 0.4,
          "slip_value": [0.2, 0.1, 0.05], "disturbance_value": [0.5, -0.5]}),
-    "slip_inside_step": _variant({}, {"shape": "paper1"}, {"mode": "ideal"},
+    "slip_inside_step": _variant({}, {"shape": "paper1"}, {"mode": "ideal", "torque_max": 48.0},
                                  {"scale": 1.25, "internal_step": 2.5e-4},
                                  {"profile": "step", "step_time": 1.0, "slip_gain": 0.5},
                                  inside=True),
@@ -74,9 +77,10 @@ VARIANTS = {
                                         {"mode": "ideal"}, {"scale": 1.25},
                                         {"profile": "paper", "phase": 0.7,
                                          "disturbance_gain": 2.0}, inside=True),
-    "slip_constant_held": _variant({}, {"shape": "paper1"},
-                                   {"mode": "ideal", "rated_torque": 0.0}, {},
-                                   {"profile": "constant"}),
+    "table2_slip_constant_held": _variant(
+        {"phi": 0.0, "eta": 7.0, "torque_limit": 0.0, "eps_singular": 1e-3, "drive": "backward"},
+        {"shape": "paper1"}, {"mode": "ideal", "rated_torque": 0.0}, {},
+        {"profile": "constant"}),
 }
 
 

@@ -1,8 +1,9 @@
 """Which C kernel implements each exportable kind, and what is fixed at export.
 
 Real parameters become FMI parameters (tunable when the kernel reads them at every step, else
-fixed); the choices given by text (a slip profile, a trajectory shape, a motor mode) and the sizes
-of a state-space block are compiled into the FMU (`config.h`), so each FMU is one variant.
+fixed); the choices given by text or flags (a slip profile, a trajectory shape, a motor mode, a
+controller's drive side, saturation and anti-windup) and the sizes of a state-space block are
+compiled into the FMU (`config.h`), so each FMU is one variant.
 """
 from __future__ import annotations
 
@@ -51,6 +52,14 @@ def _shape(comp: Component) -> dict[str, int]:
     return {"SHAPE": _choice(comp, "shape", _SHAPES)}
 
 
+def _tracking(comp: Component) -> dict[str, int]:
+    options = {"DRIVE": _choice(comp, "drive", {"auto": 0, "forward": 1, "backward": 2}),
+               "SAT_SCALE": _choice(comp, "saturation", {"clip": 0, "scale": 1})}
+    if comp.kind == "asmc":
+        options.update(ADAPTIVE=1, HOLD_SATURATED=int(bool(comp.get("hold_saturated"))))
+    return options
+
+
 def _motor(comp: Component) -> dict[str, int]:
     return {"MODE_DC": _choice(comp, "mode", {"ideal": 0, "dc": 1})}
 
@@ -85,9 +94,9 @@ KERNELS: dict[str, Kernel] = {
     "slip_disturbance": Kernel("slip.c", options=_slip, hidden=frozenset({"bandwidth", "seed"})),
     "trajectory": Kernel("trajectory.c", frozenset({"radius", "omega", "phase", "center"}),
                          options=_shape, hidden=frozenset({"waypoints", "times"})),
-    "asmc": Kernel("tracking.c", frozenset(_GAINS + ("eta",)),
-                   options=lambda comp: {"ADAPTIVE": 1}, work=lambda comp: 2),
-    "smc": Kernel("tracking.c", frozenset(_GAINS), work=lambda comp: 2),
+    "asmc": Kernel("tracking.c", frozenset(_GAINS + ("eta", "d_hat_limit")), options=_tracking,
+                   work=lambda comp: 4),
+    "smc": Kernel("tracking.c", frozenset(_GAINS), options=_tracking, work=lambda comp: 4),
     "motor_driver": Kernel("motor.c", options=_motor, work=lambda comp: 9),
     "constant": Kernel("constant.c"),
     "sine": Kernel("sine.c", frozenset({"amplitude", "frequency", "phase", "offset"})),

@@ -1,4 +1,5 @@
-/* Motor driver of each wheel: ideal torque source, or (MODE_DC in config.h) a geared DC motor with
+/* Motor driver of each wheel: ideal torque source (limited to torque_max when > 0), or (MODE_DC in
+ * config.h) a geared DC motor with
  * a PI current loop. The C twin of components/motor.py; the armature is discretised exactly for a
  * voltage and speed held over the step (zero-order hold of the scalar system
  * L di/dt = V - R i - K_e N omega): a = exp(-R h / L), b_V = (1 - a) / R, b_w = -K_e N b_V. */
@@ -22,6 +23,10 @@ void kernel_eval(Model *m) {
     if (MODE_DC) {
         v[V_torque] = kt(v) * m->w[CUR];
         v[V_torque + 1] = kt(v) * m->w[CUR + 1];
+    } else if (v[V_torque_max] > 0.0) {
+        double lim = v[V_torque_max];
+        v[V_torque] = fmin(lim, fmax(-lim, c[0]));
+        v[V_torque + 1] = fmin(lim, fmax(-lim, c[1]));
     } else {
         v[V_torque] = c[0];
         v[V_torque + 1] = c[1];
@@ -29,7 +34,8 @@ void kernel_eval(Model *m) {
 }
 
 void kernel_init(Model *m) {
-    double limit = MODE_DC ? kt(m->v) * m->v[V_I_max] : m->v[V_rated_torque];
+    double limit = MODE_DC ? kt(m->v) * m->v[V_I_max]
+                           : (m->v[V_torque_max] != 0.0 ? m->v[V_torque_max] : m->v[V_rated_torque]);
     int j;
     for (j = 0; j < IMPLAUSIBLE; j++) m->w[j] = 0.0;
     m->w[IMPLAUSIBLE] = limit > 0.0 ? 2.0 * limit : INFINITY;

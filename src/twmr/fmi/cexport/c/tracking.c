@@ -1,10 +1,13 @@
-/* Sliding-mode tracking controllers of the paper: the law of eqs (9)-(32), and with ADAPTIVE the
- * ASMC's estimate d_hat' = eta s (eq. 33). The C twin of components/_tracking.py, asmc.py,
- * smc.py and _model.tracking_law, written in the same order of operations. */
+/* Sliding-mode tracking controllers of the paper: the law of eqs (9)-(32) with the torque limit,
+ * and with ADAPTIVE the ASMC's estimate d_hat' = eta s (eq. 33), held while the torque is limited
+ * when HOLD_SATURATED. DRIVE (0 auto, 1 forward, 2 backward) sets the side of the look-ahead
+ * point, SAT_SCALE how the limit applies (0: clip each wheel, 1: scale both). The C twin of
+ * components/_tracking.py, asmc.py, smc.py and _model.tracking_law, in the same order of
+ * operations. */
 #include <math.h>
 #include "kernel.h"
 
-enum { M11, M12 };  /* work values: the nominal inertia of eq. (8) */
+enum { M11, M12, SIDE, SATURATED };  /* work values: inertia of eq. (8), sign of L, limited */
 
 /* (m11, m12) of eq. (8), exactly as printed (m11 with 2 m_W r^2). */
 static void inertia(const double *v, double *w) {
@@ -20,7 +23,7 @@ static double sign(double s) { return s > 0 ? 1.0 : (s < 0 ? -1.0 : 0.0); }
 void kernel_eval(Model *m) {
     const double *v = m->v;
     double m11 = m->w[M11], m12 = m->w[M12], m_G = v[V_m_G], r = v[V_r], b = v[V_b];
-    double lam = v[V_lam], vth = v[V_vartheta], k = v[V_k], L = v[V_lookahead];
+    double lam = v[V_lam], vth = v[V_vartheta], k = v[V_k], L = m->w[SIDE] * v[V_lookahead];
     double eps = v[V_eps_singular], phi = v[V_phi], lim = v[V_torque_limit];
     double x = v[V_pose], y = v[V_pose + 1], th = v[V_pose + 2];
     double wR = v[V_wheel_speed], wL = v[V_wheel_speed + 1];
@@ -63,9 +66,16 @@ void kernel_eval(Model *m) {
     det_z = z11 * z22 - z12 * z21;  /* tau = -Z^-1 v, eq. (32) */
     tR = -(z22 * v1 - z12 * v2) / det_z;
     tL = -(-z21 * v1 + z11 * v2) / det_z;
-    if (lim > 0.0) {
+    m->w[SATURATED] = lim > 0.0 && (fabs(tR) > lim || fabs(tL) > lim);
+    if (m->w[SATURATED] != 0.0) {
+#if SAT_SCALE
+        double f = lim / fmax(fabs(tR), fabs(tL));
+        tR = tR * f;
+        tL = tL * f;
+#else
         tR = fmin(lim, fmax(-lim, tR));
         tL = fmin(lim, fmax(-lim, tL));
+#endif
     }
     m->v[V_torque] = tR;
     m->v[V_torque + 1] = tL;
@@ -75,20 +85,38 @@ void kernel_eval(Model *m) {
     m->v[V_error + 1] = e2;
 }
 
+/* 1 (forward) when the target, one second ahead, lies in front of M along the body axis
+ * (e_p1 + v_T1 * 1 s >= 0, eq. 9 with the target's velocity), else -1 (backward) */
+static double start_side(const double *v) {
+    double x = v[V_pose], y = v[V_pose + 1], th = v[V_pose + 2];
+    double c = cos(th), s = sin(th);
+    double ahead = c * (v[V_ref_position] - x) + s * (v[V_ref_position + 1] - y)
+                   + (c * v[V_ref_velocity] + s * v[V_ref_velocity + 1]) * 1.0;
+    return ahead >= 0.0 ? 1.0 : -1.0;
+}
+
 void kernel_init(Model *m) {
 #ifdef ADAPTIVE
     m->v[V_d_hat] = m->v[V_d_hat0];
     m->v[V_d_hat + 1] = m->v[V_d_hat0 + 1];
 #endif
+    m->w[SIDE] = DRIVE == 1 ? 1.0 : (DRIVE == 2 ? -1.0 : start_side(m->v));
     inertia(m->v, m->w);
     kernel_eval(m);
 }
 
 void kernel_step(Model *m, double t, double h) {
 #ifdef ADAPTIVE
-    double *v = m->v;
-    v[V_d_hat] = v[V_d_hat] + v[V_eta] * v[V_s] * h;  /* eq. (33) */
-    v[V_d_hat + 1] = v[V_d_hat + 1] + v[V_eta] * v[V_s + 1] * h;
+    double *v = m->v, d1, d2, lim = v[V_d_hat_limit];
+    if (HOLD_SATURATED && m->w[SATURATED] != 0.0) return;
+    d1 = v[V_d_hat] + v[V_eta] * v[V_s] * h;  /* eq. (33) */
+    d2 = v[V_d_hat + 1] + v[V_eta] * v[V_s + 1] * h;
+    if (lim > 0.0) {
+        d1 = fmin(lim, fmax(-lim, d1));
+        d2 = fmin(lim, fmax(-lim, d2));
+    }
+    v[V_d_hat] = d1;
+    v[V_d_hat + 1] = d2;
 #else
     (void)m; (void)h;
 #endif
