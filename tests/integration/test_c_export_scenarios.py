@@ -7,7 +7,7 @@ engine's linear blocks. This test holds the two implementations of the equations
 One variant has a looser bound: the motor's `dc` mode, whose armature the Python block discretises
 with python-control (`c2d`, scipy's matrix exponential) and the C kernel in closed form
 (a = exp(-R h / L)); the two differ by one unit in the last place of `a`, which the stiff current
-loop and the sliding-mode law carry to ~4e-12 of the torque's scale over 4 s."""
+loop and the sliding-mode law carry to about 1e-12 of the torque's scale over 4 s."""
 from __future__ import annotations
 
 import copy
