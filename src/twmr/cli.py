@@ -148,10 +148,19 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from twmr.fmi import export_component
-
     params = dict(_parse_set(s) for s in args.set)
-    path = export_component(args.kind, Path(args.out or f"fmus/{args.kind}.fmu"), params)
+    out = Path(args.out or f"fmus/{args.kind}.fmu")
+    if args.python:
+        if args.fmi != 2:
+            raise CosimError("--python exports FMI 2.0 only (pythonfmu). Fix: drop --fmi 3, or "
+                             "drop --python for a standalone C FMU.")
+        from twmr.fmi import export_component
+
+        path = export_component(args.kind, out, params)
+    else:
+        from twmr.fmi.cexport import export_c_fmu
+
+        path = export_c_fmu(args.kind, out, params, fmi=args.fmi)
     print(path)
     return 0
 
@@ -315,9 +324,14 @@ def parser() -> argparse.ArgumentParser:
                    help="print the interface (ports: name, causality, type, unit, size) as JSON")
     i.set_defaults(fn=cmd_inspect)
     e = sub.add_parser("export", parents=[common],
-                       help="export a native component kind as an FMU 2.0 (CS)")
+                       help="export a component kind as a standalone C FMU (co-simulation)")
     e.add_argument("kind")
-    e.add_argument("--out")
+    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu)")
+    e.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version of the FMU (default 2)")
+    e.add_argument("--python", action="store_true",
+                   help="a pythonfmu FMU running the Python component (FMI 2.0; needs "
+                        "twmr-cosim where it runs): for kinds without a C kernel")
     with_set(e)
     e.set_defaults(fn=cmd_export)
     from twmr.registry import command, commands

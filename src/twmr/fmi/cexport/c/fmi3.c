@@ -1,0 +1,253 @@
+/* FMI 3.0 co-simulation interface of a twmr-cosim block kernel: every element is one scalar
+ * Float64 variable; the other types, model exchange, clocks and events are refused. */
+#include <stdlib.h>
+#include <string.h>
+#include "fmi3Functions.h"
+#include "instance.h"
+
+#define INST ((Instance *)instance)
+
+static void log_fmi3(Instance *s, int status, const char *category, const char *message) {
+    fmi3LogMessageCallback f = (fmi3LogMessageCallback)s->callbacks;
+    if (f) f(s->env, (fmi3Status)status, category, message);
+}
+
+static fmi3Status unsupported(fmi3Instance instance, const char *what) {
+    inst_log(INST, ST_ERROR, "logStatusError", "%s is not supported by this FMU", what);
+    return fmi3Error;
+}
+
+const char *fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean on, size_t n,
+                               const fmi3String categories[]) {
+    (void)n; (void)categories;
+    INST->logging = on;
+    return fmi3OK;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(
+    fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
+    fmi3Boolean logging, fmi3Boolean event_mode, fmi3Boolean early_return,
+    const fmi3ValueReference intermediate[], size_t n_intermediate, fmi3InstanceEnvironment env,
+    fmi3LogMessageCallback log, fmi3IntermediateUpdateCallback update) {
+    Instance *s;
+    (void)resources; (void)visible; (void)intermediate; (void)n_intermediate; (void)update;
+    (void)early_return;
+    if (!token || strcmp(token, GUID) != 0 || event_mode) {
+        if (log) log(env, fmi3Error, "logStatusError", event_mode
+                     ? "event mode is not supported" : "wrong instantiation token");
+        return NULL;
+    }
+    s = calloc(1, sizeof *s);
+    if (!s) return NULL;
+    s->name = malloc(strlen(name ? name : "") + 1);
+    if (!s->name) {
+        free(s);
+        return NULL;
+    }
+    strcpy(s->name, name ? name : "");
+    s->env = env;
+    s->callbacks = (const void *)log;
+    s->log = log_fmi3;
+    s->logging = logging;
+    inst_reset(s);
+    return s;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token,
+                                          fmi3String resources, fmi3Boolean visible,
+                                          fmi3Boolean logging, fmi3InstanceEnvironment env,
+                                          fmi3LogMessageCallback log) {
+    (void)name; (void)token; (void)resources; (void)visible; (void)logging;
+    if (log) log(env, fmi3Error, "logStatusError", "only co-simulation is supported");
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(
+    fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
+    fmi3Boolean logging, fmi3InstanceEnvironment env, fmi3LogMessageCallback log,
+    fmi3ClockUpdateCallback clock, fmi3LockPreemptionCallback lock,
+    fmi3UnlockPreemptionCallback unlock) {
+    (void)name; (void)token; (void)resources; (void)visible; (void)logging; (void)clock;
+    (void)lock; (void)unlock;
+    if (log) log(env, fmi3Error, "logStatusError", "only co-simulation is supported");
+    return NULL;
+}
+
+void fmi3FreeInstance(fmi3Instance instance) {
+    if (!instance) return;
+    free(INST->name);
+    free(instance);
+}
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolerance_defined,
+                                       fmi3Float64 tolerance, fmi3Float64 start,
+                                       fmi3Boolean stop_defined, fmi3Float64 stop) {
+    (void)tolerance_defined; (void)tolerance; (void)stop_defined; (void)stop;
+    return (fmi3Status)inst_enter_init(INST, start);
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
+    return (fmi3Status)inst_exit_init(INST);
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
+    return INST->c.phase == PH_STEP ? fmi3OK : fmi3Error;
+}
+
+fmi3Status fmi3Terminate(fmi3Instance instance) {
+    INST->c.phase = PH_TERMINATED;
+    return fmi3OK;
+}
+
+fmi3Status fmi3Reset(fmi3Instance instance) {
+    inst_reset(INST);
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                          fmi3Float64 values[], size_t n_values) {
+    size_t i;
+    if (n_values != n) return unsupported(instance, "an array variable");
+    for (i = 0; i < n; i++) {
+        if (vr[i] == NV)  /* the independent variable */
+            values[i] = INST->c.m.time;
+        else if (inst_get(INST, vr[i], 1, &values[i]) != ST_OK)
+            return fmi3Error;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                          const fmi3Float64 values[], size_t n_values) {
+    size_t i;
+    if (n_values != n) return unsupported(instance, "an array variable");
+    for (i = 0; i < n; i++)
+        if (inst_set(INST, vr[i], 1, &values[i]) != ST_OK) return fmi3Error;
+    return fmi3OK;
+}
+
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h,
+                      fmi3Boolean no_set_prior, fmi3Boolean *event_handling_needed,
+                      fmi3Boolean *terminate, fmi3Boolean *early_return,
+                      fmi3Float64 *last_time) {
+    fmi3Status status;
+    (void)no_set_prior;
+    status = (fmi3Status)inst_step(INST, t, h);
+    *event_handling_needed = fmi3False;
+    *terminate = fmi3False;
+    *early_return = fmi3False;
+    *last_time = status == fmi3OK ? t + h : t;
+    return status;
+}
+
+/* FMU state: a copy of the instance's Core */
+fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *state) {
+    if (!*state) *state = malloc(sizeof(Core));
+    if (!*state) return fmi3Error;
+    memcpy(*state, &INST->c, sizeof(Core));
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState state) {
+    if (!state) return fmi3Error;
+    memcpy(&INST->c, state, sizeof(Core));
+    return fmi3OK;
+}
+
+fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *state) {
+    (void)instance;
+    if (state) {
+        free(*state);
+        *state = NULL;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState state, size_t *size) {
+    (void)instance; (void)state;
+    *size = sizeof(Core);
+    return fmi3OK;
+}
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState state,
+                                 fmi3Byte bytes[], size_t size) {
+    (void)instance;
+    if (size < sizeof(Core)) return fmi3Error;
+    memcpy(bytes, state, sizeof(Core));
+    return fmi3OK;
+}
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte bytes[], size_t size,
+                                   fmi3FMUState *state) {
+    if (size != sizeof(Core)) return fmi3Error;
+    *state = NULL;
+    if (fmi3GetFMUState(instance, state) != fmi3OK) return fmi3Error;
+    memcpy(*state, bytes, sizeof(Core));
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
+    return unsupported(instance, "configuration mode (no structural parameters)");
+}
+
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
+    return unsupported(instance, "configuration mode (no structural parameters)");
+}
+
+/* the rest of FMI 3.0: other variable types, model exchange, clocks, derivatives */
+#define UNSUPPORTED(f, params) fmi3Status f params { return unsupported(instance, #f); }
+UNSUPPORTED(fmi3EnterEventMode, (fmi3Instance instance))
+UNSUPPORTED(fmi3GetFloat32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Float32 values[], size_t nValues))
+UNSUPPORTED(fmi3GetInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int8 values[], size_t nValues))
+UNSUPPORTED(fmi3GetUInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt8 values[], size_t nValues))
+UNSUPPORTED(fmi3GetInt16, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int16 values[], size_t nValues))
+UNSUPPORTED(fmi3GetUInt16, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt16 values[], size_t nValues))
+UNSUPPORTED(fmi3GetInt32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int32 values[], size_t nValues))
+UNSUPPORTED(fmi3GetUInt32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt32 values[], size_t nValues))
+UNSUPPORTED(fmi3GetInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int64 values[], size_t nValues))
+UNSUPPORTED(fmi3GetUInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt64 values[], size_t nValues))
+UNSUPPORTED(fmi3GetBoolean, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Boolean values[], size_t nValues))
+UNSUPPORTED(fmi3GetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3String values[], size_t nValues))
+UNSUPPORTED(fmi3GetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, size_t valueSizes[], fmi3Binary values[], size_t nValues))
+UNSUPPORTED(fmi3GetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Clock values[]))
+UNSUPPORTED(fmi3SetFloat32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float32 values[], size_t nValues))
+UNSUPPORTED(fmi3SetInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int8 values[], size_t nValues))
+UNSUPPORTED(fmi3SetUInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt8 values[], size_t nValues))
+UNSUPPORTED(fmi3SetInt16, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int16 values[], size_t nValues))
+UNSUPPORTED(fmi3SetUInt16, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt16 values[], size_t nValues))
+UNSUPPORTED(fmi3SetInt32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int32 values[], size_t nValues))
+UNSUPPORTED(fmi3SetUInt32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt32 values[], size_t nValues))
+UNSUPPORTED(fmi3SetInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int64 values[], size_t nValues))
+UNSUPPORTED(fmi3SetUInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 values[], size_t nValues))
+UNSUPPORTED(fmi3SetBoolean, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Boolean values[], size_t nValues))
+UNSUPPORTED(fmi3SetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3String values[], size_t nValues))
+UNSUPPORTED(fmi3SetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const size_t valueSizes[], const fmi3Binary values[], size_t nValues))
+UNSUPPORTED(fmi3SetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Clock values[]))
+UNSUPPORTED(fmi3GetNumberOfVariableDependencies, (fmi3Instance instance, fmi3ValueReference valueReference, size_t* nDependencies))
+UNSUPPORTED(fmi3GetVariableDependencies, (fmi3Instance instance, fmi3ValueReference dependent, size_t elementIndicesOfDependent[], fmi3ValueReference independents[], size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[], size_t nDependencies))
+UNSUPPORTED(fmi3GetDirectionalDerivative, (fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns, const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[], size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity))
+UNSUPPORTED(fmi3GetAdjointDerivative, (fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns, const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[], size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity))
+UNSUPPORTED(fmi3GetIntervalDecimal, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[]))
+UNSUPPORTED(fmi3GetIntervalFraction, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[]))
+UNSUPPORTED(fmi3GetShiftDecimal, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Float64 shifts[]))
+UNSUPPORTED(fmi3GetShiftFraction, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[]))
+UNSUPPORTED(fmi3SetIntervalDecimal, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float64 intervals[]))
+UNSUPPORTED(fmi3SetIntervalFraction, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]))
+UNSUPPORTED(fmi3SetShiftDecimal, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float64 shifts[]))
+UNSUPPORTED(fmi3SetShiftFraction, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]))
+UNSUPPORTED(fmi3EvaluateDiscreteStates, (fmi3Instance instance))
+UNSUPPORTED(fmi3UpdateDiscreteStates, (fmi3Instance instance, fmi3Boolean* discreteStatesNeedUpdate, fmi3Boolean* terminateSimulation, fmi3Boolean* nominalsOfContinuousStatesChanged, fmi3Boolean* valuesOfContinuousStatesChanged, fmi3Boolean* nextEventTimeDefined, fmi3Float64* nextEventTime))
+UNSUPPORTED(fmi3EnterContinuousTimeMode, (fmi3Instance instance))
+UNSUPPORTED(fmi3CompletedIntegratorStep, (fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean* enterEventMode, fmi3Boolean* terminateSimulation))
+UNSUPPORTED(fmi3SetTime, (fmi3Instance instance, fmi3Float64 time))
+UNSUPPORTED(fmi3SetContinuousStates, (fmi3Instance instance, const fmi3Float64 continuousStates[], size_t nContinuousStates))
+UNSUPPORTED(fmi3GetContinuousStateDerivatives, (fmi3Instance instance, fmi3Float64 derivatives[], size_t nContinuousStates))
+UNSUPPORTED(fmi3GetEventIndicators, (fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators))
+UNSUPPORTED(fmi3GetContinuousStates, (fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates))
+UNSUPPORTED(fmi3GetNominalsOfContinuousStates, (fmi3Instance instance, fmi3Float64 nominals[], size_t nContinuousStates))
+UNSUPPORTED(fmi3GetNumberOfEventIndicators, (fmi3Instance instance, size_t* nEventIndicators))
+UNSUPPORTED(fmi3GetNumberOfContinuousStates, (fmi3Instance instance, size_t* nContinuousStates))
+UNSUPPORTED(fmi3GetOutputDerivatives, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[], size_t nValues))
+UNSUPPORTED(fmi3ActivateModelPartition, (fmi3Instance instance, fmi3ValueReference clockReference, fmi3Float64 activationTime))

@@ -1,0 +1,117 @@
+/* The part of the FMI wrappers that does not depend on the FMI version. */
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include "instance.h"
+
+void inst_reset(Instance *s) {
+    memset(&s->c, 0, sizeof s->c);
+    memcpy(s->c.m.v, START, sizeof START);
+    s->c.phase = PH_INSTANTIATED;
+}
+
+void inst_log(Instance *s, int status, const char *category, const char *fmt, ...) {
+    char text[512];
+    va_list args;
+    if (!s->log || (!s->logging && status == ST_OK)) return;
+    va_start(args, fmt);
+    vsnprintf(text, sizeof text, fmt, args);
+    va_end(args);
+    s->log(s, status, category, text);
+}
+
+static void flush_warning(Instance *s) {
+    if (s->c.m.warning[0]) {
+        inst_log(s, ST_WARNING, "logStatusWarning", "%s", s->c.m.warning);
+        s->c.m.warning[0] = '\0';
+    }
+}
+
+/* Whether element i may be set now (FMI causality and variability rules). */
+static int settable(const Instance *s, size_t i) {
+    switch (KIND[i]) {
+    case 'i': return s->c.phase != PH_TERMINATED;
+    case 't': return s->c.phase != PH_TERMINATED;
+    case 'f': case 's': return s->c.phase <= PH_INITIALIZATION;
+    default: return 0;
+    }
+}
+
+int inst_set(Instance *s, size_t index, size_t n, const double *values) {
+    size_t j;
+    if (index + n > NV) {
+        inst_log(s, ST_ERROR, "logStatusError", "value reference %zu out of range", index + n - 1);
+        return ST_ERROR;
+    }
+    for (j = 0; j < n; j++) {
+        size_t i = index + j;
+        if (!settable(s, i)) {
+            inst_log(s, ST_ERROR, "logStatusError", "variable '%s' cannot be set now", NAME[i]);
+            return ST_ERROR;
+        }
+        if ((KIND[i] == 'f' || KIND[i] == 't') &&
+            (values[j] < MIN[i] || values[j] > MAX[i] || values[j] != values[j])) {
+            inst_log(s, ST_ERROR, "logStatusError", "'%s' = %g is outside [%g, %g]", NAME[i],
+                     values[j], MIN[i], MAX[i]);
+            return ST_ERROR;
+        }
+    }
+    memcpy(s->c.m.v + index, values, n * sizeof *values);
+    s->c.dirty = 1;
+    return ST_OK;
+}
+
+int inst_get(Instance *s, size_t index, size_t n, double *values) {
+    if (index + n > NV) {
+        inst_log(s, ST_ERROR, "logStatusError", "value reference %zu out of range", index + n - 1);
+        return ST_ERROR;
+    }
+    if (HAS_FEEDTHROUGH && s->c.dirty && s->c.phase == PH_STEP) {
+        kernel_eval(&s->c.m);
+        s->c.dirty = 0;
+        flush_warning(s);
+    }
+    memcpy(values, s->c.m.v + index, n * sizeof *values);
+    return ST_OK;
+}
+
+int inst_enter_init(Instance *s, double start) {
+    if (s->c.phase != PH_INSTANTIATED) return ST_ERROR;
+    s->c.start = start;
+    s->c.m.time = start;
+    s->c.phase = PH_INITIALIZATION;
+    return ST_OK;
+}
+
+int inst_exit_init(Instance *s) {
+    if (s->c.phase != PH_INITIALIZATION) return ST_ERROR;
+    kernel_init(&s->c.m);
+    s->c.dirty = 0;
+    s->c.phase = PH_STEP;
+    flush_warning(s);
+    return ST_OK;
+}
+
+int inst_step(Instance *s, double t, double h) {
+    Core *c = &s->c;
+    if (c->phase != PH_STEP || !(h > 0.0)) {
+        inst_log(s, ST_ERROR, "logStatusError", "doStep(%g, %g) not allowed now", t, h);
+        return ST_ERROR;
+    }
+    if (HAS_FEEDTHROUGH && c->dirty) {
+        c->m.time = t;
+        kernel_eval(&c->m);
+    }
+    kernel_step(&c->m, t, h);
+    if (h == c->h) {
+        c->k += 1;
+    } else {
+        c->start = t;
+        c->h = h;
+        c->k = 1;
+    }
+    c->m.time = c->start + c->k * h;
+    c->dirty = 1;
+    flush_warning(s);
+    return ST_OK;
+}
