@@ -149,7 +149,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     params = dict(_parse_set(s) for s in args.set)
-    out = Path(args.out or f"fmus/{args.kind}.fmu")
+    out = Path(args.out or f"fmus/{args.kind.rsplit(':', 1)[-1]}.fmu")  # 'file.py:Cls' -> Cls
     if args.python:
         if args.fmi != 2:
             raise CosimError("--python exports FMI 2.0 only (pythonfmu). Fix: drop --fmi 3, or "
