@@ -21,8 +21,38 @@ from __future__ import annotations
 
 import math
 
-from twmr.components._model import inertia, tracking_law
+from twmr.components._model import inertia, njit, tracking_law
 from twmr.core import STRING, Component, Input, Output, Parameter
+from twmr.master.compiled import Kernel
+
+
+@njit(cache=True, error_model="numpy")
+def limited_law(u: tuple, p: tuple, dR: float, dL: float
+                ) -> tuple[float, float, float, float, float, float, float]:
+    """`TrackingController.evaluate` as a kernel: (tau_R, tau_L, s_1, s_2, e_p1, e_p2,
+    saturated 0/1) from u = (pose, wheel_speed, ref_position, ref_velocity, ref_acceleration),
+    p = (the 11 gains of `tracking_law`, torque_limit [N.m], 1 for saturation scale else 0, ...)
+    and the adaptive term (dR, dL)."""
+    (x, y, th), (wR, wL), (xT, yT), (vxT, vyT) = u[0], u[1], u[2], u[3]
+    tR, tL, s1, s2, e1, e2 = tracking_law(x, y, th, wR, wL, xT, yT, vxT, vyT, dR, dL, p[0],
+                                          p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
+                                          p[10])
+    lim = p[11]
+    saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
+    if saturated:
+        if p[12] == 1.0:
+            f = lim / max(abs(tR), abs(tL))
+            tR, tL = tR * f, tL * f
+        else:
+            tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
+    return tR, tL, s1, s2, e1, e2, 1.0 if saturated else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def smc_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
+    """Kernel of the SMC's `evaluate`: y = (torque, error, s)."""
+    tR, tL, s1, s2, e1, e2, sat = limited_law(u, p, 0.0, 0.0)
+    return (sat,), ((tR, tL), (e1, e2), (s1, s2))
 
 
 class TrackingController(Component):
@@ -79,6 +109,18 @@ class TrackingController(Component):
         self._gains = (self.m11, self.m12, self.m_G, self.r, self.b, self.lam, self.vartheta,
                        self.k, L, self.eps_singular, self.phi)
         self.evaluate(self.start_time)
+
+    def kernel_params(self) -> tuple[float, ...]:
+        """The shared kernel parameters (see `limited_law`), set after `initialize`."""
+        return (*map(float, self._gains), float(self.torque_limit),
+                1.0 if self.saturation == "scale" else 0.0)
+
+    def kernel(self, h: float) -> Kernel | None:
+        """The compiled form (the SMC's: no adaptation); subclasses give their own."""
+        if type(self).adaptive_term is not TrackingController.adaptive_term:
+            return None
+        return Kernel(params=self.kernel_params(), state=(float(self.saturated),),
+                      evaluate=smc_evaluate)
 
     def start_direction(self) -> str:
         """'forward' when the target, one second ahead, lies in front of M along the body axis

@@ -8,8 +8,35 @@ clamp of |e_p1|). d_hat is integrated exactly for s held over the step: d_hat +=
 """
 from __future__ import annotations
 
-from twmr.components._tracking import TrackingController
+from twmr.components._model import njit
+from twmr.components._tracking import TrackingController, limited_law
 from twmr.core import BOOLEAN, Output, Parameter
+from twmr.master.compiled import Kernel
+
+
+@njit(cache=True, error_model="numpy")
+def asmc_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
+    """Kernel of `AsmcController.evaluate`: y = (torque, error, s, d_hat); x = (saturated,)."""
+    dR, dL = y[3]
+    tR, tL, s1, s2, e1, e2, sat = limited_law(u, p, dR, dL)
+    return (sat,), ((tR, tL), (e1, e2), (s1, s2), y[3])
+
+
+@njit(cache=True, error_model="numpy")
+def asmc_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+              ) -> tuple[tuple, tuple]:
+    """Kernel of `AsmcController.do_step` (eq. 33); p ends with (eta, d_hat_limit,
+    hold_saturated 0/1)."""
+    if x[0] == 1.0 and p[15] == 1.0:
+        return x, y
+    s1, s2 = y[2]
+    d1, d2 = y[3]
+    eta = p[13]
+    d1, d2 = d1 + eta * s1 * h, d2 + eta * s2 * h  # eq. (33)
+    m = p[14]
+    if m > 0.0:
+        d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
+    return x, (y[0], y[1], y[2], (d1, d2))
 
 
 class AsmcController(TrackingController):
@@ -26,6 +53,12 @@ class AsmcController(TrackingController):
     def initialize(self) -> None:
         self.d_hat = tuple(self.d_hat0)
         super().initialize()
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        return Kernel(params=(*self.kernel_params(), float(self.eta), float(self.d_hat_limit),
+                              1.0 if self.hold_saturated else 0.0),
+                      state=(float(self.saturated),), evaluate=asmc_evaluate, step=asmc_step)
 
     def adaptive_term(self) -> tuple[float, float]:
         return self.d_hat

@@ -25,11 +25,61 @@ implausible for the robot: the run's output warns about the first one, once.
 from __future__ import annotations
 
 import logging
+import math
 from typing import Any
 
 import numpy as np
 
+from twmr.components._model import njit
 from twmr.core import Component, Input, Output, Parameter, STRING
+from twmr.master.compiled import Kernel
+
+
+@njit(cache=True, error_model="numpy")
+def motor_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
+    """Kernel of `MotorDriver.evaluate`. x = (i_R, i_L [A], z_R, z_L [A.s], implausible
+    [N.m], time of the first implausible command [s] (nan: none), that command (2) [N.m]);
+    p = (0 ideal | 1 dc, torque_max, eta_g N K_t, K_p, K_i, I_max, V_max, a, b_V, b_omega);
+    y = (torque, measured_speed, angle)."""
+    c = u[0]
+    if abs(c[0]) > x[4] or abs(c[1]) > x[4]:
+        x = (x[0], x[1], x[2], x[3], math.inf, t, c[0], c[1])
+    if p[0] == 0.0:
+        m = p[1]
+        torque = (min(m, max(-m, c[0])), min(m, max(-m, c[1]))) if m > 0.0 else c
+    else:
+        kt = p[2]
+        torque = (kt * x[0], kt * x[1])
+    return x, (torque, y[1], y[2])
+
+
+@njit(cache=True, error_model="numpy")
+def motor_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+               ) -> tuple[tuple, tuple]:
+    """Kernel of `MotorDriver.do_step` (the zoh coefficients a, b_V, b_omega of the step h are
+    parameters)."""
+    c, w = u[0], u[1]
+    a0, a1 = y[2]
+    angle = (a0 + w[0] * h, a1 + w[1] * h)
+    if p[0] == 0.0:
+        return x, (y[0], w, angle)
+    kt, kp, ki, imax, vmax = p[2], p[3], p[4], p[5], p[6]
+    i0, i1, z0, z1 = x[0], x[1], x[2], x[3]
+    i_ref = min(imax, max(-imax, c[0] / kt))
+    err = i_ref - i0
+    v_raw = kp * err + ki * z0
+    v = min(vmax, max(-vmax, v_raw))
+    if v == v_raw:
+        z0 += err * h
+    i0 = p[7] * i0 + p[8] * v + p[9] * w[0]
+    i_ref = min(imax, max(-imax, c[1] / kt))
+    err = i_ref - i1
+    v_raw = kp * err + ki * z1
+    v = min(vmax, max(-vmax, v_raw))
+    if v == v_raw:
+        z1 += err * h
+    i1 = p[7] * i1 + p[8] * v + p[9] * w[1]
+    return (i0, i1, z0, z1, x[4], x[5], x[6], x[7]), ((kt * i0, kt * i1), w, angle)
 
 
 class MotorDriver(Component):
@@ -89,9 +139,25 @@ class MotorDriver(Component):
     def _kt(self) -> float:
         return self.efficiency * self.gear * self.K_t
 
-    def _warn(self, t: float) -> None:
-        """Once per run: a command beyond twice the drive's limit."""
-        c = self.torque_command
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form, for steps of h [s] (dc: the armature discretised here)."""
+        dc = self.mode == "dc"
+        if dc:
+            self._discretise(h)
+        coef = (self._a, self._bv, self._bw) if dc else (0.0, 0.0, 0.0)
+        return Kernel(params=(1.0 if dc else 0.0, float(self.torque_max), self._kt(),
+                              self.L * self.bandwidth, self.R * self.bandwidth,
+                              float(self.I_max), float(self.V_max), *coef),
+                      state=(*self._i, *self._z, self._implausible, math.nan, 0.0, 0.0),
+                      evaluate=motor_evaluate, step=motor_step, sync=self._sync)
+
+    def _sync(self, x: tuple) -> None:
+        """After compiled steps: the warning about an implausible command, once."""
+        if not math.isnan(x[5]) and self._implausible != float("inf"):
+            self._warn(x[5], (x[6], x[7]))
+
+    def _warn(self, t: float, c: tuple[float, float]) -> None:
+        """Once per run: a command `c` [N.m] beyond twice the drive's limit."""
         logging.getLogger("twmr.run").warning(
             "component '%s': torque command (%.4g, %.4g) N.m at t = %.6g s is far beyond the "
             "drive's limit of %.4g N.m%s. Fix: check the controller's gains and the start "
@@ -102,7 +168,7 @@ class MotorDriver(Component):
     def evaluate(self, t: float) -> None:
         c = self.torque_command
         if abs(c[0]) > self._implausible or abs(c[1]) > self._implausible:
-            self._warn(t)
+            self._warn(t, c)
         if self.mode == "ideal":
             m = self.torque_max
             self.torque = (min(m, max(-m, c[0])), min(m, max(-m, c[1]))) if m > 0.0 else c

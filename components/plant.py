@@ -17,8 +17,24 @@ from __future__ import annotations
 
 import math
 
-from twmr.components._model import DESCRIPTOR, inertia, rk4
+from twmr.components._model import DESCRIPTOR, inertia, njit, rk4
 from twmr.core import Component, Input, Output, Parameter, State
+from twmr.master.compiled import Kernel
+
+
+@njit(cache=True, error_model="numpy")
+def plant_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+               ) -> tuple[tuple, tuple]:
+    """Kernel of `TwmrPlant.do_step`; p = (substeps, substep [s], m11, m12, q1, q2, m_G, a, r,
+    b); u = (torque, slip_rate, slip_accel, disturbance, slip_model); y = (pose, wheel_speed,
+    com)."""
+    (px, py, th), (wR, wL) = y[0], y[1]
+    tq, rate, acc, dist, model = u
+    xn, yn, thn, wRn, wLn, xg, yg = rk4(
+        int(p[0]), p[1], t, px, py, th, wR, wL, tq[0], tq[1], rate[0], rate[1], rate[2],
+        acc[0], acc[1], acc[2], dist[0], dist[1], model, p[2], p[3], p[4], p[5], p[6], p[7],
+        p[8], p[9])
+    return x, ((xn, yn, thn), (wRn, wLn), (xg, yg))
 
 
 class TwmrPlant(Component):
@@ -60,6 +76,11 @@ class TwmrPlant(Component):
             0.0, tuple(self.slip_model), *self._coef)  # compiled kernel loaded now, not in
         # the first (maybe paced) step
         self._com()
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form, for steps of h [s]."""
+        n = max(1, math.ceil(h / self.internal_step - 1e-9))
+        return Kernel(params=(float(n), h / n, *map(float, self._coef)), step=plant_step)
 
     @property
     def coefficients(self) -> tuple[float, ...]:

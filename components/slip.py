@@ -23,10 +23,36 @@ import math
 
 import numpy as np
 
-from twmr.components._model import CONSTANT, DESCRIPTOR, HELD, MUD, NO_SLIP, PAPER, STEP
+from twmr.components._model import CONSTANT, DESCRIPTOR, HELD, MUD, NO_SLIP, PAPER, STEP, njit
 from twmr.core import Component, Input, Output, Parameter, STRING
+from twmr.master.compiled import Kernel
 
 PROFILES = ("paper", "none", "constant", "step", "mud", "random")
+
+
+@njit(cache=True, error_model="numpy")
+def slip_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
+    """Kernel of `SlipDisturbance.evaluate` (every profile but `random`); p = (code, phase,
+    slip_value (3), disturbance_value (2), step_time, mud_center (2), mud_radius, slip_gain,
+    disturbance_gain); y = (slip_rate, slip_accel, disturbance, model)."""
+    code = p[0]
+    if code == PAPER:
+        tp = t + p[1]
+        rate = (1.0 + math.cos(tp), 1.0 + math.sin(tp), math.cos(tp))
+        accel = (-math.sin(tp), math.cos(tp), -math.sin(tp))
+        dist = (2.0 * math.sin(3.0 * tp), 2.0 * math.cos(3.0 * tp))
+    elif code == NO_SLIP:
+        rate, accel, dist = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0)
+    else:
+        pose = u[0]
+        on = code == CONSTANT or (code == STEP and t >= p[7]) or (
+            code == MUD and math.hypot(pose[0] - p[8], pose[1] - p[9]) <= p[10])
+        rate = (p[2], p[3], p[4]) if on else (0.0, 0.0, 0.0)
+        accel = (0.0, 0.0, 0.0)
+        dist = (p[5], p[6]) if on else (0.0, 0.0)
+    g, gd = p[11], p[12]
+    return x, ((g * rate[0], g * rate[1], g * rate[2]), (g * accel[0], g * accel[1], g * accel[2]),
+               (gd * dist[0], gd * dist[1]), y[3])
 
 
 class SlipDisturbance(Component):
@@ -66,6 +92,16 @@ class SlipDisturbance(Component):
                       float(self.step_time), *map(float, self.mud_center), float(self.mud_radius),
                       float(self.phase))
         self.evaluate(self.start_time)
+
+    def kernel(self, h: float) -> Kernel | None:
+        """The compiled form; none for `random` (a numpy Generator: runs in Python)."""
+        if self.profile == "random":
+            return None
+        return Kernel(params=(self.model[0], float(self.phase), *map(float, self.slip_value),
+                              *map(float, self.disturbance_value), float(self.step_time),
+                              *map(float, self.mud_center), float(self.mud_radius),
+                              float(self.slip_gain), float(self.disturbance_gain)),
+                      evaluate=slip_evaluate)
 
     def evaluate(self, t: float) -> None:
         zero3 = (0.0, 0.0, 0.0)

@@ -11,9 +11,42 @@ import math
 
 import numpy as np
 
+from twmr.components._model import njit
 from twmr.core import Component, Output, Parameter, STRING
+from twmr.master.compiled import Kernel
 
 SHAPES = ("paper1", "circle", "lemniscate", "waypoints")
+#: kernel codes of the analytic shapes (`waypoints` runs in Python only)
+PAPER1, CIRCLE, LEMNISCATE = 0.0, 1.0, 2.0
+
+
+@njit(cache=True, error_model="numpy")
+def sample_kernel(t: float, p: tuple) -> tuple:
+    """(position, velocity, acceleration) of an analytic shape at t [s]; p = (code, radius,
+    omega, phase, cx, cy), as `Trajectory.sample`."""
+    code = p[0]
+    if code == PAPER1:
+        return ((-t, math.sin(0.5 * t) + 0.5 * t + 1.0), (-1.0, 0.5 * math.cos(0.5 * t) + 0.5),
+                (0.0, -0.25 * math.sin(0.5 * t)))
+    cx, cy = p[4], p[5]
+    w = p[2]
+    if code == CIRCLE:
+        R, a = p[1], w * t + p[3]
+        c, s = math.cos(a), math.sin(a)
+        return ((cx + R * c, cy + R * s), (-R * w * s, R * w * c),
+                (-R * w * w * c, -R * w * w * s))
+    A = p[1]
+    s1, c1 = math.sin(w * t), math.cos(w * t)
+    s2, c2 = math.sin(2 * w * t), math.cos(2 * w * t)
+    return ((cx + A * s1, cy + A / 2 * s2), (A * w * c1, A * w * c2),
+            (-A * w * w * s1, -2 * A * w * w * s2))
+
+
+@njit(cache=True, error_model="numpy")
+def trajectory_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+                    ) -> tuple[tuple, tuple]:
+    """Kernel step: the outputs at t + h [s]."""
+    return x, sample_kernel(t + h, p)
 
 
 class Trajectory(Component):
@@ -72,6 +105,15 @@ class Trajectory(Component):
         if tt != t:  # hold the end point
             v, a_ = v * 0.0, a_ * 0.0
         return (float(p[0]), float(p[1])), (float(v[0]), float(v[1])), (float(a_[0]), float(a_[1]))
+
+    def kernel(self, h: float) -> Kernel | None:
+        """The compiled form (analytic shapes only; `waypoints` runs in Python)."""
+        code = {"paper1": PAPER1, "circle": CIRCLE, "lemniscate": LEMNISCATE}.get(self.shape)
+        if code is None:
+            return None
+        cx, cy = self.center
+        return Kernel(params=(code, float(self.radius), float(self.omega), float(self.phase),
+                              float(cx), float(cy)), step=trajectory_step)
 
     def _set(self, t: float) -> None:
         self.position, self.velocity, self.acceleration = self.sample(t)

@@ -9,7 +9,7 @@ states what it needs through the capability flags.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from twmr.scenario.system import System
 
@@ -31,14 +31,23 @@ class Algorithm(ABC):
         whether a NaN/Inf in a read output stops the run (`NonFinite`)."""
 
     @abstractmethod
-    def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
+    def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
         """Advance from base step n0 towards n1, appending recorded rows (t, values...) to
-        `rows`; return the step reached (n1 for a fixed-step algorithm)."""
+        `rows` (as tuples, or as 2-D float arrays of rows); return the step reached (n1 for a
+        fixed-step algorithm)."""
 
     @abstractmethod
-    def finish(self, n: int, rows: list[tuple[float, ...]]) -> None:
+    def finish(self, n: int, rows: list[Any]) -> None:
         """The final communication point at step n: inputs written, feedthrough evaluated and
         the row recorded, without stepping."""
+
+    def start(self) -> None:
+        """Called once after every component is initialized, before the first `advance` (the
+        compiled algorithm collects its kernels and compiles here)."""
+
+    def report(self) -> dict[str, object]:
+        """Figures about the algorithm (e.g. compile time [s]), for the run's outcome."""
+        return {}
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         """(instance, call, time [s]) where `exc` was raised inside `advance`, as far as known."""
@@ -53,8 +62,14 @@ class NonFinite(Exception):
         self.t = t
 
 
-def make_algorithm(name: str) -> Algorithm:
-    """The algorithm an experiment names ('gauss_seidel' | 'jacobi')."""
+def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
+    """The algorithm an experiment names ('gauss_seidel' | 'jacobi'), compiled with numba when
+    every block offers a kernel: `compiled` 'auto' | 'on' | 'off' (None: `TWMR_COMPILED`, default
+    'auto'; see `twmr.master.compiled`)."""
+    from twmr.master.compiled import CompiledStep, compiled_mode
     from twmr.master.schedule import FixedStep
 
-    return FixedStep(name)
+    mode = compiled_mode() if compiled is None else compiled
+    if mode == "off":
+        return FixedStep(name)
+    return CompiledStep(name, mode)

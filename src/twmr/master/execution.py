@@ -244,6 +244,7 @@ class Execution:
             self._lifecycle("prepare", lambda c: c.prepare(context))
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize())
+            self.algorithm.start()
             if paced:
                 gc.freeze()  # what set-up created too; no collection once drives run
                 self._relay = _Relay(self._deliver)
@@ -296,8 +297,12 @@ class Execution:
     def _emit(self) -> None:
         """Hand the rows recorded since the last call to every observer (in a paced run, to the
         relay thread, so a slow disk never delays a step)."""
-        block = np.array(self._rows, dtype=float) if self._rows \
-            else np.zeros((0, len(self.columns)))
+        if not self._rows:
+            block = np.zeros((0, len(self.columns)))
+        elif isinstance(self._rows[0], np.ndarray):  # blocks of rows (the compiled loop)
+            block = np.concatenate(self._rows)
+        else:
+            block = np.array(self._rows, dtype=float)
         self._rows.clear()
         if self._relay is not None:
             self._relay.put(block, self._n)
@@ -371,6 +376,7 @@ class Execution:
             out.extra.update(self.pacer.stats())
             out.lateness_us = self.pacer.lateness_us()
         self._report_all()
+        self.outcome.extra.update({f"algorithm.{k}": v for k, v in self.algorithm.report().items()})
         failures = []
         for obs in self.observers:
             try:

@@ -1,0 +1,484 @@
+"""`CompiledStep`: the fixed-step Gauss-Seidel / Jacobi loop of `twmr.master.schedule`, generated
+over the components' compiled kernels and compiled as one numba function.
+
+When every component of a system offers a kernel (`Component.kernel(h)` returns a `Kernel`), the
+master generates the whole step loop — input writes with unit gains and element selections, the
+evaluation order of the port graph, step multiples, the NaN/Inf check and the recording into a
+preallocated block of rows — and compiles it with numba. Every port value is a local variable of
+that function (a float or a tuple of floats); nothing is looked up or boxed inside the loop. The
+results are bit-identical to the Python schedule: the same expressions in the same order on the
+same kernels.
+
+A kernel is two pure numba functions of the component's private state x (a tuple), its outputs y
+(the tuple of its output and state ports, declared order), its inputs u (the tuple of its input
+ports, declared order) and its parameters p (a tuple):
+
+    evaluate(t, x, y, u, p) -> (x, y)        # the feedthrough outputs at t (FMI: get after set)
+    step(t, h, x, y, u, p) -> (x, y)         # advance from t to t + h with u held
+
+Either may be None (no feedthrough; nothing to advance). String parameters are resolved to codes
+in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
+discretisation) are made in Python once.
+
+The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
+~/.cache/twmr/schedules) under a name hashing its source, the kernels' source files and numba's
+version; numba's own cache (`cache=True`) then reuses the machine code in every later process
+(sweep workers included). Parameters, initial values, the step and the start time are arguments,
+so a sweep over parameter values compiles once.
+
+Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`); `auto` (default) compiles when
+every component offers a kernel and runs the Python schedule otherwise, `on` makes a missing kernel
+an error, `off` always runs the Python schedule.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from twmr.core.errors import CosimError
+from twmr.master.algorithm import Algorithm, NonFinite
+from twmr.master.schedule import ALGORITHMS, FixedStep, _element, _value_expr
+from twmr.scenario.graph import evaluation_plan
+from twmr.scenario.system import Connection, System
+
+MODES = ("auto", "on", "off")
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """A component's compiled form: numba functions `evaluate(t, x, y, u, p) -> (x, y)` and
+    `step(t, h, x, y, u, p) -> (x, y)` (either None), its parameters `params` and initial private
+    state `state` (tuples of floats or of tuples of floats), and `sync(x)`, called with the state
+    after every chunk of steps so the Python component can report (e.g. log a warning)."""
+
+    params: tuple = ()
+    state: tuple = ()
+    evaluate: Any = None
+    step: Any = None
+    sync: Callable[[tuple], None] | None = None
+
+
+class CompileError(CosimError):
+    """`TWMR_COMPILED=on` but the system cannot run compiled (a block without a kernel...)."""
+
+
+def compiled_mode() -> str:
+    """The selection from `TWMR_COMPILED` ('auto' unless set)."""
+    mode = os.environ.get("TWMR_COMPILED", "auto").strip().lower() or "auto"
+    if mode not in MODES:
+        raise CompileError(f"TWMR_COMPILED is '{mode}'; use one of {', '.join(MODES)}.")
+    return mode
+
+
+def cache_dir() -> Path:
+    """Where the generated modules (and numba's cache of them) are kept."""
+    env = os.environ.get("TWMR_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "twmr" / "schedules"
+
+
+def _port_value(var: Any, value: Any) -> Any:
+    """A port's value as the compiled loop holds it: a float or a tuple of floats."""
+    if var.size is None:
+        return float(value)
+    return tuple(float(v) for v in value)
+
+
+class CompiledStep(Algorithm):
+    """Fixed base step h, 'gauss_seidel' or 'jacobi', compiled with numba when every component
+    offers a kernel (`mode` 'auto' | 'on'); else the Python `FixedStep` runs (mode 'auto')."""
+
+    def __init__(self, method: str = "gauss_seidel", mode: str = "auto"):
+        if method not in ALGORITHMS:
+            raise ValueError(f"unknown algorithm {method!r}; use one of {ALGORITHMS}")
+        self.method = method
+        self.mode = mode
+        self.python = FixedStep(method)
+        self.compiled = False
+        self.reason = ""
+        self.compile_seconds = float("nan")
+
+    # -- Algorithm ---------------------------------------------------------------------------
+    def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
+                check_finite: bool = True) -> None:
+        self.python.prepare(system, record, decimation, check_finite)
+        self.source = self.python.source
+        self._system, self._record, self._decimation = system, record, decimation
+        self._check = check_finite
+
+    def start(self) -> None:
+        """Collect the kernels (the components are initialized now) and compile the loop, or
+        keep the Python schedule."""
+        system = self._system
+        kernels, self.reason = _kernels(system, self._record)
+        if kernels is None:
+            if self.mode == "on":
+                raise CompileError(
+                    f"the run cannot be compiled: {self.reason}. Fix: run with "
+                    f"TWMR_COMPILED=auto (or --compiled auto) to use the Python schedule.")
+            return
+        t0 = time.perf_counter()
+        source, names = _generate(system, self.method, self._record, self._check, kernels)
+        self._run, self._finish = _load(source, names)
+        order = list(system.order)
+        comps = system.components
+        exp = system.experiment
+        self._kernels = [kernels[n] for n in order]
+        self._comps = [comps[n] for n in order]
+        self._P = tuple(k.params for k in self._kernels)
+        self._X = tuple(k.state for k in self._kernels)
+        self._Y = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.outputs.items())
+                        for c in self._comps)
+        self._U = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.inputs.items())
+                        for c in self._comps)
+        self._H = tuple(system.multiple(n) * exp.step for n in order)
+        self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
+        # compile (or load from numba's cache) now, outside the timed run: zero steps, and one
+        # final point whose results are dropped (the kernels are pure)
+        self._call(self._run, 0, 0, np.empty((0, self._ncols)))
+        self._finish(0, exp.start, exp.step, self._P, self._X, self._Y, self._U,
+                     np.empty((1, self._ncols)))
+        self.compile_seconds = time.perf_counter() - t0
+        self.source = source
+        self.compiled = True
+
+    def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int]:
+        exp = self._system.experiment
+        self._X, self._Y, self._U, k, bad = fn(n0, n1, exp.start, exp.step, self._H, self._P,
+                                               self._X, self._Y, self._U, buf,
+                                               self._decimation)
+        return k, bad
+
+    def _sync(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
+        """Port values back into the components, their `sync`, the rows to `rows`; a NaN/Inf
+        found at step `bad` raises `NonFinite` (the components then hold the values seen)."""
+        for comp, kern, x, y, u in zip(self._comps, self._kernels, self._X, self._Y, self._U):
+            d = comp.__dict__
+            for port, value in zip(comp.outputs, y):
+                d[port] = value
+            for port, value in zip(comp.inputs, u):
+                d[port] = value
+            if kern.sync is not None:
+                kern.sync(x)
+        if k and self._record:
+            rows.append(buf[:k])
+        if bad >= 0:
+            exp = self._system.experiment
+            raise NonFinite(exp.start + bad * exp.step)
+
+    def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
+        if not self.compiled:
+            return self.python.advance(n0, n1, rows)
+        d = self._decimation
+        count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
+        buf = np.empty((count, self._ncols))
+        k, bad = self._call(self._run, n0, n1, buf)
+        self._sync(rows, buf, k, bad)
+        return n1
+
+    def finish(self, n: int, rows: list[Any]) -> None:
+        if not self.compiled:
+            self.python.finish(n, rows)
+            return
+        exp = self._system.experiment
+        buf = np.empty((1, self._ncols))
+        self._X, self._Y, self._U, k, bad = self._finish(n, exp.start, exp.step, self._P,
+                                                         self._X, self._Y, self._U, buf)
+        self._sync(rows, buf, k, bad)
+
+    def locate(self, exc: BaseException) -> tuple[str, str, float]:
+        return self.python.locate(exc)
+
+    def report(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"compiled": self.compiled}
+        if self.compiled:
+            out["compile_s"] = self.compile_seconds
+        elif self.reason:
+            out["not_compiled"] = self.reason
+        return out
+
+
+def _kernels(system: System, record: list[tuple[str, str]]
+             ) -> tuple[dict[str, Kernel] | None, str]:
+    """Every component's kernel, or None and why not."""
+    comps = system.components
+    for name, port in record:
+        if comps[name].variables[port].kind not in ("input", "output", "state"):
+            return None, f"'{name}.{port}' is recorded but is not a port"
+    kernels: dict[str, Kernel] = {}
+    h = system.experiment.step
+    for name in system.order:
+        comp = comps[name]
+        make = getattr(comp, "kernel", None)
+        if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
+            return None, f"'{name}' has its methods replaced on the instance"
+        kern = make(system.multiple(name) * h) if make is not None else None
+        if kern is None:
+            return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
+                         f"with these parameters"
+        for port, var in {**comp.inputs, **comp.outputs}.items():
+            if var.type != "Real":
+                return None, f"port '{name}.{port}' is {var.type}, not Real"
+        if comp.has_feedthrough and kern.evaluate is None:
+            return None, f"'{name}' has feedthrough but its kernel no evaluate"
+        kernels[name] = kern
+    return kernels, ""
+
+
+class _Lines:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def add(self, indent: int, text: str) -> None:
+        self.lines.append("    " * indent + text)
+
+
+def _tuple(items: list[str]) -> str:
+    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+
+
+def _generate(system: System, method: str, record: list[tuple[str, str]], check_finite: bool,
+              kernels: dict[str, Kernel]) -> tuple[str, dict[str, Any]]:
+    """(source, {name: kernel function}) of `run(n0, n1, start, h, H, P, X, Y, U, buf, dec)` and
+    `finish(n, start, h, P, X, Y, U, buf)`; both return (X, Y, U, rows written, step of a
+    NaN/Inf or -1)."""
+    comps = system.components
+    order = list(system.order)
+    ids = {name: i for i, name in enumerate(order)}
+    outs = {n: list(comps[n].outputs) for n in order}
+    ins = {n: list(comps[n].inputs) for n in order}
+    names: dict[str, Any] = {}
+    for name in order:
+        i, k = ids[name], kernels[name]
+        if k.evaluate is not None:
+            names[f"ev{i}"] = k.evaluate
+        if k.step is not None:
+            names[f"st{i}"] = k.step
+
+    def local(name: str, port: str) -> str:
+        if port in outs[name]:
+            return f"y{ids[name]}_{outs[name].index(port)}"
+        return f"u{ids[name]}_{ins[name].index(port)}"
+
+    incoming: dict[tuple[str, str], list[Connection]] = {}
+    for conn in system.connections:
+        incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
+
+    def assignment(name: str, port: str, source_of: Callable[[Connection], str]) -> str:
+        var = comps[name].variables[port]
+        conns = incoming[(name, port)]
+        cur = local(name, port)
+        if len(conns) == 1 and conns[0].dst_index is None:
+            c = conns[0]
+            src_var = comps[c.src].variables[c.src_port]
+            return f"{cur} = {_value_expr(c, source_of(c), src_var.size, var.size)}"
+        elems = [f"{cur}[{k}]" for k in range(var.width)]
+        for c in conns:
+            src_var = comps[c.src].variables[c.src_port]
+            sidx = c.src_index if c.src_index is not None else (
+                (None,) if src_var.size is None else tuple(range(src_var.width)))
+            didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
+            for s_, d in zip(sidx, didx):
+                e = _element(source_of(c), s_)
+                if c.gain != 1.0 or c.offset != 0.0:
+                    e = f"({e} * {c.gain!r} + {c.offset!r})"
+                elems[d] = e
+        return f"{cur} = {_tuple(elems)}"
+
+    if method == "gauss_seidel":
+        plan, _ = evaluation_plan(comps, system.connections)
+    else:
+        plan = [("write", n, p) for n in order for p in comps[n].inputs if (n, p) in incoming]
+        plan += [("evaluate", n, "") for n in order if comps[n].has_feedthrough]
+    watched = list(dict.fromkeys([(c.src, c.src_port) for c in system.connections] +
+                                 [s for s in record if comps[s[0]].variables[s[1]].kind
+                                  in ("output", "state")]))
+
+    def call(name: str, fn: str, args: str) -> list[str]:
+        i = ids[name]
+        ys = [f"y{i}_{k}" for k in range(len(outs[name]))]
+        us = [f"u{i}_{k}" for k in range(len(ins[name]))]
+        lines = [f"r = {fn}{i}({args}, x{i}, {_tuple(ys)}, {_tuple(us)}, p{i})",
+                 f"x{i} = r[0]"]
+        lines += [f"{y} = r[1][{k}]" for k, y in enumerate(ys)]
+        return lines
+
+    def point(w: _Lines, ind: int, mult: dict[str, int]) -> None:
+        if method == "gauss_seidel":
+            def source_of(c: Connection) -> str:
+                return local(c.src, c.src_port)
+        else:
+            keys = sorted({(c.src, c.src_port) for c in system.connections})
+            snap = {key: f"s{k}" for k, key in enumerate(keys)}
+            for (src, port), name in snap.items():
+                w.add(ind, f"{name} = {local(src, port)}")
+
+            def source_of(c: Connection) -> str:
+                return snap[(c.src, c.src_port)]
+        for action, name, port in plan:
+            lines = [assignment(name, port, source_of)] if action == "write" \
+                else call(name, "ev", "t")
+            m = mult[name]
+            if m != 1:
+                w.add(ind, f"if n % {m} == 0:")
+            for line in lines:
+                w.add(ind + (m != 1), line)
+
+    def check(w: _Lines, ind: int, then: str) -> None:
+        if not check_finite:
+            return
+        terms = []
+        for name, port in watched:
+            var = comps[name].variables[port]
+            v = local(name, port)
+            terms.append(" + ".join(f"{v}[{k}]" for k in range(var.width))
+                         if var.size is not None else v)
+        if not terms:
+            return
+        # the association of the Python schedule's `sum(port) + ...` (in chunks of 64 terms)
+        chunks = [terms[i:i + 64] for i in range(0, len(terms), 64)]
+        if len(chunks) == 1:
+            w.add(ind, "v = " + " + ".join(f"({t})" for t in chunks[0]))
+        else:
+            w.add(ind, "v = 0.0")
+            for ch in chunks:
+                w.add(ind, "v = v + (" + " + ".join(f"({t})" for t in ch) + ")")
+        w.add(ind, f"if v - v != 0.0: {then}")
+
+    def rec(w: _Lines, ind: int) -> None:
+        if not record:
+            return
+        w.add(ind, "buf[k, 0] = t")
+        col = 1
+        for name, port in record:
+            var = comps[name].variables[port]
+            v = local(name, port)
+            if var.size is None:
+                w.add(ind, f"buf[k, {col}] = {v}")
+                col += 1
+            else:
+                for e in range(var.width):
+                    w.add(ind, f"buf[k, {col}] = {v}[{e}]")
+                    col += 1
+        w.add(ind, "k += 1")
+
+    def unpack(w: _Lines) -> None:
+        for name in order:
+            i = ids[name]
+            w.add(1, f"x{i} = X[{i}]")
+            w.add(1, f"p{i} = P[{i}]")
+            for k in range(len(outs[name])):
+                w.add(1, f"y{i}_{k} = Y[{i}][{k}]")
+            for k in range(len(ins[name])):
+                w.add(1, f"u{i}_{k} = U[{i}][{k}]")
+        w.add(1, "k = 0")
+        w.add(1, "bad = -1")
+
+    def pack(w: _Lines) -> None:
+        xs = _tuple([f"x{ids[n]}" for n in order])
+        ys = _tuple([_tuple([f"y{ids[n]}_{k}" for k in range(len(outs[n]))]) for n in order])
+        us = _tuple([_tuple([f"u{ids[n]}_{k}" for k in range(len(ins[n]))]) for n in order])
+        w.add(1, f"return {xs}, {ys}, {us}, k, bad")
+
+    w = _Lines()
+    w.add(0, f"# generated by twmr.master.compiled: {method}")
+    for name in order:
+        w.add(0, f"# component {ids[name]}: {name} ({type(comps[name]).__name__})")
+    w.add(0, "from numba import njit")
+    for key, fn in names.items():
+        w.add(0, f"from {fn.__module__} import {fn.__qualname__} as {key}")
+    w.add(0, "")
+    w.add(0, "")
+    w.add(0, "@njit(cache=True, error_model='numpy')")
+    w.add(0, "def run(n0, n1, start, h, H, P, X, Y, U, buf, dec):")
+    unpack(w)
+    for name in order:
+        w.add(1, f"h{ids[name]} = H[{ids[name]}]")
+    mult = {name: system.multiple(name) for name in order}
+    w.add(1, "for n in range(n0, n1):")
+    w.add(2, "t = start + n * h")
+    point(w, 2, mult)
+    check(w, 2, "bad = n; break")
+    if record:
+        w.add(2, "if n % dec == 0:")
+        rec(w, 3)
+    for name in order:
+        if kernels[name].step is None:
+            continue
+        m, i = mult[name], ids[name]
+        if m == 1:
+            for line in call(name, "st", f"t, h{i}"):
+                w.add(2, line)
+        else:
+            w.add(2, f"if n % {m} == {m - 1}:")
+            for line in call(name, "st", f"t - {m - 1} * h, h{i}"):
+                w.add(3, line)
+    pack(w)
+    w.add(0, "")
+    w.add(0, "")
+    w.add(0, "@njit(cache=True, error_model='numpy')")
+    w.add(0, "def finish(n, start, h, P, X, Y, U, buf):")
+    unpack(w)
+    w.add(1, "t = start + n * h")
+    point(w, 1, dict.fromkeys(order, 1))
+    check(w, 1, "bad = n")
+    if record:
+        w.add(1, "if bad < 0:")
+        rec(w, 2)
+    pack(w)
+    return "\n".join(w.lines) + "\n", names
+
+
+def _importable(fn: Any) -> bool:
+    mod = sys.modules.get(getattr(fn, "__module__", ""), None)
+    return mod is not None and getattr(mod, fn.__qualname__, None) is fn \
+        and "<" not in fn.__qualname__
+
+
+def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
+    """(run, finish) from `source`: as a module file in the cache folder, so numba's cache
+    holds across processes, when every kernel is importable; else exec'd, compiled per process."""
+    if not all(_importable(fn) for fn in names.values()):
+        env: dict[str, Any] = dict(names)
+        body = "\n".join(line for line in source.splitlines()
+                         if not line.startswith("from ") or line.startswith("from numba"))
+        exec(compile(body.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
+                     "<twmr compiled schedule>", "exec"), env)
+        return env["run"], env["finish"]
+    import numba
+
+    digest = hashlib.sha256(source.encode())
+    digest.update(numba.__version__.encode())
+    for mod in sorted({fn.__module__ for fn in names.values()} | {"twmr.components._model"}):
+        spec = sys.modules.get(mod)
+        path = getattr(spec, "__file__", None) if spec is not None else None
+        if path:
+            digest.update(Path(path).read_bytes())
+    key = digest.hexdigest()[:20]
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"schedule_{key}.py"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(source)
+        os.replace(tmp, path)
+    modname = f"twmr_schedule_{key}"
+    module = sys.modules.get(modname)
+    if module is None:
+        spec = importlib.util.spec_from_file_location(modname, path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        sys.modules[modname] = module
+    return module.run, module.finish
+
