@@ -8,6 +8,7 @@ import numpy as np
 
 from twmr.core.component import Component
 from twmr.core.port import Input, Output, Parameter
+from twmr.master.compiled import Kernel
 
 
 class Gain(Component):
@@ -20,6 +21,12 @@ class Gain(Component):
 
     def initialize(self) -> None:
         self.evaluate(self.start_time)
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(params=(float(self.k),), evaluate=kernels.gain_evaluate)
 
     def evaluate(self, t: float) -> None:
         self.y = self.k * self.u
@@ -38,6 +45,12 @@ class Sum(Component):
     def initialize(self) -> None:
         self.evaluate(self.start_time)
 
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(params=(float(self.k1), float(self.k2)), evaluate=kernels.sum_evaluate)
+
     def evaluate(self, t: float) -> None:
         self.y = self.k1 * self.u1 + self.k2 * self.u2
 
@@ -54,6 +67,12 @@ class Integrator(Component):
     def initialize(self) -> None:
         self.y = self.x0
 
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(params=(float(self.k),), step=kernels.integrator_step)
+
     def do_step(self, t: float, h: float) -> None:
         self.y = self.y + self.k * self.u * h
 
@@ -68,6 +87,12 @@ class Delay(Component):
 
     def initialize(self) -> None:
         self.y = self.y0
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(step=kernels.delay_step)
 
     def do_step(self, t: float, h: float) -> None:
         self.y = self.u

@@ -5,6 +5,7 @@ import math
 
 from twmr.core.component import Component
 from twmr.core.port import Output, Parameter
+from twmr.master.compiled import Kernel
 
 
 class Constant(Component):
@@ -16,6 +17,10 @@ class Constant(Component):
 
     def initialize(self) -> None:
         self.y = self.value
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form: nothing to compute."""
+        return Kernel()
 
 
 class Sine(Component):
@@ -29,10 +34,18 @@ class Sine(Component):
     y = Output(0.0)
 
     def _at(self, t: float) -> float:
-        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t + self.phase)
+        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t
+                                                       + self.phase)
 
     def initialize(self) -> None:
         self.y = self._at(self.start_time)
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(params=(float(self.amplitude), float(self.frequency), float(self.phase),
+                              float(self.offset)), step=kernels.sine_step)
 
     def do_step(self, t: float, h: float) -> None:
         self.y = self._at(t + h)
@@ -55,3 +68,10 @@ class Step(Component):
 
     def do_step(self, t: float, h: float) -> None:
         self.y = self._at(t + h)
+
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form."""
+        from twmr.blocks import kernels
+
+        return Kernel(params=(float(self.height), float(self.time), float(self.offset)),
+                      step=kernels.step_step)

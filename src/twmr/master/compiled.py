@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import logging
 import os
 import sys
 import time
@@ -50,6 +51,10 @@ from twmr.scenario.graph import evaluation_plan
 from twmr.scenario.system import Connection, System
 
 MODES = ("auto", "on", "off")
+#: mode 'auto' compiles runs of at least this many base steps (a shorter one is over before
+#: numba would be loaded)
+AUTO_MIN_STEPS = 10_000
+log = logging.getLogger("twmr.run")
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,7 @@ class CompiledStep(Algorithm):
         self.mode = mode
         self.python = FixedStep(method)
         self.compiled = False
+        self._pending = False
         self.reason = ""
         self.compile_seconds = float("nan")
 
@@ -117,8 +123,22 @@ class CompiledStep(Algorithm):
         self._check = check_finite
 
     def start(self) -> None:
-        """Collect the kernels (the components are initialized now) and compile the loop, or
-        keep the Python schedule."""
+        """Compile now (mode 'on', or a paced run: never while the clock runs), or once the
+        first chunk has run in Python (mode 'auto': a stop signal during compilation then
+        finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`)."""
+        self._pending = False
+        if self.mode == "on" or self._system.paced:
+            self._compile()
+        elif self._system.experiment.n_steps >= AUTO_MIN_STEPS:
+            self._pending = True
+        else:
+            self.reason = f"a short run ({self._system.experiment.n_steps} < " \
+                          f"{AUTO_MIN_STEPS} steps)"
+
+    def _compile(self) -> None:
+        """Collect the kernels from the components as they are now (initialized, maybe stepped
+        by the Python schedule) and compile the loop; on failure keep the Python schedule
+        (mode 'auto') or raise `CompileError` (mode 'on')."""
         system = self._system
         kernels, self.reason = _kernels(system, self._record)
         if kernels is None:
@@ -128,8 +148,6 @@ class CompiledStep(Algorithm):
                     f"TWMR_COMPILED=auto (or --compiled auto) to use the Python schedule.")
             return
         t0 = time.perf_counter()
-        source, names = _generate(system, self.method, self._record, self._check, kernels)
-        self._run, self._finish = _load(source, names)
         order = list(system.order)
         comps = system.components
         exp = system.experiment
@@ -143,11 +161,25 @@ class CompiledStep(Algorithm):
                         for c in self._comps)
         self._H = tuple(system.multiple(n) * exp.step for n in order)
         self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
-        # compile (or load from numba's cache) now, outside the timed run: zero steps, and one
-        # final point whose results are dropped (the kernels are pure)
-        self._call(self._run, 0, 0, np.empty((0, self._ncols)))
-        self._finish(0, exp.start, exp.step, self._P, self._X, self._Y, self._U,
-                     np.empty((1, self._ncols)))
+        try:
+            source, names = _generate(system, self.method, self._record, self._check, kernels)
+            self._run, self._finish = _load(source, names)
+            # compile (or load from numba's cache) now: zero steps, and one final point whose
+            # results are dropped (the kernels are pure)
+            state = self._X, self._Y, self._U
+            self._call(self._run, 0, 0, np.empty((0, self._ncols)))
+            self._finish(0, exp.start, exp.step, self._P, self._X, self._Y, self._U,
+                         np.empty((1, self._ncols)))
+            self._X, self._Y, self._U = state
+        except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
+            self.reason = f"numba could not compile it ({type(exc).__name__}: " \
+                          f"{str(exc).splitlines()[0] if str(exc) else ''})"
+            if self.mode == "on":
+                raise CompileError(
+                    f"the run cannot be compiled: {self.reason}. Fix: correct the kernel or run "
+                    f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
+            log.warning("running the Python schedule: %s", self.reason)
+            return
         self.compile_seconds = time.perf_counter() - t0
         self.source = source
         self.compiled = True
@@ -177,6 +209,9 @@ class CompiledStep(Algorithm):
             raise NonFinite(exp.start + bad * exp.step)
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
+        if self._pending and n0 > 0:
+            self._pending = False
+            self._compile()
         if not self.compiled:
             return self.python.advance(n0, n1, rows)
         d = self._decimation
@@ -222,6 +257,11 @@ def _kernels(system: System, record: list[tuple[str, str]]
         make = getattr(comp, "kernel", None)
         if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
             return None, f"'{name}' has its methods replaced on the instance"
+        owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
+        if owner is not None and any(getattr(type(comp), m) is not getattr(owner, m)
+                                     for m in ("evaluate", "do_step")):
+            return None, f"'{name}' ({type(comp).__name__}) overrides the methods its " \
+                         f"kernel mirrors"
         kern = make(system.multiple(name) * h) if make is not None else None
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
