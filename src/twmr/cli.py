@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import logging
 import sys
 import time
@@ -54,6 +55,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         fmu_log.show_all = True
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
+    if args.compiled:
+        os.environ["TWMR_COMPILED"] = args.compiled  # read by the master (and sweep workers)
     formats = _formats(args.format)
     metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
     scenario = api.load(scenario_path, overrides)
@@ -74,9 +77,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     s = result.summary
     log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
              s["wall_time_s"], s["realtime_factor"], result.folder)
-    if s.get("pacing"):
-        log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in s["pacing"].items()
-                                          if isinstance(v, (int, float))))
+    figures = s.get("pacing") or {}
+    if figures.get("algorithm.compiled"):
+        log.info("compiled step loop (numba): compiled or loaded in %.3f s",
+                 figures.get("algorithm.compile_s", float("nan")))
+    elif figures.get("algorithm.not_compiled"):
+        log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
+    pacing = {k: v for k, v in figures.items() if not k.startswith("algorithm.")
+              and isinstance(v, (int, float))}
+    if pacing:
+        log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):
         print(json.dumps(s["metrics"]))
     return 0
@@ -272,6 +282,10 @@ def parser() -> argparse.ArgumentParser:
                    help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",
                    help="pace steps to the wall clock (automatic with hardware components)")
+    r.add_argument("--compiled", choices=("auto", "on", "off"),
+                   help="compile the step loop with numba: auto (default: when every block "
+                        "offers a kernel and the run has >= 10000 steps), on (an error "
+                        "otherwise), off (the Python loop); sets TWMR_COMPILED")
     r.add_argument("--fmu-log", action="store_true",
                    help="show every message the FMUs log (errors and warnings always show)")
     r.set_defaults(fn=cmd_run)

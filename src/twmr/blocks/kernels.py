@@ -37,25 +37,16 @@ def delay_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
 @njit(cache=True)
 def state_space_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple
                          ) -> tuple[tuple, tuple]:
-    """y = C x + D u; x = (state vector,), p = (A_d, b_d, c, D)."""
-    c, xs = p[2], x[0]
-    acc = 0.0
-    for j in range(xs.size):
-        acc += c[j] * xs[j]
-    return x, (acc + p[3] * u[0],)
+    """y = C x + D u; x = (state vector,), p = (A_d, b_d, c, D); the products through BLAS, as
+    numpy's `@` in the Python block."""
+    return x, (np.dot(p[2], x[0]) + p[3] * u[0],)
 
 
 @njit(cache=True)
 def state_space_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
                      ) -> tuple[tuple, tuple]:
     """x(t + h) = A_d x + b_d u (zero-order hold), then y = C x + D u."""
-    ad, bd, xs = p[0], p[1], x[0]
-    new = np.empty_like(xs)
-    for i in range(xs.size):
-        acc = 0.0
-        for j in range(xs.size):
-            acc += ad[i, j] * xs[j]
-        new[i] = acc + bd[i] * u[0]
+    new = np.dot(p[0], x[0]) + p[1] * u[0]
     return state_space_evaluate(t + h, (new,), y, u, p)
 
 

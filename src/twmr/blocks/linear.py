@@ -129,6 +129,21 @@ class StateSpace(Component):
         self._h = math.nan
         self.evaluate(self.start_time)
 
+    def kernel(self, h: float) -> Kernel:
+        """The compiled form, for steps of h [s] (discretised here, as `do_step` does)."""
+        from twmr.blocks import kernels
+
+        if h != self._h:
+            from scipy.signal import cont2discrete
+
+            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
+            self._ad, self._bd, self._h = ad, bd[:, 0], h
+        return Kernel(params=(np.ascontiguousarray(self._ad, dtype=float),
+                              np.ascontiguousarray(self._bd, dtype=float),
+                              np.ascontiguousarray(self._c[0], dtype=float), float(self.D)),
+                      state=(self._x.copy(),), evaluate=kernels.state_space_evaluate,
+                      step=kernels.state_space_step)
+
     def evaluate(self, t: float) -> None:
         self.y = float(self._c[0] @ self._x) + self.D * self.u
 
