@@ -268,3 +268,17 @@ def test_the_documented_example_block_compiles_bit_identical() -> None:
     compiled, extra = run(build(), "on")
     assert extra["algorithm.compiled"] is True
     assert np.array_equal(python, compiled) and abs(compiled[-1, 1]) > 0.01
+
+
+def test_auto_leaves_a_short_run_to_python() -> None:
+    system = load(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", ["experiment.stop=1.0"])
+    algo = make_algorithm("gauss_seidel", "auto")
+    Execution(system, [ResultStore()], algorithm=algo).run()
+    assert algo.compiled is False and "short run" in algo.reason
+
+
+def test_an_unwritable_cache_folder_still_compiles(tmp_path: Path, monkeypatch) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(blocker / "cache"))  # below a file: mkdir fails
+    same(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", ["experiment.stop=0.5"])

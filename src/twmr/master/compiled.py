@@ -488,22 +488,30 @@ def _importable(fn: Any) -> bool:
 def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
     """(run, finish) from `source`: as a module file in the cache folder, so numba's cache
     holds across processes, when every kernel is importable; else exec'd, compiled per process."""
-    if not all(_importable(fn) for fn in names.values()):
-        env: dict[str, Any] = dict(names)
-        body = "\n".join(line for line in source.splitlines()
-                         if not line.startswith("from ") or line.startswith("from numba"))
-        exec(compile(body.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
-                     "<twmr compiled schedule>", "exec"), env)
-        return env["run"], env["finish"]
+    if all(_importable(fn) for fn in names.values()):
+        try:
+            return _load_cached(source, names)
+        except OSError as exc:  # a cache folder we cannot write: compile in this process
+            log.debug("schedule cache not usable (%s); compiling without it", exc)
+    env: dict[str, Any] = dict(names)
+    body = "\n".join(line for line in source.splitlines()
+                     if not line.startswith("from ") or line.startswith("from numba"))
+    exec(compile(body.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
+                 "<twmr compiled schedule>", "exec"), env)
+    return env["run"], env["finish"]
+
+
+def _load_cached(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
+    """(run, finish) from `source` written as a module in the cache folder."""
     import numba
 
     digest = hashlib.sha256(source.encode())
     digest.update(numba.__version__.encode())
-    for mod in sorted({fn.__module__ for fn in names.values()} | {"twmr.components._model"}):
-        spec = sys.modules.get(mod)
-        path = getattr(spec, "__file__", None) if spec is not None else None
-        if path:
-            digest.update(Path(path).read_bytes())
+    # the kernels' modules and their sibling modules (helpers they call)
+    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
+                                        for fn in names.values()) if f}
+    for file in sorted(f for folder in folders for f in folder.glob("*.py")):
+        digest.update(file.read_bytes())
     key = digest.hexdigest()[:20]
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
