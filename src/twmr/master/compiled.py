@@ -39,6 +39,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any, Callable
 
@@ -69,6 +70,23 @@ class Kernel:
     evaluate: Any = None
     step: Any = None
     sync: Callable[[tuple], None] | None = None
+    #: an FMU the loop calls itself through its C function pointers (`twmr.master.fmu_kernel`)
+    fmu: FmuCalls | None = None
+
+
+@dataclass(frozen=True)
+class FmuCalls:
+    """What the generated loop needs to call an FMI 2.0 co-simulation FMU: the ports each call
+    carries, [(port, width)] in the order of their value references. The parameters of its
+    `Kernel` are (fmi2SetReal, fmi2GetReal, fmi2DoStep as ctypes functions taking pointers as
+    size_t, the instance, the value references of the inputs, of the feedthrough outputs and of
+    the outputs read after a step (uint32 arrays), a float64 value buffer); a status above
+    fmi2Warning stops the run, reported by `error(call, status, t)`."""
+
+    inputs: tuple[tuple[str, int], ...]
+    feedthrough: tuple[tuple[str, int], ...]
+    after_step: tuple[tuple[str, int], ...]
+    error: Callable[[str, int, float], BaseException]
 
 
 class CompileError(CosimError):
@@ -140,7 +158,7 @@ class CompiledStep(Algorithm):
         by the Python schedule) and compile the loop; on failure keep the Python schedule
         (mode 'auto') or raise `CompileError` (mode 'on')."""
         system = self._system
-        kernels, self.reason = _kernels(system, self._record)
+        kernels, self.reason = _kernels(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(
@@ -164,13 +182,15 @@ class CompiledStep(Algorithm):
         try:
             source, names = _generate(system, self.method, self._record, self._check, kernels)
             self._run, self._finish = _load(source, names)
-            # compile (or load from numba's cache) now: zero steps, and one final point whose
-            # results are dropped (the kernels are pure)
-            state = self._X, self._Y, self._U
-            self._call(self._run, 0, 0, np.empty((0, self._ncols)))
-            self._finish(0, exp.start, exp.step, self._P, self._X, self._Y, self._U,
-                         np.empty((1, self._ncols)))
-            self._X, self._Y, self._U = state
+            # compile (or load from numba's cache) now, for the argument types of this run
+            from numba import typeof
+
+            buf = np.empty((1, self._ncols))
+            self._run.compile(tuple(typeof(a) for a in (
+                0, 0, exp.start, exp.step, self._H, self._P, self._X, self._Y, self._U, buf,
+                self._decimation)))
+            self._finish.compile(tuple(typeof(a) for a in (
+                0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self.reason = f"numba could not compile it ({type(exc).__name__}: " \
                           f"{str(exc).splitlines()[0] if str(exc) else ''})"
@@ -184,14 +204,14 @@ class CompiledStep(Algorithm):
         self.source = source
         self.compiled = True
 
-    def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int]:
+    def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int, int, int]:
         exp = self._system.experiment
-        self._X, self._Y, self._U, k, bad = fn(n0, n1, exp.start, exp.step, self._H, self._P,
-                                               self._X, self._Y, self._U, buf,
-                                               self._decimation)
-        return k, bad
+        self._X, self._Y, self._U, *rest = fn(n0, n1, exp.start, exp.step, self._H, self._P,
+                                              self._X, self._Y, self._U, buf, self._decimation)
+        return tuple(rest)  # type: ignore[return-value]
 
-    def _sync(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
+    def _sync(self, rows: list[Any], buf: np.ndarray, k: int, bad: int, fail: int = -1,
+              status: int = 0) -> None:
         """Port values back into the components, their `sync`, the rows to `rows`; a NaN/Inf
         found at step `bad` raises `NonFinite` (the components then hold the values seen)."""
         for comp, kern, x, y, u in zip(self._comps, self._kernels, self._X, self._Y, self._U):
@@ -206,7 +226,12 @@ class CompiledStep(Algorithm):
             rows.append(buf[:k])
         if bad >= 0:
             exp = self._system.experiment
-            raise NonFinite(exp.start + bad * exp.step)
+            t = exp.start + bad * exp.step
+            if fail >= 0:
+                fmu = self._kernels[fail // 3].fmu
+                assert fmu is not None
+                raise fmu.error(("fmi2SetReal", "fmi2GetReal", "fmi2DoStep")[fail % 3], status, t)
+            raise NonFinite(t)
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
         if self._pending and n0 > 0:
@@ -217,8 +242,7 @@ class CompiledStep(Algorithm):
         d = self._decimation
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
         buf = np.empty((count, self._ncols))
-        k, bad = self._call(self._run, n0, n1, buf)
-        self._sync(rows, buf, k, bad)
+        self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
 
     def finish(self, n: int, rows: list[Any]) -> None:
@@ -227,9 +251,9 @@ class CompiledStep(Algorithm):
             return
         exp = self._system.experiment
         buf = np.empty((1, self._ncols))
-        self._X, self._Y, self._U, k, bad = self._finish(n, exp.start, exp.step, self._P,
-                                                         self._X, self._Y, self._U, buf)
-        self._sync(rows, buf, k, bad)
+        self._X, self._Y, self._U, *rest = self._finish(n, exp.start, exp.step, self._P,
+                                                        self._X, self._Y, self._U, buf)
+        self._sync(rows, buf, *rest)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return self.python.locate(exc)
@@ -243,9 +267,11 @@ class CompiledStep(Algorithm):
         return out
 
 
-def _kernels(system: System, record: list[tuple[str, str]]
+def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
-    """Every component's kernel, or None and why not."""
+    """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
+    'on': in 'auto' an FMU keeps the Python loop, whose chunks of steps are smaller — a crash
+    inside the FMU's code then loses fewer rows)."""
     comps = system.components
     for name, port in record:
         if comps[name].variables[port].kind not in ("input", "output", "state"):
@@ -255,6 +281,10 @@ def _kernels(system: System, record: list[tuple[str, str]]
     for name in system.order:
         comp = comps[name]
         make = getattr(comp, "kernel", None)
+        if make is None and type(comp).__name__ == "FmuComponent" and fmus:
+            from twmr.master.fmu_kernel import fmu_kernel
+
+            make = partial(fmu_kernel, comp)
         if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
             return None, f"'{name}' has its methods replaced on the instance"
         owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
@@ -269,7 +299,7 @@ def _kernels(system: System, record: list[tuple[str, str]]
         for port, var in {**comp.inputs, **comp.outputs}.items():
             if var.type != "Real":
                 return None, f"port '{name}.{port}' is {var.type}, not Real"
-        if comp.has_feedthrough and kern.evaluate is None:
+        if comp.has_feedthrough and kern.evaluate is None and kern.fmu is None:
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
         kernels[name] = kern
     return kernels, ""
@@ -290,8 +320,9 @@ def _tuple(items: list[str]) -> str:
 def _generate(system: System, method: str, record: list[tuple[str, str]], check_finite: bool,
               kernels: dict[str, Kernel]) -> tuple[str, dict[str, Any]]:
     """(source, {name: kernel function}) of `run(n0, n1, start, h, H, P, X, Y, U, buf, dec)` and
-    `finish(n, start, h, P, X, Y, U, buf)`; both return (X, Y, U, rows written, step of a
-    NaN/Inf or -1)."""
+    `finish(n, start, h, P, X, Y, U, buf)`; both return (X, Y, U, rows written, the step of a
+    NaN/Inf or of a failed FMU call or -1, 3 * component index + call (0 set, 1 get, 2 step) of
+    that failure or -1, its status)."""
     comps = system.components
     order = list(system.order)
     ids = {name: i for i, name in enumerate(order)}
@@ -344,7 +375,55 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
                                  [s for s in record if comps[s[0]].variables[s[1]].kind
                                   in ("output", "state")]))
 
+    def fmu_lines(name: str, call: int, args: str) -> list[str]:
+        """An FMU's set (call 0), get of the feedthrough outputs (1) or step (2, `args` its
+        time and step) through its function pointers; a bad status leaves the loop."""
+        i, f = ids[name], kernels[name].fmu
+        assert f is not None
+        lines: list[str] = []
+
+        def status(code: int) -> None:
+            lines.append(f"if s > 1: fail = {3 * i + code}; fstat = s; bad = n; break")
+
+        def move(ports: tuple[tuple[str, int], ...], into: bool) -> None:
+            j = 0
+            for port, width in ports:
+                v, scalar = local(name, port), comps[name].variables[port].size is None
+                if into:
+                    for e in range(width):
+                        lines.append(f"p{i}[7][{j + e}] = {v if scalar else f'{v}[{e}]'}")
+                else:
+                    items = [f"p{i}[7][{j + e}]" for e in range(width)]
+                    lines.append(f"{v} = {items[0] if scalar else _tuple(items)}")
+                j += width
+
+        def transfer(ports: tuple[tuple[str, int], ...], fn: int, vrs: int, into: bool,
+                     code: int) -> None:
+            if not ports:
+                return
+            if into:
+                move(ports, True)
+            count = sum(w for _, w in ports)
+            lines.append(f"s = p{i}[{fn}](p{i}[3], p{i}[{vrs}].ctypes.data, {count}, "
+                         f"p{i}[7].ctypes.data)")
+            status(code)
+            if not into:
+                move(ports, False)
+
+        if call == 0:
+            transfer(f.inputs, 0, 4, True, 0)
+            transfer(f.feedthrough, 1, 5, False, 1)
+        else:
+            if not comps[name].has_feedthrough:  # else `evaluate` has set the inputs
+                transfer(f.inputs, 0, 4, True, 0)
+            lines.append(f"s = p{i}[2](p{i}[3], {args}, 1)")
+            status(2)
+            transfer(f.after_step, 1, 6, False, 1)
+        return lines
+
     def call(name: str, fn: str, args: str) -> list[str]:
+        if kernels[name].fmu is not None:
+            return fmu_lines(name, 0 if fn == "ev" else 2, args)
         i = ids[name]
         ys = [f"y{i}_{k}" for k in range(len(outs[name]))]
         us = [f"u{i}_{k}" for k in range(len(ins[name]))]
@@ -423,12 +502,14 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
                 w.add(1, f"u{i}_{k} = U[{i}][{k}]")
         w.add(1, "k = 0")
         w.add(1, "bad = -1")
+        w.add(1, "fail = -1")
+        w.add(1, "fstat = 0")
 
     def pack(w: _Lines) -> None:
         xs = _tuple([f"x{ids[n]}" for n in order])
         ys = _tuple([_tuple([f"y{ids[n]}_{k}" for k in range(len(outs[n]))]) for n in order])
         us = _tuple([_tuple([f"u{ids[n]}_{k}" for k in range(len(ins[n]))]) for n in order])
-        w.add(1, f"return {xs}, {ys}, {us}, k, bad")
+        w.add(1, f"return {xs}, {ys}, {us}, k, bad, fail, fstat")
 
     w = _Lines()
     w.add(0, f"# generated by twmr.master.compiled: {method}")
@@ -453,7 +534,7 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
         w.add(2, "if n % dec == 0:")
         rec(w, 3)
     for name in order:
-        if kernels[name].step is None:
+        if kernels[name].step is None and kernels[name].fmu is None:
             continue
         m, i = mult[name], ids[name]
         if m == 1:
@@ -470,11 +551,10 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
     w.add(0, "def finish(n, start, h, P, X, Y, U, buf):")
     unpack(w)
     w.add(1, "t = start + n * h")
-    point(w, 1, dict.fromkeys(order, 1))
-    check(w, 1, "bad = n")
-    if record:
-        w.add(1, "if bad < 0:")
-        rec(w, 2)
+    w.add(1, "for _ in range(1):  # a block to break out of")
+    point(w, 2, dict.fromkeys(order, 1))
+    check(w, 2, "bad = n; break")
+    rec(w, 2)
     pack(w)
     return "\n".join(w.lines) + "\n", names
 

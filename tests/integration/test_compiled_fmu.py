@@ -1,0 +1,91 @@
+"""FMUs inside the compiled loop (`twmr.master.fmu_kernel`): FMI 2.0 co-simulation FMUs called
+through their C function pointers, against the Python loop calling them through fmpy.
+
+The paper's blocks exported as standalone C FMUs (`twmr export`, bit-identical to the Python
+blocks) run the paper scenario with every block an FMU, and with a mix of FMUs and native blocks;
+the recorded arrays must be equal element for element (`np.array_equal`). A failing FMU
+(`tests/fmus/faulty`) stops both loops at the same step with the same rows.
+"""
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from tests.fmu_build import build_c_fmu
+from tests.integration.c_fmu_scenario import export_blocks, paper, swapped
+from twmr.core.errors import CosimError
+from twmr.master import Execution
+from twmr.master.algorithm import make_algorithm
+from twmr.observers.store import ResultStore
+from twmr.scenario import loads
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory) -> dict[str, Path]:
+    return export_blocks(paper(), tmp_path_factory.mktemp("c_fmus"))
+
+
+def run(text: str, mode: str, algorithm: str = "gauss_seidel") -> tuple[np.ndarray, dict]:
+    store = ResultStore()
+    ex = Execution(loads(text, source="c_fmu.yaml"), [store],
+                   algorithm=make_algorithm(algorithm, mode))
+    extra = ex.run().extra
+    return store.data(), extra
+
+
+def scenario(fmus: dict[str, Path], which: list[str], algorithm: str) -> str:
+    data = paper()
+    data["experiment"].update(stop=3.0, algorithm=algorithm)
+    return yaml.safe_dump(swapped(data, {n: fmus[n] for n in which}), sort_keys=False)
+
+
+@pytest.mark.parametrize("algorithm", ["gauss_seidel", "jacobi"])
+@pytest.mark.parametrize("which", [["ref", "ctrl", "motor", "plant", "slip"], ["ctrl", "plant"]],
+                         ids=["every block an FMU", "two FMUs, three native"])
+def test_fmus_in_the_compiled_loop_bit_identical(fmus, which: list[str], algorithm: str) -> None:
+    text = scenario(fmus, which, algorithm)
+    python, _ = run(text, "off")
+    compiled, extra = run(text, "on")
+    assert extra["algorithm.compiled"] is True
+    assert python.shape == (301, 16) and np.array_equal(python, compiled)
+
+
+def test_auto_keeps_fmus_in_the_python_loop(fmus) -> None:
+    data = paper()
+    data["experiment"]["stop"] = 12.0
+    text = yaml.safe_dump(swapped(data, {"ctrl": fmus["ctrl"]}), sort_keys=False)
+    _, extra = run(text, "auto")
+    assert extra["algorithm.compiled"] is False and "'ctrl'" in extra["algorithm.not_compiled"]
+
+
+@pytest.fixture(scope="module")
+def faulty(tmp_path_factory) -> Path:
+    return build_c_fmu("faulty", tmp_path_factory.mktemp("fmus"))
+
+
+@pytest.mark.parametrize("mode, words", [(4, "fmi2DoStep"), (6, "asked to terminate")])
+def test_a_failing_fmu_stops_both_loops_at_the_same_step(faulty: Path, mode: int,
+                                                         words: str) -> None:
+    text = textwrap.dedent(f"""
+        components:
+          src: {{kind: sine, parameters: {{frequency: 1.0}}}}
+          dut: {{kind: fmu, parameters: {{path: {faulty}, mode: {mode}, fail_after: 250}}}}
+        connections: [src.y -> dut.u]
+        experiment: {{stop: 1.0, step: 1.0e-3}}
+        record: {{signals: [dut.y, dut.y2, src.y]}}
+    """)
+    errors, rows = [], []
+    for how in ("off", "on"):
+        store = ResultStore()
+        ex = Execution(loads(text, source="faulty.yaml"), [store],
+                       algorithm=make_algorithm("gauss_seidel", how))
+        with pytest.raises(CosimError) as info:
+            ex.run()
+        errors.append(str(info.value))
+        rows.append(store.data())
+    assert all("'dut'" in e and words in e and "t = 0.249" in e for e in errors), errors
+    assert rows[0].shape == (250, 4) and np.array_equal(rows[0], rows[1])
