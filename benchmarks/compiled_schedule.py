@@ -12,6 +12,12 @@ The paper's 30 s trajectory-1 scenario (ASMC, 1 ms step, 30,000 steps, 16 column
 (c) the master with the Python schedule (`compiled='off'`), as `twmr run` ran before.
 Each is run `--repeats` times interleaved; medians are compared (target: a <= 2 b).
 
+FMUs (`compiled='on'` only): (d) the chain of three `lag2` test FMUs of
+benchmarks/fmu_overhead.py (100,000 steps, c.y recorded every 100) and (e) the paper scenario with
+every block its standalone C FMU (`twmr export`, 30,000 steps), each through the compiled loop
+(the FMUs called through their C function pointers) and through the Python loop (fmpy), per FMU
+and step (targets: <= 1.0 us, moonshot <= 0.19 us); both loops' rows must be equal.
+
 Compile time: `twmr run`'s figure `algorithm.compile_s` (kernels collected, loop generated,
 compiled or loaded from numba's cache), in a fresh process with empty numba and schedule caches
 (cold), then in a second fresh process with those caches (cached).
@@ -31,6 +37,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 from numba import njit
 
 from twmr.components.asmc import asmc_evaluate, asmc_step
@@ -41,7 +48,26 @@ from twmr.components.trajectory import trajectory_step
 from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
 from twmr.observers.store import ResultStore
-from twmr.scenario import load
+from twmr.scenario import load, loads
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from tests.fmu_build import build_c_fmu  # noqa: E402
+from tests.integration.c_fmu_scenario import export_blocks, paper, swapped  # noqa: E402
+
+CHAIN = """
+components:
+  src: {kind: constant, parameters: {value: 1.0}}
+  a: {kind: fmu, parameters: {path: %(fmu)s}}
+  b: {kind: fmu, parameters: {path: %(fmu)s}}
+  c: {kind: fmu, parameters: {path: %(fmu)s}}
+connections:
+  - src.y -> a.u[1]
+  - src.y -> a.u[2]
+  - a.y -> b.u
+  - b.y -> c.u
+experiment: {start: 0.0, stop: 100.0, step: 0.001}
+record: {signals: [c.y], decimation: 100}
+"""
 
 SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "paper_trajectory1_asmc.yaml"
 
@@ -138,6 +164,26 @@ def compile_times() -> tuple[float, float]:
     return times[0], times[1]
 
 
+def fmu_case(text: str, fmus: int) -> dict[str, float]:
+    """Compiled and Python loop over scenario `text` with `fmus` FMUs: best of two each."""
+    def one(mode: str) -> tuple[np.ndarray, float]:
+        store = ResultStore()
+        out = Execution(loads(text, source="bench.yaml"), [store],
+                        algorithm=make_algorithm("gauss_seidel", mode)).run()
+        return store.data(), out.wall_time
+
+    compiled = [one("on") for _ in range(2)]
+    python = [one("off") for _ in range(2)]
+    assert np.array_equal(compiled[0][0], python[0][0]), "FMUs: compiled != Python loop"
+    steps = loads(text, source="bench.yaml").experiment.n_steps
+    c, p = min(w for _, w in compiled), min(w for _, w in python)
+    return {"steps": steps, "fmus": fmus,
+            "compiled_us_per_fmu_step": round(c / steps / fmus * 1e6, 3),
+            "python_us_per_fmu_step": round(p / steps / fmus * 1e6, 3),
+            "python_over_compiled": round(p / c, 1), "target_us_per_fmu_step": 1.0,
+            "moonshot_us_per_fmu_step": 0.19}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -157,6 +203,13 @@ def main() -> None:
             walls["python"].append(master_run("off")[1])
         print(f"repeat {i + 1}/{args.repeats}: compiled {walls['compiled'][-1]:.4f} s, "
               f"hand {walls['hand'][-1]:.4f} s, python {walls['python'][-1]:.3f} s", flush=True)
+    with tempfile.TemporaryDirectory(prefix="twmr-bench-fmus-") as tmp:
+        chain = fmu_case(CHAIN % {"fmu": build_c_fmu("lag2", Path(tmp))}, 3)
+        print(f"lag2 chain: {chain}", flush=True)
+        data = paper()
+        every = fmu_case(yaml.safe_dump(swapped(data, export_blocks(data, Path(tmp) / "c")),
+                                        sort_keys=False), 5)
+        print(f"paper, every block a C FMU: {every}", flush=True)
     steps = load(SCENARIO).experiment.n_steps
     us = {k: statistics.median(v) / steps * 1e6 for k, v in walls.items()}
     figures = {
@@ -170,6 +223,7 @@ def main() -> None:
         "hand_rows_identical_to_compiled": identical,
         "compile_s_cold": round(cold, 3), "compile_s_cached": round(cached, 4),
         "compile_s_this_process": round(extra["algorithm.compile_s"], 4),
+        "fmu_chain_lag2": chain, "paper_every_block_c_fmu": every,
     }
     print(json.dumps(figures))
 
