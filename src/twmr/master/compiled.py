@@ -20,15 +20,19 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
-~/.cache/twmr/schedules) under a name hashing its source, the kernels' source files and numba's
-version; numba's own cache (`cache=True`) then reuses the machine code in every later process
-(sweep workers included). Parameters, initial values, the step and the start time are arguments,
-so a sweep over parameter values compiles once.
+An FMI 2.0 co-simulation FMU joins the loop in mode 'on': the loop calls its C functions itself
+(`twmr.master.fmu_kernel`).
 
-Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`); `auto` (default) compiles when
-every component offers a kernel and runs the Python schedule otherwise, `on` makes a missing kernel
-an error, `off` always runs the Python schedule.
+The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
+~/.cache/twmr/schedules) under a name hashing its source, the source files of the kernels'
+packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
+every later process (sweep workers included). Parameters, initial values, the step and the
+start time are arguments, so a sweep over parameter values compiles once.
+
+Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) compiles a run
+of at least `AUTO_MIN_STEPS` steps whose every component (FMUs excepted) offers a kernel, once the
+first chunk has run in Python, and runs the Python schedule otherwise; `on` compiles before the
+first step and makes a missing kernel an error; `off` always runs the Python schedule.
 """
 from __future__ import annotations
 
@@ -62,8 +66,9 @@ log = logging.getLogger("twmr.run")
 class Kernel:
     """A component's compiled form: numba functions `evaluate(t, x, y, u, p) -> (x, y)` and
     `step(t, h, x, y, u, p) -> (x, y)` (either None), its parameters `params` and initial private
-    state `state` (tuples of floats or of tuples of floats), and `sync(x)`, called with the state
-    after every chunk of steps so the Python component can report (e.g. log a warning)."""
+    state `state` (tuples of floats, of tuples of floats or of numpy arrays), and `sync(x)`,
+    called with the state after every chunk of steps so the Python component can report (e.g.
+    log a warning)."""
 
     params: tuple = ()
     state: tuple = ()
@@ -97,7 +102,8 @@ def compiled_mode() -> str:
     """The selection from `TWMR_COMPILED` ('auto' unless set)."""
     mode = os.environ.get("TWMR_COMPILED", "auto").strip().lower() or "auto"
     if mode not in MODES:
-        raise CompileError(f"TWMR_COMPILED is '{mode}'; use one of {', '.join(MODES)}.")
+        raise CompileError(f"TWMR_COMPILED is '{mode}', which is not a mode of the compiled "
+                           f"loop. Fix: set it to one of {', '.join(MODES)}, or unset it.")
     return mode
 
 
