@@ -18,6 +18,10 @@ every block its standalone C FMU (`twmr export`, 30,000 steps), each through the
 (the FMUs called through their C function pointers) and through the Python loop (fmpy), per FMU
 and step (targets: <= 1.0 us, moonshot <= 0.19 us); both loops' rows must be equal.
 
+Mixed (f): the paper scenario with the slip block's `random` profile (no kernel: Python only),
+`compiled='auto'` (the default: kernels collected, then the Python loop) against `'off'`,
+median of three each; target: no slower.
+
 Compile time: `twmr run`'s figure `algorithm.compile_s` (kernels collected, loop generated,
 compiled or loaded from numba's cache), in a fresh process with empty numba and schedule caches
 (cold), then in a second fresh process with those caches (cached).
@@ -131,9 +135,9 @@ def hand_run() -> tuple[np.ndarray, float]:
     return buf[:k], wall
 
 
-def master_run(mode: str) -> tuple[np.ndarray, float, dict]:
+def master_run(mode: str, overrides: tuple[str, ...] = ()) -> tuple[np.ndarray, float, dict]:
     """(rows, stepping wall time [s], outcome extra) of the scenario through `Execution`."""
-    system = load(SCENARIO)
+    system = load(SCENARIO, list(overrides))
     store = ResultStore()
     outcome = Execution(system, [store], algorithm=make_algorithm("gauss_seidel", mode)).run()
     return store.data(), outcome.wall_time, outcome.extra
@@ -210,6 +214,12 @@ def main() -> None:
         every = fmu_case(yaml.safe_dump(swapped(data, export_blocks(data, Path(tmp) / "c")),
                                         sort_keys=False), 5)
         print(f"paper, every block a C FMU: {every}", flush=True)
+    mixed: dict[str, list[float]] = {"auto": [], "off": []}
+    for _ in range(3):
+        for mode in ("auto", "off"):
+            mixed[mode].append(master_run(mode, ("slip.profile=random",))[1])
+    mixed_auto, mixed_off = (statistics.median(mixed[m]) for m in ("auto", "off"))
+    print(f"mixed: auto {mixed_auto:.3f} s, off {mixed_off:.3f} s", flush=True)
     steps = load(SCENARIO).experiment.n_steps
     us = {k: statistics.median(v) / steps * 1e6 for k, v in walls.items()}
     figures = {
@@ -223,6 +233,9 @@ def main() -> None:
         "hand_rows_identical_to_compiled": identical,
         "compile_s_cold": round(cold, 3), "compile_s_cached": round(cached, 4),
         "compile_s_this_process": round(extra["algorithm.compile_s"], 4),
+        "mixed_random_slip_auto_s": round(mixed_auto, 4),
+        "mixed_random_slip_off_s": round(mixed_off, 4),
+        "mixed_auto_over_off": round(mixed_auto / mixed_off, 3),
         "fmu_chain_lag2": chain, "paper_every_block_c_fmu": every,
     }
     print(json.dumps(figures))
