@@ -156,7 +156,9 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_keeps_the_finished_runs(tmp_path) ->
     proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "sweep", str(PAPER), "--vary",
                              "plant.scale=uniform:0.9:1.1", "--samples", "400", "--workers", "2",
                              "--out", str(out)], stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,  # as from a terminal, even if this test
+                            # runs in the background, where Ctrl-C is ignored and inherited so
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     journal = out / "runs.jsonl"
     while time.monotonic() < deadline and not (journal.exists() and journal.read_text()):
