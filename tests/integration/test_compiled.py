@@ -66,7 +66,7 @@ VARIANTS = {
     "lemniscate": ["ref.shape=lemniscate", "ref.radius=3.0"],
     "slip_step": ["slip.profile=step", "slip.step_time=1.5", "slip.slip_gain=0.5"],
     "slip_mud": ["slip.profile=mud", "slip.mud_center=[0.0, 1.0]", "slip.mud_radius=1.0"],
-    "slip_constant_unwired_model": ["slip.profile=constant"],
+    "slip_constant": ["slip.profile=constant"],
     "multirate": ["ctrl.step_multiple=5", "motor.step_multiple=5"],
 }
 
