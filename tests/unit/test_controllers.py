@@ -48,7 +48,8 @@ def numpy_law(c, pose, nu, pT, vT, d_hat, L):
 @pytest.mark.parametrize("L", [0.0, 0.05, -0.1])
 def test_law_matches_numpy_transcription(seed: int, L: float) -> None:
     rng = np.random.default_rng(seed)
-    c = controller(lookahead=abs(L), drive="forward" if L >= 0 else "backward", d_hat0=tuple(rng.normal(size=2)))
+    c = controller(lookahead=abs(L), drive="forward" if L >= 0 else "backward",
+                   d_hat0=tuple(rng.normal(size=2)))
     c.set(pose=tuple(rng.normal(size=3)), wheel_speed=tuple(rng.normal(size=2) * 5))
     c.set(ref_position=tuple(rng.normal(size=2)), ref_velocity=tuple(rng.normal(size=2)))
     c.evaluate()
