@@ -28,7 +28,8 @@ from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import CosimError, FmuError
-from twmr.core.units import BASES, parse_unit
+from twmr.core.units import parse_unit
+from twmr.fmi.cexport.describe import unit_definitions
 from twmr.fmi.slave import element_names
 from twmr.registry import lookup
 
@@ -207,17 +208,8 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
             real.set("unit", unit)
             units[unit] = parse_unit(unit)
     if units:
-        defs = ET.Element("UnitDefinitions")
-        for name, u in units.items():
-            unit_el = ET.SubElement(defs, "Unit", name=name)
-            base = {b: str(e) for b, e in zip(BASES, u.exponents) if e}
-            if u.factor != 1.0:
-                base["factor"] = repr(u.factor)
-            if u.offset:
-                base["offset"] = repr(u.offset)
-            ET.SubElement(unit_el, "BaseUnit", base)
         pos = list(root).index(root.find("CoSimulation")) + 1
-        root.insert(pos, defs)
+        root.insert(pos, unit_definitions(units))
     outputs = root.find("ModelStructure/Outputs")
     for unknown in outputs if outputs is not None else []:
         fmi, var_name, _ = names[int(unknown.get("index")) - 1]

@@ -51,7 +51,7 @@ import numpy as np
 
 from twmr.core.errors import CosimError
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.schedule import ALGORITHMS, FixedStep, _element, _value_expr
+from twmr.master.schedule import ALGORITHMS, FixedStep, input_value
 from twmr.scenario.graph import evaluation_plan
 from twmr.scenario.system import Connection, System
 
@@ -352,25 +352,8 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
         incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
 
     def assignment(name: str, port: str, source_of: Callable[[Connection], str]) -> str:
-        var = comps[name].variables[port]
-        conns = incoming[(name, port)]
         cur = local(name, port)
-        if len(conns) == 1 and conns[0].dst_index is None:
-            c = conns[0]
-            src_var = comps[c.src].variables[c.src_port]
-            return f"{cur} = {_value_expr(c, source_of(c), src_var.size, var.size)}"
-        elems = [f"{cur}[{k}]" for k in range(var.width)]
-        for c in conns:
-            src_var = comps[c.src].variables[c.src_port]
-            sidx = c.src_index if c.src_index is not None else (
-                (None,) if src_var.size is None else tuple(range(src_var.width)))
-            didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
-            for s_, d in zip(sidx, didx):
-                e = _element(source_of(c), s_)
-                if c.gain != 1.0 or c.offset != 0.0:
-                    e = f"({e} * {c.gain!r} + {c.offset!r})"
-                elems[d] = e
-        return f"{cur} = {_tuple(elems)}"
+        return f"{cur} = {input_value(system, incoming[(name, port)], cur, source_of)}"
 
     if method == "gauss_seidel":
         plan, _ = evaluation_plan(comps, system.connections)

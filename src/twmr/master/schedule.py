@@ -55,6 +55,32 @@ def _element(expr: str, index: int | None) -> str:
     return expr if index is None else f"{expr}[{index}]"
 
 
+def input_value(system: System, conns: list[Connection], cur: str,
+                source_of: Callable[[Connection], str]) -> str:
+    """Expression of the new value of the input that `conns` write (all to one port, whose
+    current value is the expression `cur`): the source as is for one whole-port wire, else a
+    tuple of elements in which unconnected elements keep their value; unit gain and offset
+    applied."""
+    comps = system.components
+    c0 = conns[0]
+    var = comps[c0.dst].variables[c0.dst_port]
+    if len(conns) == 1 and c0.dst_index is None:
+        return _value_expr(c0, source_of(c0), comps[c0.src].variables[c0.src_port].size,
+                           var.size)
+    elems = [f"{cur}[{k}]" for k in range(var.width)]
+    for c in conns:
+        src_var = comps[c.src].variables[c.src_port]
+        sidx = c.src_index if c.src_index is not None else (
+            (None,) if src_var.size is None else tuple(range(src_var.width)))
+        didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
+        for s_, d in zip(sidx, didx):
+            e = _element(source_of(c), s_)
+            if c.gain != 1.0 or c.offset != 0.0:
+                e = f"({e} * {c.gain!r} + {c.offset!r})"
+            elems[d] = e
+    return "(" + ", ".join(elems) + ("," if len(elems) == 1 else "") + ")"
+
+
 def _value_expr(conn: Connection, src_expr: str, src_size: int | None,
                 dst_size: int | None) -> str:
     """Expression giving the destination input's new value from `src_expr` (the source port
@@ -156,26 +182,8 @@ def _generate(system: System, algorithm: str, record: list[tuple[str, str]], dec
 
     def assignment(name: str, port: str, source_of: Callable[[Connection], str]) -> str:
         """The line writing input `port` of `name`; element writes are merged into one tuple."""
-        var = comps[name].variables[port]
-        conns = incoming[(name, port)]
-        if len(conns) == 1 and conns[0].dst_index is None:
-            c = conns[0]
-            src_var = comps[c.src].variables[c.src_port]
-            value = _value_expr(c, source_of(c), src_var.size, var.size)
-            return f"{port_expr(name, port)} = {value}"
         cur = port_expr(name, port)
-        elems = [f"{cur}[{k}]" for k in range(var.width)]  # unconnected elements keep their value
-        for c in conns:
-            src_var = comps[c.src].variables[c.src_port]
-            sidx = c.src_index if c.src_index is not None else (
-                (None,) if src_var.size is None else tuple(range(src_var.width)))
-            didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
-            for s_, d in zip(sidx, didx):
-                e = _element(source_of(c), s_)
-                if c.gain != 1.0 or c.offset != 0.0:
-                    e = f"({e} * {c.gain!r} + {c.offset!r})"
-                elems[d] = e
-        return f"{cur} = (" + ", ".join(elems) + ("," if len(elems) == 1 else "") + ")"
+        return f"{cur} = {input_value(system, incoming[(name, port)], cur, source_of)}"
 
     if algorithm == "gauss_seidel":
         plan, _ = evaluation_plan(comps, system.connections)

@@ -105,8 +105,12 @@ def _unit_definitions(elems: list[Element], fmi: int) -> ET.Element | None:
             units[unit] = parse_unit(unit)
     if fmi == 3:
         units["s"] = parse_unit("s")
-    if not units:
-        return None
+    return unit_definitions(units) if units else None
+
+
+def unit_definitions(units: dict[str, Any]) -> ET.Element:
+    """<UnitDefinitions> of the parsed `units` (name -> `twmr.core.units` unit): each unit's SI
+    base-unit exponents, factor and offset."""
     defs = ET.Element("UnitDefinitions")
     for name, u in units.items():
         unit_el = ET.SubElement(defs, "Unit", name=name)
