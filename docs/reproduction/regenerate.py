@@ -9,7 +9,7 @@ same realisations, paired by `sample`) twice: as shipped (48 N.m per wheel, the 
 configuration) and "as printed" (Table II's eta = 7, sgn, 1 mm clamp, no torque limit). Sweep
 folders go to $REPRO_OUT (default: twmr_reproduction in the system's temporary folder; an existing
 folder is resumed); the tables go to docs/reproduction/numbers.md and the figures to
-docs/figures/reproduction/. About 10 min on 2 cores.
+docs/figures/reproduction/. 35 s on 2 cores with numba's cache warm.
 
 Definitions fixed before looking at results (docs/reproduction.md explains them):
 - Table III metrics: `--metrics tracking` (world-frame errors, settling band 0.15 m); the band's
