@@ -55,8 +55,8 @@ from twmr.observers.store import ResultStore
 from twmr.scenario import load, loads
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from tests.fmu_build import build_c_fmu  # noqa: E402
-from tests.integration.c_fmu_scenario import export_blocks, paper, swapped  # noqa: E402
+from tests.fmu_build import build_c_fmu
+from tests.integration.c_fmu_scenario import export_blocks, paper, swapped
 
 CHAIN = """
 components:

@@ -81,7 +81,8 @@ def main() -> None:
     ap.add_argument("--rate", type=float, default=500.0, help="steps per second [Hz]")
     ap.add_argument("--duration", type=float, default=60.0, help="seconds of real time")
     ap.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
-    ap.add_argument("--set", action="append", default=[], help="parameter override, e.g. motor.encoder=cyclic")
+    ap.add_argument("--set", action="append", default=[],
+                    help="parameter override, e.g. motor.encoder=cyclic")
     args = ap.parse_args()
     overrides = [f"motor.channel=bench-{uuid.uuid4().hex[:6]}", f"motor.protocol={args.protocol}",
                  *args.set]

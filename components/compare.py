@@ -8,8 +8,9 @@ from __future__ import annotations
 import json
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -106,7 +107,8 @@ def figures(runs: dict[str, np.ndarray], out: Path) -> list[Path]:
 
 def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
             overrides: Sequence[str] = ()) -> int:
-    """Run every scenario, print the table (or JSON keyed by scenario, then metric), save figures."""
+    """Run every scenario, print the table (or JSON keyed by scenario, then metric), save
+    figures."""
     out = out or Path("results") / "compare"
     runs = {p.stem: run_scenario(p, out, overrides) for p in paths}
     results: dict[str, dict[str, Any]] = {}

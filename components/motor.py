@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from twmr.components._model import njit
-from twmr.core import Component, Input, Output, Parameter, STRING
+from twmr.core import STRING, Component, Input, Output, Parameter
 from twmr.master.compiled import Kernel
 
 

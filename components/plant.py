@@ -9,7 +9,8 @@ halving `internal_step` converges to the continuous-input solution (the held sli
 not used).
 
 Implemented exactly as printed in the paper (docs/model.md lists our errata): B has no factor a
-and m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta), y_G = y_M + a sin(theta)
+and m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta),
+y_G = y_M + a sin(theta)
 (eq. 4 minus eq. 11). `scale` multiplies every mass and inertia (m_G, m_W, I_G, I_D, I_W): the
 paper runs the plant at +25 % (scale 1.25) against the controller's nominal values.
 """

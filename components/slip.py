@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from twmr.components._model import CONSTANT, DESCRIPTOR, HELD, MUD, NO_SLIP, PAPER, STEP, njit
-from twmr.core import Component, Input, Output, Parameter, STRING
+from twmr.core import STRING, Component, Input, Output, Parameter
 from twmr.master.compiled import Kernel
 
 PROFILES = ("paper", "none", "constant", "step", "mud", "random")
@@ -135,7 +135,7 @@ class SlipDisturbance(Component):
             return
         wc = 2.0 * math.pi * self.bandwidth  # x' = wc (w - x), w white with unit variance
         a = math.exp(-wc * h)
-        gain = math.sqrt((1.0 - a * a))  # keeps the stationary variance at 1
+        gain = math.sqrt(1.0 - a * a)  # keeps the stationary variance at 1
         white = self._rng.standard_normal(5)
         for i in range(5):
             new = a * self._noise[i] + gain * white[i]

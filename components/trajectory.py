@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from twmr.components._model import njit
-from twmr.core import Component, Output, Parameter, STRING
+from twmr.core import STRING, Component, Output, Parameter
 from twmr.master.compiled import Kernel
 
 SHAPES = ("paper1", "circle", "lemniscate", "waypoints")

@@ -5,17 +5,20 @@ Configuration (SDO, pre-operational): modes of operation 0x6060 = 10 (cyclic syn
 motor rated torque 0x6076 read back, max torque 0x6072 written from the torque limit when the
 dictionary has it, RPDO1 = controlword 0x6040 + target torque 0x6071 (applied at once),
 TPDO1 = statusword 0x6041 + velocity actual 0x606C and TPDO2 = position actual 0x6064 (both on
-every SYNC), with the predefined connection set's COB-IDs (0x200/0x180/0x280 + node); then NMT start and the power state machine to OPERATION ENABLED. Each period: RPDO1
-per axis, then one SYNC; the TPDOs that answer it give the round trip. Heartbeats are consumed,
-EMCY frames and error frames latch a fault, and so does a drive leaving OPERATION ENABLED.
+every SYNC), with the predefined connection set's COB-IDs (0x200/0x180/0x280 + node); then NMT
+start and the power state machine to OPERATION ENABLED. Each period: RPDO1 per axis, then one
+SYNC; the TPDOs that answer it give the round trip. Heartbeats are consumed, EMCY frames and error
+frames latch a fault, and so does a drive leaving OPERATION ENABLED.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import can
 import canopen
@@ -141,7 +144,7 @@ class Cia402Link:
         protection where the dictionary has it: each drive consumes the host's heartbeat
         (0x1016, timeout `host_timeout` [s]) and faults when it is lost (0x6007 = 1), so a host
         that dies or loses the bus stops the drives without a word from it."""
-        ms = max(1, min(0xFFFF, int(round(host_timeout * 1e3))))
+        ms = max(1, min(0xFFFF, round(host_timeout * 1e3)))
         for n, node in self.nodes_od.items():
             node.nmt.state = "PRE-OPERATIONAL"
             od = node.object_dictionary
@@ -234,10 +237,11 @@ class Cia402Link:
     def command(self, torques: Sequence[float]) -> tuple[float, ...]:
         """Target torques [N.m] with ENABLE OPERATION, then SYNC; the torques the drives receive
         (per mille of the rated torque)."""
-        self._send({n: c.ENABLE_OPERATION for n in self.nodes}, dict(zip(self.nodes, torques)))
+        self._send({n: c.ENABLE_OPERATION for n in self.nodes},
+                   dict(zip(self.nodes, torques, strict=False)))
         return tuple(c.permille_to_torque(c.torque_to_permille(v, self.gear, self.rated[n]),
                                           self.gear, self.rated[n])
-                     for n, v in zip(self.nodes, torques))
+                     for n, v in zip(self.nodes, torques, strict=False))
 
     def wait_feedback(self, timeout: float) -> bool:
         """Wait up to `timeout` [s] for the TPDOs answering the last SYNC."""
@@ -258,10 +262,8 @@ class Cia402Link:
         """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis."""
         self.running = False
         word = c.DISABLE_VOLTAGE if emergency else c.SHUTDOWN
-        try:
+        with contextlib.suppress(LinkError):
             self._send({n: word for n in self.nodes}, {})
-        except LinkError:
-            pass
 
     def close(self) -> None:
         if self.host_beat is not None:

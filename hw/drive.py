@@ -82,7 +82,7 @@ class CanMotorDrive(Component):
     angle = Output(size=2, unit="rad", description="encoder angle (latest frame)")
 
     @classmethod
-    def create(cls, name: str, base_dir: Path, **construction: Any) -> "CanMotorDrive":
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> CanMotorDrive:
         """Relative `eds` and `can_config` paths resolve against the scenario's folder."""
         files = {k: str(base_dir / v) if v and not Path(str(v)).is_absolute() else v
                  for k, v in construction.items()}
@@ -219,12 +219,12 @@ class CanMotorDrive(Component):
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         for emu in self.emulators:
-            emu.set_load_speeds(dict(zip(self._nodes, self.wheel_speed)))
+            emu.set_load_speeds(dict(zip(self._nodes, self.wheel_speed, strict=False)))
         if not self.link.wait_feedback(self.reply_timeout):
             self._late_replies += 1
         now = time.monotonic()
         fault = self.link.fault or stale(
-            now, {n: fb[2] for n, fb in zip(self._nodes, self.link.feedback())},
+            now, {n: fb[2] for n, fb in zip(self._nodes, self.link.feedback(), strict=False)},
             self.link.heartbeats(), self.watchdog_periods * h, self.heartbeat_timeout)
         if fault is not None:
             self._trip(fault)

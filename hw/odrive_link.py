@@ -11,10 +11,12 @@ heartbeats, and latches the first fault (axis error, axis out of closed loop, er
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import can
 
@@ -140,7 +142,7 @@ class OdriveLink:
 
     def command(self, torques: Sequence[float]) -> tuple[float, ...]:
         """Send wheel torques [N.m] (and the encoder requests); the torques the drives receive."""
-        for n, tau in zip(self.nodes, torques):
+        for n, tau in zip(self.nodes, torques, strict=False):
             self._send(*p.encode_torque(n, tau, self.gear))
         if self.polled:
             with self.lock:
@@ -172,10 +174,8 @@ class OdriveLink:
             for ident, data in (p.encode_torque(n, 0.0, self.gear),
                                 p.encode_estop(n) if emergency else
                                 p.encode_axis_state(n, p.AXIS_IDLE)):
-                try:
+                with contextlib.suppress(LinkError):
                     self._send(ident, data)
-                except LinkError:
-                    pass
 
     def close(self) -> None:
         self.notifier.stop()

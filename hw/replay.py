@@ -8,9 +8,10 @@ statusword, velocity; TPDO2 0x280+n: position), SYNC, EMCY and heartbeats.
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 import can
 

@@ -8,8 +8,8 @@ and disables every drive at once, then stops the run with a `HardwareError` nami
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 
 @dataclass(frozen=True)

@@ -80,7 +80,7 @@ def per_run(folder: Path) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
     extra: list[dict[str, float]] = []
     series: dict[str, list[np.ndarray]] = {"ex": [], "ey": [], "tau": []}
     t = None
-    for rid, status in zip(df["run_id"], df["status"]):
+    for rid, status in zip(df["run_id"], df["status"], strict=False):
         if status != "ok":
             extra.append({})
             continue
@@ -184,7 +184,7 @@ def circle(runs: dict[tuple[str, str], pd.DataFrame]) -> list[str]:
             b = runs[(variant, name)]
             cells.append(cell(b.loc[b["status"] == "ok", "backward"], 2))
         lines.append(f"| {name} | {cells[0]} | {cells[1]} |")
-    return lines + [""]
+    return [*lines, ""]
 
 
 def sensitivity(fixed: dict[str, pd.DataFrame], runs: dict[tuple[str, str], pd.DataFrame]
@@ -202,7 +202,7 @@ def sensitivity(fixed: dict[str, pd.DataFrame], runs: dict[tuple[str, str], pd.D
         f = fixed[variant]
         lines.append(f"| {variant.replace('_', ' ')} | {int((f['status'] != 'ok').sum())}/{len(f)} "
                      f"| {' | '.join(cells)} |")
-    return lines + [""]
+    return [*lines, ""]
 
 
 def band_figure(series: dict[str, dict[str, np.ndarray]], names: list[tuple[str, str]],
@@ -212,12 +212,12 @@ def band_figure(series: dict[str, dict[str, np.ndarray]], names: list[tuple[str,
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
-    for (key, label), color in zip(names, ("tab:blue", "tab:red")):
+    for (key, label), color in zip(names, ("tab:blue", "tab:red"), strict=False):
         s = series[key]
         if len(s["ex"]) == 0:
             continue
         for ax, what, ylabel in zip(axes, ("ex", "ey", "tau"),
-                                    ("e_x [m]", "e_y [m]", "max |tau| [N·m]")):
+                                    ("e_x [m]", "e_y [m]", "max |tau| [N·m]"), strict=False):
             lo, med, hi = np.percentile(s[what], [5, 50, 95], axis=0)
             ax.fill_between(s["t"], lo, hi, color=color, alpha=0.25, lw=0)
             ax.plot(s["t"], med, color=color, lw=1, label=f"{label}: median, 5–95 % band")

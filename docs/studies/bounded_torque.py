@@ -122,7 +122,7 @@ def sweep(kind: str, cfg: dict, samples: int, folder: Path, extra_sets=()) -> pd
 
 def add_signal_figures(df: pd.DataFrame, folder: Path, kind: str) -> pd.DataFrame:
     peak, rms, late = [], [], []
-    for rid, st in zip(df["run_id"], df["status"]):
+    for rid, st in zip(df["run_id"], df["status"], strict=False):
         p = folder / "runs" / rid / "summary.json"
         if st != "ok" or not p.exists():
             peak.append(np.nan)

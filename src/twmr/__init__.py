@@ -8,7 +8,7 @@ from __future__ import annotations
 from typing import Any
 
 __version__ = "0.2.0"
-__all__ = ["load", "simulate", "sweep", "read_result", "Result", "Scenario", "__version__"]
+__all__ = ["Result", "Scenario", "__version__", "load", "read_result", "simulate", "sweep"]
 
 
 def __getattr__(name: str) -> Any:

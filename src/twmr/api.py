@@ -16,16 +16,17 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from twmr.core.errors import CosimError
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
 from twmr.scenario.system import System
 
-__all__ = ["Scenario", "load", "simulate", "sweep", "read_result", "Result"]
+__all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep"]
 log = logging.getLogger("twmr.run")
 
 

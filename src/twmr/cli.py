@@ -10,13 +10,15 @@ Heavy libraries are imported inside the commands that use them, so `twmr` starts
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
-import os
 import logging
+import os
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from twmr import __version__
 from twmr.core.errors import CosimError
@@ -421,10 +423,8 @@ def _ignore_stop_signals() -> None:
 def _quiet_stdout() -> None:
     import os
 
-    try:
+    with contextlib.suppress(OSError, ValueError):
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-    except (OSError, ValueError):
-        pass
 
 
 def _where(err: BaseException) -> str:

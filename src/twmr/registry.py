@@ -10,16 +10,17 @@ from __future__ import annotations
 
 import difflib
 import importlib
-from functools import lru_cache
+from collections.abc import Callable
+from functools import cache
 from importlib.metadata import entry_points
-from typing import Any, Callable
+from typing import Any
 
 GROUP = "twmr.components"
 METRICS = "twmr.metrics"
 COMMANDS = "twmr.commands"
 
 
-@lru_cache(maxsize=None)
+@cache
 def _group(group: str) -> dict[str, str]:
     return {ep.name: ep.value for ep in entry_points(group=group)}
 

@@ -26,7 +26,7 @@ class Result:
                  summary: dict[str, Any] | None = None, folder: Path | None = None,
                  intact: bool = True):
         self.columns = list(columns)
-        self.units = dict(zip(columns, units))
+        self.units = dict(zip(columns, units, strict=False))
         self.values = np.ascontiguousarray(values, dtype=float).reshape(-1, len(columns))
         self.summary = summary or {}
         self.folder = folder

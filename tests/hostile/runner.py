@@ -8,6 +8,7 @@ memory blow-up.
 """
 from __future__ import annotations
 
+import contextlib
 import fnmatch
 import os
 import resource
@@ -16,9 +17,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import pytest
 
@@ -144,10 +145,8 @@ def _run(argv: list[str], shown: list[str], cwd: Path, timeout: float, stdin: by
                 time.sleep(0.02)
             elapsed = time.perf_counter() - t0
             if status is None:
-                try:
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
                 _, _, ru = os.wait4(proc.pid, 0)
                 proc.returncode = -9
                 err = (io / "stderr").read_bytes().decode(errors="replace")

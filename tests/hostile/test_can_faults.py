@@ -32,8 +32,9 @@ import struct
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import can
 import canopen
@@ -572,7 +573,8 @@ def test_malformed_frame_to_an_emulated_drive_leaves_it_running(case: ToDrive,
                 for n, axis in emu.axes.items():
                     assert axis.state == State.OPERATION_ENABLED, f"node {n}: {axis.state.value}"
                 torques = [emu.axes[n].torque for n in CIA_NODES]
-                assert all(abs(t - w) < 0.05 for t, w in zip(torques, (0.5, -0.5))), torques
+                assert all(abs(t - w) < 0.05
+                           for t, w in zip(torques, (0.5, -0.5), strict=True)), torques
         missing = answers(bench)
         assert not missing, f"the emulated drive no longer answers: no {', '.join(missing)}"
         assert_no_thread_died(deaths)

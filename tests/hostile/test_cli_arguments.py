@@ -5,15 +5,23 @@ command line itself) or works; never a traceback, never a hang."""
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import pytest
 
 from tests.hostile.runner import (
-    BENCH, GOOD_TEXT, Outcome, assert_clean_error, assert_no_traceback, assert_ok,
-    assert_writes_only_under, run_cli, run_shell, write,
+    BENCH,
+    GOOD_TEXT,
+    Outcome,
+    assert_clean_error,
+    assert_no_traceback,
+    assert_ok,
+    assert_writes_only_under,
+    run_cli,
+    run_shell,
+    write,
 )
 
 GOOD = "loop.yaml"

@@ -11,8 +11,16 @@ from pathlib import Path
 import pytest
 
 from tests.hostile.runner import (
-    GOOD_TEXT, Outcome, assert_clean_error, assert_ok, assert_ok_or_clean_error,
-    assert_writes_only_under, result_family, root_can_write, run_cli, write,
+    GOOD_TEXT,
+    Outcome,
+    assert_clean_error,
+    assert_ok,
+    assert_ok_or_clean_error,
+    assert_writes_only_under,
+    result_family,
+    root_can_write,
+    run_cli,
+    write,
 )
 
 GOOD = "loop.yaml"

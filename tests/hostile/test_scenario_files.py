@@ -7,15 +7,21 @@ from __future__ import annotations
 import io
 import os
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import pytest
 
 from tests.hostile.runner import (
-    PAPER, assert_clean_error, assert_ok, assert_ok_or_clean_error, assert_writes_only_under,
-    result_family, run_cli, write,
+    PAPER,
+    assert_clean_error,
+    assert_ok,
+    assert_ok_or_clean_error,
+    assert_writes_only_under,
+    result_family,
+    run_cli,
+    write,
 )
 
 F = "scenario.yaml"
@@ -49,7 +55,7 @@ record:
 def sub(*pairs: str, base: str = BASE) -> str:
     """BASE with each (old, new) pair replaced once; a pair that does not match is a test bug."""
     text = base
-    for old, new in zip(pairs[::2], pairs[1::2]):
+    for old, new in zip(pairs[::2], pairs[1::2], strict=False):
         assert old in text, f"test bug: {old!r} not in the base scenario"
         text = text.replace(old, new, 1)
     return text

@@ -17,6 +17,7 @@ frame log (test_can_faults.py::test_frame_log_on_a_channel_named_with_a_large_nu
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 import signal
@@ -30,8 +31,16 @@ from pathlib import Path
 import pytest
 
 from tests.hostile.runner import (
-    BENCH, FORBIDDEN, GOOD_TEXT, MAX_ERROR_LINES, MEMORY_CAP, Outcome, _lines, error_paragraph,
-    run_cli, write,
+    BENCH,
+    FORBIDDEN,
+    GOOD_TEXT,
+    MAX_ERROR_LINES,
+    MEMORY_CAP,
+    Outcome,
+    _lines,
+    error_paragraph,
+    run_cli,
+    write,
 )
 from twmr.hw import protocol as p
 from twmr.hw.replay import Decoder, decode_log
@@ -68,10 +77,8 @@ def signal_run(args: list[str], cwd: Path, ready: str, delay: float,
                                     preexec_fn=_limits, start_new_session=True)
 
             def kill(why: str) -> None:
-                try:
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
                 proc.wait()
                 err = (io / "stderr").read_bytes().decode(errors="replace")
                 pytest.fail(f"{why}: twmr {' '.join(args)}\nstderr:\n{err[-2000:]}",
@@ -94,10 +101,8 @@ def signal_run(args: list[str], cwd: Path, ready: str, delay: float,
                             pytrace=False)
             for sig, pause in signals:
                 time.sleep(pause)
-                try:
+                with contextlib.suppress(ProcessLookupError):
                     os.kill(proc.pid, sig)
-                except ProcessLookupError:
-                    pass
             sent = time.monotonic()
             status = usage = None
             while status is None:

@@ -67,7 +67,7 @@ def test_fmpy_validates_and_simulates(case, fmus) -> None:
 
 @pytest.mark.parametrize("case", CASES, ids=_ids)
 def test_ports_seen_by_an_importer_are_the_components(case, fmus) -> None:
-    kind, fmi = case
+    kind, _fmi = case
     comp = lookup(kind)(kind)
     ports = {p["name"]: p for p in fmu_interface(fmus[case])["ports"]}
     hidden = KERNELS[kind].hidden
@@ -95,7 +95,7 @@ def test_ports_seen_by_an_importer_are_the_components(case, fmus) -> None:
 def _first(md: str, causality: tuple[str, ...]) -> int:
     """Value reference of the first variable of one of these causalities (-1: none)."""
     for attrs in re.findall(r"<(?:ScalarVariable|Float64) ([^>]*)>", md):
-        if re.search(r'causality="(%s)"' % "|".join(causality), attrs):
+        if re.search(r'causality="({})"'.format("|".join(causality)), attrs):
             return int(re.search(r'valueReference="(\d+)"', attrs).group(1))
     return -1
 
@@ -142,7 +142,7 @@ def _host_args(path: Path, fmi: int, tmp: Path) -> tuple[list[str], int, int]:
 @pytest.mark.parametrize("case", CASES, ids=_ids)
 def test_c_host_runs_two_instances_100_times_and_agrees_with_fmpy(case, fmus, hosts,
                                                                   tmp_path) -> None:
-    kind, fmi = case
+    _kind, fmi = case
     args, vr_in, vr_out = _host_args(fmus[case], fmi, tmp_path)
     done = subprocess.run([str(hosts[fmi]), *args, "100", str(STEPS), str(vr_in), str(vr_out)],
                           capture_output=True, text=True, timeout=60)
@@ -160,7 +160,7 @@ VALGRIND = shutil.which("valgrind")
                                   ("asmc", 3), ("state_space", 2), ("motor_driver", 3)],
                          ids=_ids)
 def test_c_host_under_valgrind_has_no_memory_error(case, fmus, hosts, tmp_path) -> None:
-    kind, fmi = case
+    _kind, fmi = case
     args, vr_in, vr_out = _host_args(fmus[case], fmi, tmp_path)
     done = subprocess.run([VALGRIND, "--leak-check=full", "--errors-for-leak-kinds=definite",
                            str(hosts[fmi]), *args, "3", "50", str(vr_in), str(vr_out)],

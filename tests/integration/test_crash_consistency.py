@@ -136,5 +136,5 @@ def test_write_error_stops_the_run_with_a_clear_error_and_terminates(tmp_path,
     assert "No space left on device" in message and "terminated" in message
     assert terminated == ["plant"]
     kept = twmr.read_result(tmp_path / "run.incomplete")
-    assert 0 < len(kept) and kept.status == "failed"
+    assert len(kept) > 0 and kept.status == "failed"
     np.testing.assert_allclose(np.diff(kept.time), 0.01)

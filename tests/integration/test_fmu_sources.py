@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import twmr
-from twmr.fmi import fmu_interface
 from tests.fmu_build import SOURCES
 from twmr.core import CosimError
+from twmr.fmi import fmu_interface
 
 pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("cc")),
                                 reason="needs cmake and a C compiler")

@@ -32,7 +32,7 @@ def fmus(tmp_path_factory) -> dict[str, str]:
 def chain(path: str, interface: str, isolate: bool = False) -> str:
     """a (inputs from `initial:`) -> b, every output of a wired to b's input of the same type."""
     initial = ", ".join(f"{t}_input: {v!r}".replace("False", "false") for t, v in GIVEN.items())
-    wires = "\n".join(f"  - a.{t}_output -> b.{t}_input" for t in NUMERIC + ("String", "Binary"))
+    wires = "\n".join(f"  - a.{t}_output -> b.{t}_input" for t in (*NUMERIC, "String", "Binary"))
     return f"""
 components:
   a:
@@ -88,7 +88,7 @@ def test_text_and_bytes_come_back_from_the_fmu(fmus) -> None:
 
 def test_out_of_range_integer_from_yaml_is_refused_at_check(fmus) -> None:
     text = chain(fmus["types3"], "co_simulation").replace("UInt8_input: 255", "UInt8_input: 256")
-    with pytest.raises(CosimError, match="UInt8_input.*256 is above the maximum 255"):
+    with pytest.raises(CosimError, match=r"UInt8_input.*256 is above the maximum 255"):
         loads(text, source="types.yaml")
 
 

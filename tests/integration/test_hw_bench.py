@@ -109,7 +109,7 @@ def test_paper_scenario_with_can_drives_is_close_to_the_simulated_motor() -> Non
                            f"torque_limit: 48.0}}")
     assert swapped != text
     result = np.array(simulate(loads(swapped, source="bench.yaml")))
-    t, ex, ey = errors(native)
+    _t, ex, ey = errors(native)
     _, bx, by = errors(result)
     assert np.max(np.hypot(ex - bx, ey - by)) < 1e-6
     assert np.max(np.hypot(ex, ey)) > 0.1  # the bound is small against what is tracked

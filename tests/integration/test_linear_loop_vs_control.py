@@ -56,6 +56,6 @@ def test_closed_loop_matches_python_control_to_first_order(alg: str) -> None:
 
 
 def test_static_gain_matches_python_control_dcgain() -> None:
-    t, y = cosim(1e-3)
+    _t, y = cosim(1e-3)
     plant = control.tf([1.0], [1.0, 3.0, 2.0])
     assert y[-1] == pytest.approx(control.dcgain(control.feedback(K * plant, 1)), abs=2e-3)

@@ -3,6 +3,7 @@ advantage over the SMC in each of several realisations (the loop is sensitive: s
 asserted; docs/reproduction.md gives the spreads over 100 realisations)."""
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ def test_plant_step_converges_in_the_closed_loop() -> None:
                                                "plant.wheel_speed[1]", "plant.wheel_speed[2]")])
 
     states = [final(h) for h in (1e-3, 5e-4, 2.5e-4)]
-    diffs = [np.max(np.abs(b - a)) for a, b in zip(states, states[1:])]
+    diffs = [np.max(np.abs(b - a)) for a, b in itertools.pairwise(states)]
     assert diffs[0] < 1e-9
     assert diffs[1] < diffs[0] / 4
 

@@ -62,8 +62,8 @@ def _all_subclasses(cls: type) -> list[type]:
 
 
 def test_every_error_class_round_trips_through_pickle() -> None:
-    import twmr.fmi.fmu  # noqa: F401 - error classes defined by every part of the engine
-    import twmr.hw.drive  # noqa: F401
+    import twmr.fmi.fmu
+    import twmr.hw.drive
     import twmr.sweeps  # noqa: F401
 
     loc = E.Location("s.yaml", 3, "components.a")

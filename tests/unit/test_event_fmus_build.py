@@ -6,6 +6,7 @@ mixed-type feedthrough and unit definitions."""
 from __future__ import annotations
 
 import math
+
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
@@ -45,8 +46,12 @@ def instance(fmu: str, cls, unzipdir, **instantiate):
 def fmi2_logger(messages: list):
     """fmi2 callbacks whose logger appends (status, category, message) to messages."""
     from fmpy.fmi1 import calloc, free
-    from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+    from fmpy.fmi2 import (
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+    )
 
     def log(env, name, status, category, message):
         messages.append((status, category.decode(), message.decode()))

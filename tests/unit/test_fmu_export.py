@@ -68,7 +68,7 @@ def test_fmu_without_a_binary_for_this_platform(tmp_path) -> None:
         for item in zin.namelist():
             if not item.startswith("binaries/linux64"):
                 zout.writestr(item, zin.read(item))
-    with pytest.raises(FmuError, match="no binary for this platform.*no C sources"):
+    with pytest.raises(FmuError, match=r"no binary for this platform.*no C sources"):
         FmuComponent("g", stripped)  # refused when loaded, so at `twmr check`
 
 
@@ -110,7 +110,7 @@ def test_no_c_compiler_is_a_clear_error(tmp_path, monkeypatch) -> None:
     monkeypatch.setenv("CC", "/nonexistent/cc")
     wrapper_binary.cache_clear()
     try:
-        with pytest.raises(CosimError, match="needs a C compiler.*/nonexistent/cc.*Fix"):
+        with pytest.raises(CosimError, match=r"needs a C compiler.*/nonexistent/cc.*Fix"):
             export_component("gain", tmp_path / "g.fmu")
     finally:
         wrapper_binary.cache_clear()

@@ -215,7 +215,7 @@ components:
 open: [f.u]
 experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
 """
-    with pytest.raises(FmuError, match="asked to terminate the simulation.*fmi2Terminated"):
+    with pytest.raises(FmuError, match=r"asked to terminate the simulation.*fmi2Terminated"):
         simulate(loads(scenario, source="fmu.yaml"))
 
 

@@ -47,7 +47,8 @@ def test_encoder_frame_round_trip_and_units(fw) -> None:
 def test_state_and_mode_frames(fw) -> None:
     _, db = fw
     ident, data = p.encode_axis_state(1, p.AXIS_CLOSED_LOOP)
-    assert db.decode_message(ident - (1 << 5), data, decode_choices=False)["Axis_Requested_State"] == 8
+    decoded = db.decode_message(ident - (1 << 5), data, decode_choices=False)
+    assert decoded["Axis_Requested_State"] == 8
     ident, data = p.encode_controller_mode(0)
     m = db.decode_message(ident, data)
     assert (str(m["Control_Mode"]), str(m["Input_Mode"])) == ("TORQUE_CONTROL", "PASSTHROUGH")

@@ -36,7 +36,7 @@ def test_dc_current_loop_matches_python_control_closed_loop() -> None:
         m = motor(step=h, mode="dc", bandwidth=300.0)
         m.set(torque_command=(3.0, 3.0), wheel_speed=(0.0, 0.0))
         ts, ys = [], []
-        for _ in range(int(round(T / h))):
+        for _ in range(round(T / h)):
             m.evaluate()
             ts.append(m.t)  # n h
             ys.append(m["torque"][0])

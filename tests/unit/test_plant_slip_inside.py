@@ -3,6 +3,8 @@ the slip is continuous in time, so halving the plant's internal step converges a
 the continuous-input solution; held over each step it cannot (an O(h) input error)."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -44,7 +46,7 @@ def test_halving_the_plant_step_converges_at_rk4_rate_with_the_slip_inside() -> 
     """Communication step fixed at 10 ms; plant substeps 10, 5, 2.5, 1.25 ms: successive
     differences shrink about 16x each halving (RK4), towards the continuous-slip solution."""
     states = [final_state(True, 0.01, h) for h in (1e-2, 5e-3, 2.5e-3, 1.25e-3)]
-    diffs = [np.max(np.abs(b - a)) for a, b in zip(states, states[1:])]
+    diffs = [np.max(np.abs(b - a)) for a, b in itertools.pairwise(states)]
     assert diffs[0] > 1e-9
     assert diffs[0] / diffs[1] > 10 and diffs[1] / diffs[2] > 10
 

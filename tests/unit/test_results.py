@@ -58,7 +58,7 @@ def test_store_stays_readable_when_its_last_chunk_is_torn(tmp_path) -> None:
     raw = (result.folder / FILENAME).read_bytes()
     torn = tmp_path / "torn.arrows"
     torn.write_bytes(raw[: len(raw) * 3 // 4])
-    columns, _, values, intact = read_store(torn)
+    _columns, _, values, intact = read_store(torn)
     assert not intact and 0 < len(values) < len(result)
     np.testing.assert_array_equal(values, result.values[: len(values)])
 

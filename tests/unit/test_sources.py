@@ -32,7 +32,7 @@ def sample(t: float, **kw) -> tuple[tuple[float, float], ...]:
 def test_trajectory_derivatives_match_finite_differences(kw) -> None:
     h = 1e-5
     for t in (0.7, 3.3, 6.1):
-        p0, v0, a0 = sample(t - h, **kw)
+        p0, v0, _a0 = sample(t - h, **kw)
         p1, v1, _ = sample(t + h, **kw)
         _, v, a = sample(t, **kw)
         np.testing.assert_allclose((np.array(p1) - p0) / (2 * h), v, atol=1e-6)

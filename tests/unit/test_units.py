@@ -16,7 +16,8 @@ def dims(**e: int) -> tuple[int, ...]:
 @pytest.mark.parametrize("text,factor,exps", [
     ("N.m", 1.0, dims(kg=1, m=2, s=-2)), ("rad/s", 1.0, dims(rad=1, s=-1)),
     ("m/s2", 1.0, dims(m=1, s=-2)), ("kg.m2", 1.0, dims(kg=1, m=2)), ("1/s", 1.0, dims(s=-1)),
-    ("deg", math.pi / 180, dims(rad=1)), ("mm", 1e-3, dims(m=1)), ("km/h", 1 / 3.6, dims(m=1, s=-1)),
+    ("deg", math.pi / 180, dims(rad=1)), ("mm", 1e-3, dims(m=1)),
+    ("km/h", 1 / 3.6, dims(m=1, s=-1)),
     ("s-1", 1.0, dims(s=-1)), ("", 1.0, dims()),
 ])
 def test_parse(text: str, factor: float, exps: tuple[int, ...]) -> None:

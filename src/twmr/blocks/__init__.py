@@ -6,4 +6,4 @@ other (`constant`, `sine`, `step`, `gain`, `sum`, `integrator`, `state_space`, `
 from twmr.blocks.linear import Delay, Gain, Integrator, StateSpace, Sum
 from twmr.blocks.sources import Constant, Sine, Step
 
-__all__ = ["Constant", "Sine", "Step", "Gain", "Sum", "Integrator", "StateSpace", "Delay"]
+__all__ = ["Constant", "Delay", "Gain", "Integrator", "Sine", "StateSpace", "Step", "Sum"]

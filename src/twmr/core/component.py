@@ -1,8 +1,8 @@
 """`Component`: one interface for every block, shaped like an FMI 2.0 co-simulation slave.
 
-Life cycle: ``prepare(run)`` → ``setup(start, stop)`` → ``initialize()`` → at each communication point t the master
-writes the inputs, calls ``evaluate(t)`` when the component has direct feedthrough, then
-``do_step(t, h)`` → ... → ``terminate()``.
+Life cycle: ``prepare(run)`` → ``setup(start, stop)`` → ``initialize()`` → at each
+communication point t the master writes the inputs, calls ``evaluate(t)`` when the component
+has direct feedthrough, then ``do_step(t, h)`` → ... → ``terminate()``.
 
 Semantics (what the master relies on):
 - after ``initialize()`` the outputs hold their values at the start time;
@@ -42,7 +42,7 @@ class Component:
             self.set_parameter(key, value)
 
     @classmethod
-    def create(cls, name: str, base_dir: Path, **construction: Any) -> "Component":
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> Component:
         """Make an instance for a scenario; `construction` holds the values of
         `construction_parameters`, and relative file paths resolve against `base_dir`."""
         return cls(name, **construction)
@@ -94,7 +94,8 @@ class Component:
     def set_parameter(self, name: str, value: Any) -> None:
         """Set a parameter or a start value (input, state) before `initialize()`.
 
-        Raises KeyError for an unknown name and ValueError/TypeError for a value that does not fit."""
+        Raises KeyError for an unknown name and ValueError/TypeError for a value that does not
+        fit."""
         var = self.variables[name]
         self.__dict__[name] = var.coerce(value)
 

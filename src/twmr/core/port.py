@@ -1,8 +1,8 @@
 """Variable descriptors: `Input`, `Output`, `Parameter`, `State`.
 
 Declared at class level, they take their name from the attribute. Values live in the instance's
-``__dict__`` (the descriptors are non-data descriptors), so reading ``self.pose`` in a step costs one
-dict lookup. A scalar (size None) holds a float/int/bool; a vector of size n holds a tuple of n
+``__dict__`` (the descriptors are non-data descriptors), so reading ``self.pose`` in a step costs
+one dict lookup. A scalar (size None) holds a float/int/bool; a vector of size n holds a tuple of n
 floats, which the master can share between components without copying.
 """
 from __future__ import annotations

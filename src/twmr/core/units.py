@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 from twmr.core.errors import UnitError
 
@@ -77,7 +77,8 @@ class Unit:
     @property
     def dimension(self) -> str:
         """The exponents written out, e.g. 'kg.m2.s-2', for error messages."""
-        parts = [f"{b}{e if e != 1 else ''}" for b, e in zip(BASES, self.exponents) if e]
+        parts = [f"{b}{e if e != 1 else ''}" for b, e in zip(BASES, self.exponents, strict=True)
+                 if e]
         return ".".join(parts) or "1"
 
 
@@ -106,7 +107,7 @@ def _product(text: str) -> tuple[float, list[int]]:
     return factor, exps
 
 
-@lru_cache(maxsize=None)
+@cache
 def parse_unit(text: str) -> Unit:
     """Parse a Modelica unit string; '' means dimensionless ('1')."""
     raw = (text or "1").strip()
@@ -119,7 +120,7 @@ def parse_unit(text: str) -> Unit:
         if den:
             dfactor, dexps = _product(den)
             factor /= dfactor
-            exps = [a - b for a, b in zip(exps, dexps)]
+            exps = [a - b for a, b in zip(exps, dexps, strict=False)]
     except UnitError as exc:
         raise UnitError(
             f"unit '{raw}' is not a Modelica unit string ({exc}); write it like 'N.m', 'rad/s', "

@@ -20,7 +20,16 @@ from typing import Any
 
 from twmr.core.errors import FmuError
 from twmr.core.port import (
-    BINARY, BOOLEAN, INTEGER, REAL, STRING, Input, Output, Parameter, State, Variable,
+    BINARY,
+    BOOLEAN,
+    INTEGER,
+    REAL,
+    STRING,
+    Input,
+    Output,
+    Parameter,
+    State,
+    Variable,
 )
 from twmr.core.units import Unit
 

@@ -16,8 +16,9 @@ its events, as the FMI standard's importer algorithm does it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from ctypes import POINTER, c_double
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 

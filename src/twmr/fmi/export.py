@@ -200,7 +200,7 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
     names = element_names(comp)
     index = {fmi: i + 1 for i, (fmi, _, _) in enumerate(names)}
     units: dict[str, Any] = {}
-    for sv, (fmi, var_name, i) in zip(root.find("ModelVariables"), names):
+    for sv, (_fmi, var_name, i) in zip(root.find("ModelVariables"), names, strict=False):
         var = comp.variables[var_name]
         unit = var.element_unit(i or 0)
         real = sv.find("Real")
@@ -212,7 +212,7 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
         root.insert(pos, unit_definitions(units))
     outputs = root.find("ModelStructure/Outputs")
     for unknown in outputs if outputs is not None else []:
-        fmi, var_name, _ = names[int(unknown.get("index")) - 1]
+        _fmi, var_name, _ = names[int(unknown.get("index")) - 1]
         var = comp.variables[var_name]
         deps = [index[f] for f, v, _ in names if v in getattr(var, "depends_on", ())]
         unknown.set("dependencies", " ".join(str(d) for d in sorted(deps)))

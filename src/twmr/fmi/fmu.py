@@ -16,8 +16,9 @@ from __future__ import annotations
 import operator
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import FmuError

@@ -211,13 +211,13 @@ class IsolatedFmu(Component):
         self._t = t
         d = self.__dict__
         values = self._call("evaluate", (t, tuple([d[n] for n in self._inputs])))
-        d.update(zip(self._outputs, values))
+        d.update(zip(self._outputs, values, strict=False))
 
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         d = self.__dict__
         values = self._call("do_step", (t, h, tuple([d[n] for n in self._inputs])))
-        d.update(zip(self._outputs, values))
+        d.update(zip(self._outputs, values, strict=False))
 
     def get_state(self) -> Any:
         """The worker keeps the FMU state; this holds its index and the port values."""

@@ -21,7 +21,7 @@ show_all = False
 
 
 _keys = itertools.count(1)
-_by_key: dict[int, "weakref.ref[FmuLog]"] = {}
+_by_key: dict[int, weakref.ref[FmuLog]] = {}
 _logger: list[Any] = []
 
 
@@ -92,8 +92,11 @@ class FmuLog:
         from ctypes import c_void_p
 
         from fmpy.fmi2 import (
-            calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions, free,
+            calloc,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            free,
         )
 
         key = next(_keys)

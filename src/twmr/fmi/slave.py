@@ -12,10 +12,18 @@ is recomputed (`evaluate`) when it is read after an input changed or after a ste
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any, ClassVar
 
 from pythonfmu import (
-    Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String,
+    Boolean,
+    Fmi2Causality,
+    Fmi2Initial,
+    Fmi2Slave,
+    Fmi2Variability,
+    Integer,
+    Real,
+    String,
 )
 
 from twmr.core.component import Component
@@ -48,7 +56,7 @@ class TwmrSlave(Fmi2Slave):
 
     KIND = ""
     COMPONENT: type[Component] | None = None
-    PARAMETERS: dict[str, Any] = {}
+    PARAMETERS: ClassVar[dict[str, Any]] = {}
 
     def __init__(self, **kwargs: Any):
         super().__init__(**kwargs)

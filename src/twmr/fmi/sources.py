@@ -107,9 +107,8 @@ def runnable(path: Path, md: Any, instance: str) -> Path:
 def _build(unzipped: Path, build: Path) -> str:
     """Compile the sources in `unzipped` into its binaries folder with fmpy's CMake project
     (output captured); the failure's last lines, or '' on success."""
-    from fmpy.build import create_cmake_settings
-
     import fmpy
+    from fmpy.build import create_cmake_settings
 
     build.mkdir()
     try:

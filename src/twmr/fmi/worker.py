@@ -77,13 +77,13 @@ class _Server:
 
     def evaluate(self, t: float, inputs: tuple[Any, ...]) -> list[Any]:
         d = self.values
-        d.update(zip(self.inputs, inputs))
+        d.update(zip(self.inputs, inputs, strict=False))
         self.fmu.evaluate(t)
         return [d[n] for n in self.outputs]
 
     def do_step(self, t: float, h: float, inputs: tuple[Any, ...]) -> list[Any]:
         d = self.values
-        d.update(zip(self.inputs, inputs))
+        d.update(zip(self.inputs, inputs, strict=False))
         self.fmu.do_step(t, h)
         return [d[n] for n in self.outputs]
 

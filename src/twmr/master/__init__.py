@@ -1,8 +1,8 @@
 """The master: the `Algorithm` interface and the generated fixed-step loop, `Execution`."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -35,5 +35,14 @@ def _read(folder: Path) -> np.ndarray:
     return read_store(folder / FILENAME)[2]
 
 
-__all__ = ["simulate", "Algorithm", "NonFinite", "make_algorithm", "Execution", "Pacer",
-           "RunContext", "RunInterrupted", "columns_of"]
+__all__ = [
+    "Algorithm",
+    "Execution",
+    "NonFinite",
+    "Pacer",
+    "RunContext",
+    "RunInterrupted",
+    "columns_of",
+    "make_algorithm",
+    "simulate",
+]

@@ -44,6 +44,7 @@ class Algorithm(ABC):
     def start(self) -> None:
         """Called once after every component is initialized, before the first `advance` (the
         compiled algorithm collects its kernels and compiles here)."""
+        return
 
     def report(self) -> dict[str, object]:
         """Figures about the algorithm (e.g. compile time [s]), for the run's outcome."""

@@ -42,10 +42,11 @@ import logging
 import os
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -220,11 +221,12 @@ class CompiledStep(Algorithm):
               status: int = 0) -> None:
         """Port values back into the components, their `sync`, the rows to `rows`; a NaN/Inf
         found at step `bad` raises `NonFinite` (the components then hold the values seen)."""
-        for comp, kern, x, y, u in zip(self._comps, self._kernels, self._X, self._Y, self._U):
+        for comp, kern, x, y, u in zip(self._comps, self._kernels, self._X, self._Y,
+                                      self._U, strict=True):
             d = comp.__dict__
-            for port, value in zip(comp.outputs, y):
+            for port, value in zip(comp.outputs, y, strict=False):
                 d[port] = value
-            for port, value in zip(comp.inputs, u):
+            for port, value in zip(comp.inputs, u, strict=False):
                 d[port] = value
             if kern.sync is not None:
                 kern.sync(x)

@@ -19,9 +19,10 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -94,7 +95,7 @@ class Pacer:
 
     def __init__(self, h: float, spin: float = 3e-4):
         self.h = h
-        self.h_ns = int(round(h * 1e9))
+        self.h_ns = round(h * 1e9)
         self.spin_ns = int(spin * 1e9)
         self.t0 = time.perf_counter_ns()
         self.released_ns: list[int] = []
@@ -286,7 +287,7 @@ class Execution:
     def _paced_loop(self, n_steps: int) -> None:
         pacer = self.pacer
         assert pacer is not None
-        every = max(1, int(round(CHUNK_SECONDS / self.system.experiment.step)))
+        every = max(1, round(CHUNK_SECONDS / self.system.experiment.step))
         pacer.start()
         while self._n < n_steps:
             self._n = self._guarded(self.algorithm.advance, self._n, self._n + 1)
@@ -348,7 +349,7 @@ class Execution:
         """Rows left to the observers, the outcome filled in and announced; the error to raise."""
         out = self.outcome
         if isinstance(error, KeyboardInterrupt):
-            name, _, t = self.algorithm.locate(error)
+            _name, _, t = self.algorithm.locate(error)
             if math.isfinite(t):
                 self._n = self._step_of(t)
             how = getattr(error, "signal_name", "SIGINT")
@@ -410,7 +411,7 @@ class Execution:
 
     def _step_of(self, t: float) -> int:
         exp = self.system.experiment
-        return int(round((t - exp.start) / exp.step))
+        return round((t - exp.start) / exp.step)
 
     def _nonfinite_error(self, t: float) -> ComponentError:
         for name in self.system.order:

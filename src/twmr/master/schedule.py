@@ -28,7 +28,8 @@ from __future__ import annotations
 import linecache
 import math
 import traceback
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from twmr.core.component import Component
 from twmr.master.algorithm import Algorithm, NonFinite
@@ -73,7 +74,7 @@ def input_value(system: System, conns: list[Connection], cur: str,
         sidx = c.src_index if c.src_index is not None else (
             (None,) if src_var.size is None else tuple(range(src_var.width)))
         didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
-        for s_, d in zip(sidx, didx):
+        for s_, d in zip(sidx, didx, strict=False):
             e = _element(source_of(c), s_)
             if c.gain != 1.0 or c.offset != 0.0:
                 e = f"({e} * {c.gain!r} + {c.offset!r})"

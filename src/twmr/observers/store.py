@@ -44,7 +44,7 @@ class ResultStore(Observer):
         import pyarrow as pa
 
         fields = [pa.field(c, pa.float64(), metadata={"unit": u})
-                  for c, u in zip(run.columns, run.units)]
+                  for c, u in zip(run.columns, run.units, strict=False)]
         meta = {"twmr": json.dumps({"scenario": run.scenario, "step": run.step,
                                     "n_steps": run.n_steps, **run.metadata})}
         self._schema = pa.schema(fields, metadata=meta)

@@ -53,7 +53,7 @@ class SignalSummary(Observer):
         if run is None or self._first is None:
             return {}
         out = {}
-        for j, (name, unit) in enumerate(zip(run.columns, run.units)):
+        for j, (name, unit) in enumerate(zip(run.columns, run.units, strict=False)):
             if j == 0:
                 continue
             rms = math.sqrt(self._squares[j] / self._count[j]) if self._count[j] else math.nan
@@ -69,7 +69,7 @@ class SignalSummary(Observer):
             "steps": outcome.n_steps, "steps_done": outcome.steps_done,
             "wall_time_s": round(outcome.wall_time, 4),
             "realtime_factor": round(outcome.realtime_factor, 2),
-            "units": dict(zip(run.columns, run.units)) if run else {},
+            "units": dict(zip(run.columns, run.units, strict=False)) if run else {},
             "signals": self.signals(), "pacing": outcome.extra,
         }
         if run is not None and run.folder is not None:

@@ -28,7 +28,7 @@ def _csv_field(name: str) -> str:
 
 def save_units(columns: list[str], units: list[str], folder: Path) -> Path:
     path = folder / UNITS_FILE
-    path.write_text(json.dumps(dict(zip(columns, units)), indent=1) + "\n")
+    path.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
     return path
 
 
@@ -56,7 +56,8 @@ def save_parquet(columns: list[str], units: list[str], values: np.ndarray, path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    fields = [pa.field(c, pa.float64(), metadata={"unit": u}) for c, u in zip(columns, units)]
+    fields = [pa.field(c, pa.float64(), metadata={"unit": u})
+              for c, u in zip(columns, units, strict=True)]
     n = len(values)
     arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
         np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]

@@ -10,8 +10,17 @@ from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 
 _LAZY = {"load": "build", "loads": "build", "schema": "build", "describe": "listing",
          "kinds_table": "listing"}
-__all__ = ["load", "loads", "schema", "describe", "kinds_table", "System", "Connection",
-           "Experiment", "RecordSpec"]
+__all__ = [
+    "Connection",
+    "Experiment",
+    "RecordSpec",
+    "System",
+    "describe",
+    "kinds_table",
+    "load",
+    "loads",
+    "schema",
+]
 
 
 def __getattr__(name: str) -> Any:

@@ -3,22 +3,31 @@ components, wire and check the graph. Every problem found is collected and repor
 with file:line, the component and port at fault, and a fix."""
 from __future__ import annotations
 
+import contextlib
 import copy
 import fnmatch
+import itertools
 import json
 import math
 import re
+from collections.abc import Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import jsonschema
 import yaml
 
 from twmr.core.component import Component
 from twmr.core.errors import (
-    AlgebraicLoopError, CosimError, Location, Problem, ScenarioError, UnitError, WiringError,
+    AlgebraicLoopError,
+    CosimError,
+    Location,
+    Problem,
+    ScenarioError,
+    UnitError,
+    WiringError,
 )
 from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
@@ -103,7 +112,7 @@ class _Builder:
         self.fail_if_problems(WiringError)
         exec_order, cycle = order(comps, conns)
         if cycle:
-            wires = set(zip(cycle, cycle[1:]))
+            wires = set(itertools.pairwise(cycle))
             loc = next((c.location for c in conns
                         if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
                        self.at("connections"))
@@ -162,10 +171,8 @@ class _Builder:
                 parsed = value
             if comp == "experiment":
                 if isinstance(parsed, str):
-                    try:
+                    with contextlib.suppress(ValueError):
                         parsed = float(parsed)  # YAML 1.1 reads '1e-5' (no dot) as text
-                    except ValueError:
-                        pass
                 exp = self.data.setdefault("experiment", {})
                 if isinstance(exp, dict):
                     exp[name] = parsed

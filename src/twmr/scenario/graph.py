@@ -11,6 +11,7 @@ with the cycle printed.
 from __future__ import annotations
 
 import heapq
+import itertools
 import logging
 import re
 from dataclasses import dataclass
@@ -112,7 +113,7 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
         return []
     gains = []
     unitless: list[str] = []
-    for i, j in zip(sidx, didx):
+    for i, j in zip(sidx, didx, strict=False):
         su, du = a.element_unit(i), b.element_unit(j)
         if not su or not du:  # unspecified on one side: no check, no scale
             for end, unit, other in ((src, su, du), (dst, du, su)):
@@ -153,7 +154,7 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
         return [Connection(src.comp, src.port, dst.comp, dst.port, src.index, dst.index, g, o,
                            loc)]
     return [Connection(src.comp, src.port, dst.comp, dst.port, (i,), (j,), g, o, loc)
-            for (i, j), (g, o) in zip(zip(sidx, didx), gains)]
+            for (i, j), (g, o) in zip(zip(sidx, didx, strict=False), gains, strict=False)]
 
 
 Port = tuple[str, str]
@@ -260,13 +261,13 @@ def _cycle(edges: dict[Port, list[Port]], rest: list[Port]) -> list[Port]:
     # start at an output (its successor lies in another component), so it reads out -> in => out
     first = next((i for i, p in enumerate(loop) if loop[(i + 1) % len(loop)][0] != p[0]), 0)
     loop = loop[first:] + loop[:first]
-    return loop + [loop[0]]
+    return [*loop, loop[0]]
 
 
 def describe_cycle(cycle: list[Port]) -> str:
     """'a.y -> b.u => b.y -> a.u' for a closed walk of ports: '->' a wire, '=>' a direct
     feedthrough inside a component."""
     text = f"{cycle[0][0]}.{cycle[0][1]}"
-    for (a, _), (b, q) in zip(cycle, cycle[1:]):
+    for (a, _), (b, q) in itertools.pairwise(cycle):
         text += f" {'=>' if a == b else '->'} {b}.{q}"
     return text

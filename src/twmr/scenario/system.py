@@ -1,4 +1,5 @@
-"""The records a built scenario hands to the master: `System`, `Connection`, `Experiment`, `RecordSpec`.
+"""The records a built scenario hands to the master: `System`, `Connection`, `Experiment`,
+`RecordSpec`.
 
 Data only. `twmr.scenario.build` makes them from a scenario file; the master steps them.
 """
@@ -50,7 +51,7 @@ class Experiment:
     @property
     def n_steps(self) -> int:
         """Number of base steps, rounded to the nearest integer."""
-        return int(round((self.stop - self.start) / self.step))
+        return round((self.stop - self.start) / self.step)
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,8 @@ class System:
 
     @property
     def paced(self) -> bool:
-        """Steps paced to the wall clock: as the experiment says, else when hardware is in the loop."""
+        """Steps paced to the wall clock: as the experiment says, else when hardware is in the
+        loop."""
         if self.experiment.realtime is not None:
             return self.experiment.realtime
         return any(c.needs_realtime for c in self.components.values())

@@ -18,9 +18,10 @@ import os
 import signal
 import threading
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
@@ -221,7 +222,7 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
         from dask.distributed import as_completed
 
         futures = client.map(execute, tasks, pure=False, key=[f"run-{t.run_id}" for t in tasks])
-        by_key = {f.key: t for f, t in zip(futures, tasks)}
+        by_key = {f.key: t for f, t in zip(futures, tasks, strict=False)}
         for future in as_completed(futures):
             task = by_key[future.key]
             if future.status == "finished":

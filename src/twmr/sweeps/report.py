@@ -227,7 +227,7 @@ def _plots(frame: Any, params: list[str], values: dict[str, np.ndarray],
         written.append(path)
 
     fig, axes = _grid(plt, len(values), 2.6, 3.4)
-    for ax, (name, v) in zip(axes, values.items()):
+    for ax, (name, v) in zip(axes, values.items(), strict=False):
         ax.boxplot(v, widths=0.5)
         ax.set_xticks([])
         ax.set_title(name, fontsize=9)
@@ -259,7 +259,7 @@ def _plots(frame: Any, params: list[str], values: dict[str, np.ndarray],
     for name in values:
         y = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=float)
         fig, axes = _grid(plt, len(params), 4.2, 3.4)
-        for ax, p in zip(axes, params):
+        for ax, p in zip(axes, params, strict=False):
             x, labels = positions[p]
             if labels is not None:
                 x = x + jitter

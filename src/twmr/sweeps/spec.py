@@ -20,9 +20,10 @@ import hashlib
 import json
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -169,7 +170,8 @@ class SweepSpec:
                     [float(x) for x in np.linspace(*v.args, self.samples)] for v in self.vary]
             grid = np.array(np.meshgrid(*[np.arange(len(a)) for a in axes], indexing="ij"))
             idx = grid.reshape(len(axes), -1).T
-            return [{v.name: axes[k][i] for k, (v, i) in enumerate(zip(self.vary, row))}
+            return [{v.name: axes[k][i]
+                     for k, (v, i) in enumerate(zip(self.vary, row, strict=True))}
                     for row in idx]
         rng = np.random.default_rng(self.seed)
         if self.method == "lhs":
@@ -193,9 +195,9 @@ def run_id(values: dict[str, Any], fixed: Sequence[str] = ()) -> str:
 
 def read_sweep_file(path: Path) -> dict[str, Any]:
     """A sweep file (YAML): scenario, vary {NAME: SPEC}, samples, method, seed, metrics, set."""
-    from twmr.scenario.yamlread import read_file
-
     import yaml
+
+    from twmr.scenario.yamlread import read_file
 
     try:
         data = yaml.safe_load(read_file(path))

@@ -15,7 +15,11 @@ from typing import Any
 
 from twmr.core.errors import CosimError
 from twmr.fmi.cexport.describe import (
-    config_h, elements, guid_of, model_description, model_identifier,
+    config_h,
+    elements,
+    guid_of,
+    model_description,
+    model_identifier,
 )
 from twmr.fmi.cexport.kernels import KERNELS, kernel_of
 from twmr.registry import lookup

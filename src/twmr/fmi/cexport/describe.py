@@ -114,7 +114,7 @@ def unit_definitions(units: dict[str, Any]) -> ET.Element:
     defs = ET.Element("UnitDefinitions")
     for name, u in units.items():
         unit_el = ET.SubElement(defs, "Unit", name=name)
-        base = {b: str(x) for b, x in zip(BASES, u.exponents) if x}
+        base = {b: str(x) for b, x in zip(BASES, u.exponents, strict=False) if x}
         if u.factor != 1.0:
             base["factor"] = repr(u.factor)
         if u.offset:

@@ -7,8 +7,9 @@ compiled into the FMU (`config.h`), so each FMU is one variant.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import CosimError
@@ -94,7 +95,7 @@ KERNELS: dict[str, Kernel] = {
     "slip_disturbance": Kernel("slip.c", options=_slip, hidden=frozenset({"bandwidth", "seed"})),
     "trajectory": Kernel("trajectory.c", frozenset({"radius", "omega", "phase", "center"}),
                          options=_shape, hidden=frozenset({"waypoints", "times"})),
-    "asmc": Kernel("tracking.c", frozenset(_GAINS + ("eta", "d_hat_limit")), options=_tracking,
+    "asmc": Kernel("tracking.c", frozenset((*_GAINS, "eta", "d_hat_limit")), options=_tracking,
                    work=lambda comp: 4),
     "smc": Kernel("tracking.c", frozenset(_GAINS), options=_tracking, work=lambda comp: 4),
     "motor_driver": Kernel("motor.c", options=_motor, work=lambda comp: 9),
