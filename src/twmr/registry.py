@@ -4,7 +4,10 @@ Like python-can's interface registry: names map to ``module:attr`` strings and a
 imported only when its entry is used, so robot analysis and hardware libraries load only when a
 scenario or command needs them. Groups: ``twmr.components`` (a `Component` subclass),
 ``twmr.metrics`` (a function `Result -> dict[str, float]`), ``twmr.commands`` (a function
-`register(subparsers)` adding one or more subcommands).
+`register(subparsers)` adding one or more subcommands), ``twmr.formats`` (result writers),
+``twmr.algorithms`` (master algorithms), ``twmr.can_protocols`` (CAN drive links) and
+``twmr.c_kernels`` (the C twins of blocks, for FMU export). `plugins(group)` lists any group and
+`plugin(group, name, what)` loads one entry.
 """
 from __future__ import annotations
 
@@ -18,11 +21,33 @@ from typing import Any
 GROUP = "twmr.components"
 METRICS = "twmr.metrics"
 COMMANDS = "twmr.commands"
+FORMATS = "twmr.formats"
+ALGORITHMS = "twmr.algorithms"
+CAN_PROTOCOLS = "twmr.can_protocols"
+C_KERNELS = "twmr.c_kernels"
 
 
 @cache
 def _group(group: str) -> dict[str, str]:
     return {ep.name: ep.value for ep in entry_points(group=group)}
+
+
+def plugins(group: str) -> dict[str, str]:
+    """Every entry of an entry-point group: name -> 'module:attr' (nothing is imported)."""
+    return _group(group)
+
+
+def plugin(group: str, name: str, what: str) -> Any:
+    """The object registered as `name` in `group`; CosimError naming the known ones (`what`
+    says what an entry is, e.g. 'result format')."""
+    from twmr.core.errors import CosimError
+
+    known = _group(group)
+    target = known.get(name)
+    if target is None:
+        raise CosimError(f"unknown {what} '{name}'{suggest(name, known)}. Fix: use one of: "
+                         f"{', '.join(sorted(known)) or '(none installed)'}.")
+    return _resolve(target)
 
 
 def kinds() -> dict[str, str]:
