@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 
-def pyplot():  # matplotlib without a screen
+def pyplot() -> Any:  # matplotlib without a screen
     import matplotlib
 
     matplotlib.use("Agg")

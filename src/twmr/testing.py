@@ -35,10 +35,12 @@ class Harness:
         if isinstance(kind, str):
             from twmr.registry import lookup
 
-            kind = lookup(kind)
+            cls: type[Component] = lookup(kind)
+        else:
+            cls = kind
         params = dict(parameters or {})
-        construction = {k: params.pop(k) for k in kind.construction_parameters if k in params}
-        self.component: Component = kind.create(name, Path(base_dir), **construction)
+        construction = {k: params.pop(k) for k in cls.construction_parameters if k in params}
+        self.component: Component = cls.create(name, Path(base_dir), **construction)
         values = {**params, **(initial or {})}
         for key, value in sorted(values.items(), key=lambda kv: kv[0] not in
                                  self.component.sizing_parameters):

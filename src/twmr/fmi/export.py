@@ -200,7 +200,9 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
     names = element_names(comp)
     index = {fmi: i + 1 for i, (fmi, _, _) in enumerate(names)}
     units: dict[str, Any] = {}
-    for sv, (_fmi, var_name, i) in zip(root.find("ModelVariables"), names, strict=False):
+    variables = root.find("ModelVariables")
+    assert variables is not None  # written by our own wrapper above
+    for sv, (_fmi, var_name, i) in zip(variables, names, strict=False):
         var = comp.variables[var_name]
         unit = var.element_unit(i or 0)
         real = sv.find("Real")
@@ -208,19 +210,22 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
             real.set("unit", unit)
             units[unit] = parse_unit(unit)
     if units:
-        pos = list(root).index(root.find("CoSimulation")) + 1
+        pos = next(i for i, e in enumerate(root) if e.tag == "CoSimulation") + 1
         root.insert(pos, unit_definitions(units))
+    structure = root.find("ModelStructure")
     outputs = root.find("ModelStructure/Outputs")
     for unknown in outputs if outputs is not None else []:
-        _fmi, var_name, _ = names[int(unknown.get("index")) - 1]
+        _fmi, var_name, _ = names[int(unknown.get("index", "0")) - 1]
         var = comp.variables[var_name]
         deps = [index[f] for f, v, _ in names if v in getattr(var, "depends_on", ())]
         unknown.set("dependencies", " ".join(str(d) for d in sorted(deps)))
-    if outputs is not None and root.find("ModelStructure/InitialUnknowns") is None:
-        initial = ET.SubElement(root.find("ModelStructure"), "InitialUnknowns")
+    if outputs is not None and structure is not None and \
+            root.find("ModelStructure/InitialUnknowns") is None:
+        initial = ET.SubElement(structure, "InitialUnknowns")
         for unknown in outputs:  # states (initial="exact") are known, not initial unknowns
-            if comp.variables[names[int(unknown.get("index")) - 1][1]].kind == "output":
-                ET.SubElement(initial, "Unknown", index=unknown.get("index"))
+            index_text = unknown.get("index", "0")
+            if comp.variables[names[int(index_text) - 1][1]].kind == "output":
+                ET.SubElement(initial, "Unknown", index=index_text)
     entries["modelDescription.xml"] = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
         for name, data in entries.items():

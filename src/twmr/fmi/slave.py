@@ -38,7 +38,7 @@ def element_names(comp: Component) -> list[tuple[str, str, int | None]]:
     """(FMI name, variable, element index or None) for every exported element, in order.
     Optional inputs are not exported: an FMU importer must wire or open every input, so the
     exported block keeps them at their start values (what an unwired optional input means)."""
-    out = []
+    out: list[tuple[str, str, int | None]] = []
     for var in comp.variables.values():
         if getattr(var, "optional", False):
             continue
