@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError
-from twmr.master.algorithm import Algorithm, NonFinite, make_algorithm
+from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
 
@@ -204,7 +204,11 @@ class Execution:
         self.folder = Path(folder) if folder is not None else None
         exp = system.experiment
         self.pacer = Pacer(exp.step) if system.paced else None
-        self.algorithm = algorithm or make_algorithm(exp.algorithm)
+        if algorithm is None:
+            self.algorithm = algorithm_for(system)
+        else:
+            admit(system, algorithm)
+            self.algorithm = algorithm
         self.signals = list(system.record.signals)
         self.columns, self.units = columns_of(system, self.signals)
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
