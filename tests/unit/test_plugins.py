@@ -1,7 +1,7 @@
 """Plug-in seams: a third party's result format and master algorithm, installed as a real
 distribution (a module and its `*.dist-info` with `entry_points.txt`, found through PYTHONPATH,
 nothing installed into the environment), used by `twmr run` / `twmr check` in a subprocess; and
-the capability check of an algorithm that needs state rollback."""
+the capability checks: an algorithm that needs state rollback, and one whose step falls short."""
 from __future__ import annotations
 
 import json
@@ -13,7 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twmr.core.errors import CosimError
+from twmr.master import Execution
+from twmr.master.schedule import FixedStep
+from twmr.observers.store import ResultStore
 from twmr.result import read_result
+from twmr.scenario import load
 
 ROOT = Path(__file__).resolve().parents[2]
 LOOP = ROOT / "tests" / "fixtures" / "scenarios" / "loop.yaml"
@@ -148,3 +153,29 @@ def test_unknown_algorithm_is_one_paragraph_with_a_suggestion(third_party) -> No
     assert f"{LOOP} (experiment.algorithm): unknown master algorithm 'jacobbi' (did you mean " \
            f"'jacobi'?). Fix: use one of: gauss_seidel, jacobi, rollback_test." in err, err
     assert "\n" not in err
+
+
+class HalfStep(FixedStep):
+    """The Python Gauss-Seidel loop, advancing only half of what it is asked each time."""
+
+    def advance(self, n0: int, n1: int, rows: list) -> int:
+        n = n0 + max(1, (n1 - n0) // 2)
+        super().advance(n0, n, rows)
+        return n
+
+
+class VariableHalfStep(HalfStep):
+    variable_step = True
+
+
+def test_a_short_step_needs_the_variable_step_capability() -> None:
+    with pytest.raises(CosimError, match=r"HalfStep was asked to advance from base step 0 to 64 "
+                                         r"and reached step 32\. Fix: .*variable_step = True"):
+        Execution(load(LOOP), [ResultStore()], algorithm=HalfStep()).run()
+    rows = {}
+    for algo in (VariableHalfStep(), FixedStep()):
+        store = ResultStore()
+        Execution(load(LOOP), [store], algorithm=algo).run()
+        rows[type(algo).__name__] = store.data()
+    assert rows["FixedStep"].shape == (51, 4)
+    assert np.array_equal(rows["VariableHalfStep"], rows["FixedStep"])
