@@ -37,6 +37,7 @@ class CanMotorDrive(Component):
 
     kind = "can_drive"
     needs_realtime: ClassVar[bool] = True
+    can_get_and_set_state: ClassVar[bool] = False
     construction_parameters = ("eds", "can_config")
 
     protocol = Parameter("odrive", type=STRING, description="odrive | cia402")

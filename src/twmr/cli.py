@@ -38,13 +38,14 @@ def _out_dir(args: argparse.Namespace, scenario: Path) -> Path:
 
 
 def _formats(text: str) -> tuple[str, ...]:
-    from twmr.observers.writers import FORMATS
+    """The registered result formats a comma list names ('none': no export)."""
+    from twmr.observers.writers import result_formats
 
     chosen = tuple(f.strip() for f in text.split(",") if f.strip() and f.strip() != "none")
-    bad = [f for f in chosen if f not in FORMATS]
-    if bad:
-        raise CosimError(f"--format {text}: unknown format(s) {', '.join(bad)}. Fix: use a comma "
-                         f"list of {', '.join(FORMATS)}, or none.")
+    try:
+        result_formats(chosen)
+    except CosimError as err:
+        raise CosimError(f"--format {text}: {err} Or give none.") from None
     return chosen
 
 
@@ -110,15 +111,17 @@ def _plots(result: Any, title: str) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     from twmr.api import load
+    from twmr.master.algorithm import algorithm_for
     from twmr.scenario.listing import describe
 
     system = load(Path(args.scenario), args.set).system
+    algorithm = algorithm_for(system)
     print(describe(system))
     if args.schedule:
-        from twmr.master.schedule import schedule_source
-
+        algorithm.prepare(system, list(system.record.signals), system.record.decimation)
         print("generated step loop:")
-        print(schedule_source(system))
+        print(algorithm.source or f"(the algorithm '{system.experiment.algorithm}' generates "
+                                  f"no source)")
     print("OK: the scenario is valid.")
     return 0
 
@@ -279,7 +282,9 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="output directory (default results/<scenario name>)")
     r.add_argument("--plot", action="store_true", help="write PNG plots of the recorded signals")
     r.add_argument("--format", default="csv,mat",
-                   help="exports beside result.arrows: csv,mat,parquet or none (default csv,mat)")
+                   help="exports beside result.arrows, a comma list of registered result "
+                        "formats (csv, mat, parquet, or an installed one) or none (default "
+                        "csv,mat)")
     r.add_argument("--metrics", action="append", default=[], metavar="NAME",
                    help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",

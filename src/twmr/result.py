@@ -16,7 +16,8 @@ from twmr.core.errors import CosimError
 from twmr.observers.store import FILENAME as STORE
 from twmr.observers.store import read_store
 from twmr.observers.summary import FILENAME as SUMMARY
-from twmr.observers.writers import UNITS_FILE, mat_name
+from twmr.observers.writers import format_of_suffix, result_formats
+from twmr.registry import FORMATS, plugins
 
 
 class Result:
@@ -73,7 +74,8 @@ class Result:
 
 def read_result(path: str | Path) -> Result:
     """The result in a run's folder (`result.arrows`, also after a crash), or in one of its
-    exports (.csv with `units.json` beside it, .mat, .parquet, .arrows)."""
+    exports (a file of a registered result format that can be read: .csv with `units.json`
+    beside it, .mat, .parquet; units it lacks come from the run's summary)."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     summary = _summary(folder)
@@ -86,24 +88,28 @@ def read_result(path: str | Path) -> Result:
         if not path.is_file():
             raise CosimError(f"{path}: no such result{_siblings(path)}. Fix: give the folder "
                              f"`twmr run` wrote or one of its result files.")
-        suffix = path.suffix.lower()
-        if suffix == ".arrows":
+        if path.suffix.lower() == ".arrows":
             columns, units, values, intact = read_store(path)
             return Result(columns, units, values, summary, folder, intact)
-        if suffix == ".csv":
-            return _read_csv(path, summary)
-        if suffix == ".mat":
-            return _read_mat(path, summary)
-        if suffix == ".parquet":
-            return _read_parquet(path, summary)
+        fmt = format_of_suffix(path.suffix)
+        if fmt is not None:
+            columns, units, values = fmt.read(path)
+            unit_of = summary.get("units", {})
+            units = [u or unit_of.get(c, "") for c, u in zip(columns, units, strict=True)]
+            return Result(columns, units, values.reshape(-1, len(columns)), summary, folder)
     except CosimError:
         raise
     except Exception as exc:  # noqa: BLE001 - any unreadable file is reported plainly
         raise CosimError(f"{path}: cannot read this result ({type(exc).__name__}: {exc}). Fix: "
-                         f"give a result written by twmr (result.arrows, .csv, .mat or "
-                         f".parquet).") from None
+                         f"give a result written by twmr (result.arrows or an export: "
+                         f"{_readable()}).") from None
     raise CosimError(f"{path}: unknown result format '{path.suffix}'. Fix: give a folder, or a "
-                     f".arrows, .csv, .mat or .parquet file.")
+                     f"result.arrows or export file ({_readable()}).")
+
+
+def _readable() -> str:
+    """The suffixes of the registered result formats, e.g. '.csv, .mat, .parquet'."""
+    return ", ".join(f.suffix for f in result_formats(plugins(FORMATS)).values())
 
 
 def _siblings(path: Path) -> str:
@@ -119,37 +125,3 @@ def _summary(folder: Path) -> dict[str, Any]:
         return json.loads((folder / SUMMARY).read_text())
     except (OSError, ValueError):
         return {}
-
-
-def _read_csv(path: Path, summary: dict[str, Any]) -> Result:
-    with open(path) as f:
-        import csv
-
-        columns = next(csv.reader([f.readline()]))
-    values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    try:
-        unit_of = json.loads((path.parent / UNITS_FILE).read_text())
-    except (OSError, ValueError):
-        unit_of = summary.get("units", {})
-    return Result(columns, [unit_of.get(c, "") for c in columns],
-                  values.reshape(-1, len(columns)), summary, path.parent)
-
-
-def _read_mat(path: Path, summary: dict[str, Any]) -> Result:
-    import scipy.io
-
-    m = scipy.io.loadmat(path)
-    columns = [str(np.ravel(c)[0]) for c in np.ravel(m["columns"])]
-    units = [str(np.ravel(c)[0]) if np.size(c) else "" for c in np.ravel(m["units"])]
-    values = np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
-    return Result(columns, units, values, summary, path.parent)
-
-
-def _read_parquet(path: Path, summary: dict[str, Any]) -> Result:
-    import pyarrow.parquet as pq
-
-    table = pq.read_table(path)
-    units = [(f.metadata or {}).get(b"unit", b"").decode() for f in table.schema]
-    values = np.column_stack([c.to_numpy() for c in table.columns]) if table.num_rows \
-        else np.zeros((0, table.num_columns))
-    return Result(list(table.column_names), units, values, summary, path.parent)

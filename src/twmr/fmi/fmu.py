@@ -18,7 +18,7 @@ import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
@@ -27,11 +27,29 @@ from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import runnable
 
+if TYPE_CHECKING:
+    from twmr.master.compiled import Kernel
+
 __all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
 
 #: FMI 2.0 call suffix per FMI type
 _FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
               "Boolean": "Boolean", "String": "String"}
+
+
+#: FMI 2.0 status codes above fmi2Warning
+_FMI2_STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
+
+
+def _real_ports(plan: list[Any]) -> tuple[tuple[tuple[str, int], ...], list[int]] | None:
+    """(ports [(name, width)], value references) of a call plan (`FmuComponent._plan`) holding
+    Real values only, in one call; None otherwise."""
+    if not plan:
+        return (), []
+    if len(plan) > 1 or plan[0][0].__name__ not in ("setReal", "getReal"):
+        return None
+    _, vrs, _, names, _ = plan[0]
+    return tuple((name, count) for name, _, count in names), list(vrs)
 
 
 def _call_suffix(fmi_type: str, fmi3: bool) -> str:
@@ -412,6 +430,53 @@ class FmuComponent(Component):
         if self._integrator is None:
             return {}
         return {"solver": self.solver, "events": self._integrator.events}
+
+    def compiled_calls(self, h: float) -> Kernel | None:
+        """This FMU's compiled form, for the compiled loop (`twmr.master.compiled`, mode 'on'):
+        the loop calls fmi2SetReal, fmi2GetReal and fmi2DoStep itself through their C function
+        pointers, with the calls and their order of `evaluate` / `do_step` (the wired inputs in
+        one fmi2SetReal, at `evaluate` when the FMU has feedthrough, else before the step; the
+        feedthrough outputs in one fmi2GetReal; after fmi2DoStep the other outputs the run
+        reads). None for FMI 3.0, model exchange, pythonfmu's own FMUs or non-Real ports (they
+        keep the Python loop). Call after `initialize`; `h` [s] is its step."""
+        import ctypes
+
+        import numpy as np
+
+        from twmr.master.compiled import FmuCalls, Kernel
+
+        fmu = self._fmu
+        if fmu is None or self.me or self.fmi3 or self._pythonfmu or not hasattr(fmu, "dll"):
+            return None
+        plans = [_real_ports(p) for p in (self._set_all, self._get_ft, self._get_step)]
+        if any(p is None for p in plans):
+            return None
+        (ins, in_vrs), (ft, ft_vrs), (st, st_vrs) = [  # type: ignore[misc]
+            (ports, np.asarray(vrs, dtype=np.uint32)) for ports, vrs in plans]
+        size = ctypes.c_size_t
+        io = ctypes.CFUNCTYPE(ctypes.c_int, size, size, size, size)
+        step = ctypes.CFUNCTYPE(ctypes.c_int, size, ctypes.c_double, ctypes.c_double,
+                                ctypes.c_int)
+
+        def address(symbol: str) -> int:
+            return ctypes.cast(getattr(fmu.dll, symbol), ctypes.c_void_p).value or 0
+
+        instance = getattr(fmu.component, "value", fmu.component)
+        values = np.zeros(max(1, len(in_vrs), len(ft_vrs), len(st_vrs)))
+        params = (io(address("fmi2SetReal")), io(address("fmi2GetReal")),
+                  step(address("fmi2DoStep")), int(instance), in_vrs, ft_vrs, st_vrs, values)
+
+        def error(call: str, status: int, t: float) -> BaseException:
+            self._t = t
+            if call == "fmi2DoStep" and status == 2 and self._fmi2_terminated():
+                return FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
+                                f"simulation (fmi2DoStep returned fmi2Discard and "
+                                f"fmi2Terminated is true).", self.log.tail())
+            return FmuError(self.name, t, f"FMU '{self.path.name}': {call} returned "
+                            f"{_FMI2_STATUS.get(status, status)}. Fix: see the FMU's log; check "
+                            f"its inputs and parameters at this time.", self.log.tail())
+
+        return Kernel(params=params, fmu=FmuCalls(ins, ft, st, error))
 
     def get_state(self) -> Any:
         iface = self.md.modelExchange if self.me else self.md.coSimulation

@@ -11,6 +11,8 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
+from twmr.core.errors import CosimError, Location, Problem, ScenarioError
+from twmr.registry import ALGORITHMS, plugin, plugins
 from twmr.scenario.system import System
 
 
@@ -64,13 +66,52 @@ class NonFinite(Exception):
 
 
 def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
-    """The algorithm an experiment names ('gauss_seidel' | 'jacobi'), compiled with numba when
-    every block offers a kernel: `compiled` 'auto' | 'on' | 'off' (None: `TWMR_COMPILED`, default
-    'auto'; see `twmr.master.compiled`)."""
-    from twmr.master.compiled import CompiledStep, compiled_mode
-    from twmr.master.schedule import FixedStep
+    """The algorithm registered as `name` in the `twmr.algorithms` entry-point group (built in:
+    'gauss_seidel', 'jacobi'): its factory called with `compiled` 'auto' | 'on' | 'off' (None:
+    `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError` naming the known
+    algorithms when `name` is not one."""
+    from twmr.master.compiled import compiled_mode
 
-    mode = compiled_mode() if compiled is None else compiled
-    if mode == "off":
-        return FixedStep(name)
-    return CompiledStep(name, mode)
+    factory = plugin(ALGORITHMS, name, "master algorithm")
+    algorithm = factory(compiled_mode() if compiled is None else compiled)
+    if not isinstance(algorithm, Algorithm):
+        raise CosimError(f"the master algorithm '{name}' ({plugins(ALGORITHMS)[name]}) made a "
+                         f"{type(algorithm).__name__}, not an Algorithm. Fix: register a "
+                         f"callable (compiled: str) -> Algorithm in the twmr.algorithms group.")
+    return algorithm
+
+
+def algorithm_for(system: System, compiled: str | None = None) -> Algorithm:
+    """The algorithm `system`'s experiment names, checked against the system (`admit`);
+    `ScenarioError` naming the scenario file when the name is unknown or the system unfit."""
+    name = system.experiment.algorithm
+    try:
+        algorithm = make_algorithm(name, compiled)
+    except ScenarioError:
+        raise
+    except CosimError as err:
+        raise ScenarioError(Problem(Location(system.source, 0, "experiment.algorithm"),
+                                    str(err))) from None
+    admit(system, algorithm, name)
+    return algorithm
+
+
+def admit(system: System, algorithm: Algorithm, name: str = "") -> None:
+    """Refuse a system `algorithm` cannot run: one that restores earlier states
+    (`needs_state_rollback`) needs every component to save its state
+    (`Component.can_get_and_set_state`). `ScenarioError` naming the blocks and the algorithm."""
+    if not algorithm.needs_state_rollback:
+        return
+    unfit = [f"'{n}' ({type(c).__name__})" for n, c in system.components.items()
+             if not c.can_get_and_set_state]
+    if not unfit:
+        return
+    label = f"'{name}'" if name else type(algorithm).__name__
+    blocks = ", ".join(unfit)
+    raise ScenarioError(Problem(
+        Location(system.source, 0, "experiment.algorithm"),
+        f"the master algorithm {label} restores earlier component states (it needs state "
+        f"rollback), but {blocks} cannot save and restore its state "
+        f"(its can_get_and_set_state is false, as for hardware in the loop).",
+        f"use an algorithm without rollback (gauss_seidel or jacobi), or replace {blocks} by a "
+        f"simulated block that can save its state."))

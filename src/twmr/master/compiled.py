@@ -20,8 +20,8 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-An FMI 2.0 co-simulation FMU joins the loop in mode 'on': the loop calls its C functions itself
-(`twmr.master.fmu_kernel`).
+An FMI 2.0 co-simulation FMU joins the loop in mode 'on': the loop calls its C functions itself,
+through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
 
 The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
 ~/.cache/twmr/schedules) under a name hashing its source, the source files of the kernels'
@@ -44,7 +44,6 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -52,9 +51,9 @@ import numpy as np
 
 from twmr.core.errors import CosimError
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.schedule import ALGORITHMS, FixedStep, input_value
-from twmr.scenario.graph import evaluation_plan
-from twmr.scenario.system import Connection, System
+from twmr.master.plan import METHODS, Plan, Write, guard
+from twmr.master.schedule import FixedStep
+from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
 #: mode 'auto' compiles runs of at least this many base steps (a shorter one is over before
@@ -76,7 +75,7 @@ class Kernel:
     evaluate: Any = None
     step: Any = None
     sync: Callable[[tuple], None] | None = None
-    #: an FMU the loop calls itself through its C function pointers (`twmr.master.fmu_kernel`)
+    #: an FMU the loop calls itself through its C function pointers (`FmuComponent.compiled_calls`)
     fmu: FmuCalls | None = None
 
 
@@ -129,8 +128,8 @@ class CompiledStep(Algorithm):
     offers a kernel (`mode` 'auto' | 'on'); else the Python `FixedStep` runs (mode 'auto')."""
 
     def __init__(self, method: str = "gauss_seidel", mode: str = "auto"):
-        if method not in ALGORITHMS:
-            raise ValueError(f"unknown algorithm {method!r}; use one of {ALGORITHMS}")
+        if method not in METHODS:
+            raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
         self.mode = mode
         self.python = FixedStep(method)
@@ -187,7 +186,8 @@ class CompiledStep(Algorithm):
         self._H = tuple(system.multiple(n) * exp.step for n in order)
         self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
         try:
-            source, names = _generate(system, self.method, self._record, self._check, kernels)
+            assert self.python.plan is not None
+            source, names = _generate(system, self.python.plan, kernels)
             self._run, self._finish = _load(source, names)
             # compile (or load from numba's cache) now, for the argument types of this run
             from numba import typeof
@@ -215,7 +215,7 @@ class CompiledStep(Algorithm):
         exp = self._system.experiment
         self._X, self._Y, self._U, *rest = fn(n0, n1, exp.start, exp.step, self._H, self._P,
                                               self._X, self._Y, self._U, buf, self._decimation)
-        return tuple(rest)  # type: ignore[return-value]
+        return tuple(rest)
 
     def _sync(self, rows: list[Any], buf: np.ndarray, k: int, bad: int, fail: int = -1,
               status: int = 0) -> None:
@@ -275,6 +275,22 @@ class CompiledStep(Algorithm):
         return out
 
 
+def fixed_step(method: str, compiled: str = "auto") -> Algorithm:
+    """The fixed-step `method` ('gauss_seidel' | 'jacobi'): the Python schedule when `compiled`
+    is 'off', else compiled with numba as `compiled` ('auto' | 'on') says."""
+    return FixedStep(method) if compiled == "off" else CompiledStep(method, compiled)
+
+
+def gauss_seidel(compiled: str = "auto") -> Algorithm:
+    """Fixed-step Gauss-Seidel (registered as 'gauss_seidel' in `twmr.algorithms`)."""
+    return fixed_step("gauss_seidel", compiled)
+
+
+def jacobi(compiled: str = "auto") -> Algorithm:
+    """Fixed-step Jacobi (registered as 'jacobi' in `twmr.algorithms`)."""
+    return fixed_step("jacobi", compiled)
+
+
 def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
     """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
@@ -289,10 +305,8 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
     for name in system.order:
         comp = comps[name]
         make = getattr(comp, "kernel", None)
-        if make is None and type(comp).__name__ == "FmuComponent" and fmus:
-            from twmr.master.fmu_kernel import fmu_kernel
-
-            make = partial(fmu_kernel, comp)
+        if make is None and fmus:
+            make = getattr(comp, "compiled_calls", None)
         if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
             return None, f"'{name}' has its methods replaced on the instance"
         owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
@@ -325,14 +339,13 @@ def _tuple(items: list[str]) -> str:
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
 
 
-def _generate(system: System, method: str, record: list[tuple[str, str]], check_finite: bool,
-              kernels: dict[str, Kernel]) -> tuple[str, dict[str, Any]]:
+def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[str, dict[str, Any]]:
     """(source, {name: kernel function}) of `run(n0, n1, start, h, H, P, X, Y, U, buf, dec)` and
-    `finish(n, start, h, P, X, Y, U, buf)`; both return (X, Y, U, rows written, the step of a
-    NaN/Inf or of a failed FMU call or -1, 3 * component index + call (0 set, 1 get, 2 step) of
-    that failure or -1, its status)."""
+    `finish(n, start, h, P, X, Y, U, buf)` rendered from `plan` over `kernels`; both return (X, Y,
+    U, rows written, the step of a NaN/Inf or of a failed FMU call or -1, 3 * component index +
+    call (0 set, 1 get, 2 step) of that failure or -1, its status)."""
     comps = system.components
-    order = list(system.order)
+    order = plan.order
     ids = {name: i for i, name in enumerate(order)}
     outs = {n: list(comps[n].outputs) for n in order}
     ins = {n: list(comps[n].inputs) for n in order}
@@ -348,23 +361,6 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
         if port in outs[name]:
             return f"y{ids[name]}_{outs[name].index(port)}"
         return f"u{ids[name]}_{ins[name].index(port)}"
-
-    incoming: dict[tuple[str, str], list[Connection]] = {}
-    for conn in system.connections:
-        incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
-
-    def assignment(name: str, port: str, source_of: Callable[[Connection], str]) -> str:
-        cur = local(name, port)
-        return f"{cur} = {input_value(system, incoming[(name, port)], cur, source_of)}"
-
-    if method == "gauss_seidel":
-        plan, _ = evaluation_plan(comps, system.connections)
-    else:
-        plan = [("write", n, p) for n in order for p in comps[n].inputs if (n, p) in incoming]
-        plan += [("evaluate", n, "") for n in order if comps[n].has_feedthrough]
-    watched = list(dict.fromkeys([(c.src, c.src_port) for c in system.connections] +
-                                 [s for s in record if comps[s[0]].variables[s[1]].kind
-                                  in ("output", "state")]))
 
     def fmu_lines(name: str, call: int, args: str) -> list[str]:
         """An FMU's set (call 0), get of the feedthrough outputs (1) or step (2, `args` its
@@ -423,61 +419,46 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
         lines += [f"{y} = r[1][{k}]" for k, y in enumerate(ys)]
         return lines
 
-    def point(w: _Lines, ind: int, mult: dict[str, int]) -> None:
-        if method == "gauss_seidel":
-            def source_of(c: Connection) -> str:
-                return local(c.src, c.src_port)
-        else:
-            keys = sorted({(c.src, c.src_port) for c in system.connections})
-            snap = {key: f"s{k}" for k, key in enumerate(keys)}
-            for (src, port), name in snap.items():
-                w.add(ind, f"{name} = {local(src, port)}")
-
-            def source_of(c: Connection) -> str:
-                return snap[(c.src, c.src_port)]
-        for action, name, port in plan:
-            lines = [assignment(name, port, source_of)] if action == "write" \
-                else call(name, "ev", "t")
-            m = mult[name]
-            if m != 1:
-                w.add(ind, f"if n % {m} == 0:")
+    def point(w: _Lines, ind: int, final: bool) -> None:
+        for k, (src, port) in enumerate(plan.snapshot):
+            w.add(ind, f"s{k} = {local(src, port)}")
+        for action in plan.point:
+            lines = [plan.assignment(action, local)] if isinstance(action, Write) \
+                else call(action.name, "ev", "t")
+            cond = None if final else guard(action)
+            if cond is not None:
+                w.add(ind, f"if {cond}:")
             for line in lines:
-                w.add(ind + (m != 1), line)
+                w.add(ind + (cond is not None), line)
 
     def check(w: _Lines, ind: int, then: str) -> None:
-        if not check_finite:
+        if not plan.check:
             return
-        terms = []
-        for name, port in watched:
-            var = comps[name].variables[port]
-            v = local(name, port)
-            terms.append(" + ".join(f"{v}[{k}]" for k in range(var.width))
-                         if var.size is not None else v)
-        if not terms:
-            return
-        # the association of the Python schedule's `sum(port) + ...` (in chunks of 64 terms)
-        chunks = [terms[i:i + 64] for i in range(0, len(terms), 64)]
-        if len(chunks) == 1:
-            w.add(ind, "v = " + " + ".join(f"({t})" for t in chunks[0]))
+        # the association of the Python schedule's `sum(port) + ...`, chunk by chunk
+        sums = [" + ".join("(" + (" + ".join(f"{local(s.name, s.port)}[{k}]"
+                                             for k in range(s.size))
+                                  if s.size is not None else local(s.name, s.port)) + ")"
+                           for s in chunk) for chunk in plan.check]
+        if len(sums) == 1:
+            w.add(ind, "v = " + sums[0])
         else:
             w.add(ind, "v = 0.0")
-            for ch in chunks:
-                w.add(ind, "v = v + (" + " + ".join(f"({t})" for t in ch) + ")")
+            for chunk_sum in sums:
+                w.add(ind, f"v = v + ({chunk_sum})")
         w.add(ind, f"if v - v != 0.0: {then}")
 
     def rec(w: _Lines, ind: int) -> None:
-        if not record:
+        if not plan.record:
             return
         w.add(ind, "buf[k, 0] = t")
         col = 1
-        for name, port in record:
-            var = comps[name].variables[port]
-            v = local(name, port)
-            if var.size is None:
+        for s in plan.record:
+            v = local(s.name, s.port)
+            if s.size is None:
                 w.add(ind, f"buf[k, {col}] = {v}")
                 col += 1
             else:
-                for e in range(var.width):
+                for e in range(s.size):
                     w.add(ind, f"buf[k, {col}] = {v}[{e}]")
                     col += 1
         w.add(ind, "k += 1")
@@ -503,7 +484,7 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
         w.add(1, f"return {xs}, {ys}, {us}, k, bad, fail, fstat")
 
     w = _Lines()
-    w.add(0, f"# generated by twmr.master.compiled: {method}")
+    w.add(0, f"# generated by twmr.master.compiled: {plan.method}")
     for name in order:
         w.add(0, f"# component {ids[name]}: {name} ({type(comps[name]).__name__})")
     w.add(0, "from numba import njit")
@@ -516,25 +497,21 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
     unpack(w)
     for name in order:
         w.add(1, f"h{ids[name]} = H[{ids[name]}]")
-    mult = {name: system.multiple(name) for name in order}
     w.add(1, "for n in range(n0, n1):")
     w.add(2, "t = start + n * h")
-    point(w, 2, mult)
+    point(w, 2, final=False)
     check(w, 2, "bad = n; break")
-    if record:
+    if plan.record:
         w.add(2, "if n % dec == 0:")
         rec(w, 3)
-    for name in order:
-        if kernels[name].step is None and kernels[name].fmu is None:
+    for st in plan.steps:
+        if kernels[st.name].step is None and kernels[st.name].fmu is None:
             continue
-        m, i = mult[name], ids[name]
-        if m == 1:
-            for line in call(name, "st", f"t, h{i}"):
-                w.add(2, line)
-        else:
-            w.add(2, f"if n % {m} == {m - 1}:")
-            for line in call(name, "st", f"t - {m - 1} * h, h{i}"):
-                w.add(3, line)
+        lines = call(st.name, "st", f"{st.time}, h{ids[st.name]}")
+        if st.guard is not None:
+            w.add(2, f"if {st.guard}:")
+        for line in lines:
+            w.add(2 + (st.guard is not None), line)
     pack(w)
     w.add(0, "")
     w.add(0, "")
@@ -543,7 +520,7 @@ def _generate(system: System, method: str, record: list[tuple[str, str]], check_
     unpack(w)
     w.add(1, "t = start + n * h")
     w.add(1, "for _ in range(1):  # a block to break out of")
-    point(w, 2, dict.fromkeys(order, 1))
+    point(w, 2, final=True)
     check(w, 2, "bad = n; break")
     rec(w, 2)
     pack(w)

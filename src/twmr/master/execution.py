@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError
-from twmr.master.algorithm import Algorithm, NonFinite, make_algorithm
+from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
 
@@ -204,7 +204,11 @@ class Execution:
         self.folder = Path(folder) if folder is not None else None
         exp = system.experiment
         self.pacer = Pacer(exp.step) if system.paced else None
-        self.algorithm = algorithm or make_algorithm(exp.algorithm)
+        if algorithm is None:
+            self.algorithm = algorithm_for(system)
+        else:
+            admit(system, algorithm)
+            self.algorithm = algorithm
         self.signals = list(system.record.signals)
         self.columns, self.units = columns_of(system, self.signals)
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
@@ -278,7 +282,7 @@ class Execution:
         while self._n < n_steps:
             n1 = min(n_steps, self._n + chunk)
             t0 = time.perf_counter()
-            self._n = self._guarded(self.algorithm.advance, self._n, n1)
+            self._n = self._advance(n1)
             dt = time.perf_counter() - t0
             self._emit()
             chunk = int(min(max(1, chunk * 4), 200_000,
@@ -290,10 +294,24 @@ class Execution:
         every = max(1, round(CHUNK_SECONDS / self.system.experiment.step))
         pacer.start()
         while self._n < n_steps:
-            self._n = self._guarded(self.algorithm.advance, self._n, self._n + 1)
+            self._n = self._advance(self._n + 1)
             pacer(self._n)
             if self._n % every == 0:
                 self._emit()
+
+    def _advance(self, n1: int) -> int:
+        """The algorithm's advance from the present step towards `n1`; the step it reached must be
+        n1, or (`variable_step`) one after the present step and not past n1."""
+        n0 = self._n
+        n = self._guarded(self.algorithm.advance, n0, n1)
+        if n != n1 and not (self.algorithm.variable_step and n0 < n < n1):
+            name = type(self.algorithm).__name__
+            raise CosimError(
+                f"the master algorithm {name} was asked to advance from base step {n0} to {n1} "
+                f"and reached step {n}. Fix: a fixed-step algorithm returns n1; one that may "
+                f"fall short declares variable_step = True and returns a step in "
+                f"({n0}, {n1}].")
+        return n
 
     def _emit(self) -> None:
         """Hand the rows recorded since the last call to every observer (in a paced run, to the

@@ -1,35 +1,117 @@
-"""Exports of a recorded result: CSV (read by `pandas.read_csv` as is; units in `units.json`
-beside it), MATLAB `.mat` and Parquet (units as field metadata). All are made from the
-crash-consistent store after the run, so a failed export never costs the recorded rows."""
+"""Exports of a recorded result, by registry: a `ResultFormat` registered in the `twmr.formats`
+entry-point group under its `--format` name. Built in: CSV (read by `pandas.read_csv` as is;
+units in `units.json` beside it), MATLAB `.mat` and Parquet (units as field metadata). All are made
+from the crash-consistent store after the run, so a failed export never costs the recorded rows.
+"""
 from __future__ import annotations
 
 import json
 import os
 import re
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
-FORMATS = ("csv", "mat", "parquet")
+from twmr.core.errors import CosimError
+from twmr.registry import FORMATS, plugin, plugins
+
 UNITS_FILE = "units.json"
 
 
-def save_csv(columns: list[str], values: np.ndarray, path: Path) -> Path:
-    """One header row of column names, then one row per sample (17 significant digits)."""
-    header = ",".join(_csv_field(c) for c in columns)
-    np.savetxt(path, values, delimiter=",", header=header, comments="", fmt="%.17g")
-    return path
+class ResultFormat:
+    """A result export. `write` makes one file from the recorded columns; `read` (optional)
+    reads such a file back, so `twmr.read_result` and `twmr plot` take it. Registered in the
+    `twmr.formats` group as `NAME = "module:Class"`; `twmr run --format NAME` writes
+    `result<suffix>` into the run's folder."""
+
+    #: the file's suffix, with its dot (e.g. '.csv'); the export is `result<suffix>`
+    suffix: ClassVar[str] = ""
+
+    def write(self, path: Path, columns: list[str], units: list[str],
+              values: np.ndarray) -> list[Path]:
+        """Write the export to `path` (a temporary name with `suffix`, in the run's folder,
+        renamed to `result<suffix>` once this returns): `columns` ('time' first, then names like
+        'plant.pose[1]'), their `units` and `values` (float64, one row per sample). Return the
+        other files written beside it (in `path.parent`), if any."""
+        raise NotImplementedError
+
+    def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        """(columns, units ('' where unknown), values) of a file this format wrote."""
+        raise NotImplementedError(f"the result format of '{path.suffix}' files cannot be read")
+
+
+def result_formats(names: Iterable[str]) -> dict[str, ResultFormat]:
+    """The registered formats `names`, in that order; `CosimError` (with a suggestion) for a
+    name that is not registered."""
+    found = {}
+    for name in names:
+        cls = plugin(FORMATS, name, "result format")
+        found[name] = cls() if isinstance(cls, type) else cls
+        if not isinstance(found[name], ResultFormat):
+            raise CosimError(f"the result format '{name}' ({plugins(FORMATS)[name]}) is not a "
+                             f"ResultFormat. Fix: register a subclass of "
+                             f"twmr.observers.writers.ResultFormat.")
+    return found
+
+
+def format_of_suffix(suffix: str) -> ResultFormat | None:
+    """The registered format writing files with `suffix` (e.g. '.mat'), if any."""
+    for name in plugins(FORMATS):
+        fmt = result_formats([name])[name]
+        if fmt.suffix.lower() == suffix.lower():
+            return fmt
+    return None
+
+
+def export(columns: list[str], units: list[str], values: np.ndarray, folder: Path,
+           formats: Iterable[str]) -> list[Path]:
+    """Write the named formats into `folder` as result<suffix>; the paths written. Each file is
+    written under a temporary name and renamed when complete, so an export cut short (Ctrl-C,
+    full disk) never leaves a truncated file under the real name."""
+    written = []
+    for fmt in result_formats(formats).values():
+        name = f"result{fmt.suffix}"
+        tmp = folder / f".partial-{name}"  # same suffix: savemat appends .mat otherwise
+        try:
+            extra = fmt.write(tmp, columns, units, values)
+            os.replace(tmp, folder / name)
+        finally:
+            tmp.unlink(missing_ok=True)
+        written += [folder / name, *extra]
+    return written
+
+
+class Csv(ResultFormat):
+    """One header row of column names, then one row per sample (17 significant digits); the
+    units in `units.json` beside it."""
+
+    suffix = ".csv"
+
+    def write(self, path: Path, columns: list[str], units: list[str],
+              values: np.ndarray) -> list[Path]:
+        header = ",".join(_csv_field(c) for c in columns)
+        np.savetxt(path, values, delimiter=",", header=header, comments="", fmt="%.17g")
+        unit_file = path.parent / UNITS_FILE
+        unit_file.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
+        return [unit_file]
+
+    def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        import csv
+
+        with open(path) as f:
+            columns = next(csv.reader([f.readline()]))
+        values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        try:
+            unit_of = json.loads((path.parent / UNITS_FILE).read_text())
+        except (OSError, ValueError):
+            unit_of = {}
+        return columns, [unit_of.get(c, "") for c in columns], values.reshape(-1, len(columns))
 
 
 def _csv_field(name: str) -> str:
     return f'"{name}"' if any(ch in name for ch in ',"\n') else name
-
-
-def save_units(columns: list[str], units: list[str], folder: Path) -> Path:
-    path = folder / UNITS_FILE
-    path.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
-    return path
 
 
 def mat_name(column: str) -> str:
@@ -39,54 +121,55 @@ def mat_name(column: str) -> str:
     return name if name[:1].isalpha() else f"x_{name}"
 
 
-def save_mat(columns: list[str], units: list[str], values: np.ndarray, path: Path) -> Path:
+class Mat(ResultFormat):
     """One variable per column (identifier-safe names), plus `columns` (the original names),
     `variables` and `units`."""
-    import scipy.io
 
-    content: dict[str, Any] = {mat_name(n): values[:, j] for j, n in enumerate(columns)}
-    content["columns"] = np.array(columns, dtype=object)
-    content["variables"] = np.array([mat_name(n) for n in columns], dtype=object)
-    content["units"] = np.array(units, dtype=object)
-    scipy.io.savemat(path, content, do_compression=True, long_field_names=True)
-    return path
+    suffix = ".mat"
+
+    def write(self, path: Path, columns: list[str], units: list[str],
+              values: np.ndarray) -> list[Path]:
+        import scipy.io
+
+        content: dict[str, Any] = {mat_name(n): values[:, j] for j, n in enumerate(columns)}
+        content["columns"] = np.array(columns, dtype=object)
+        content["variables"] = np.array([mat_name(n) for n in columns], dtype=object)
+        content["units"] = np.array(units, dtype=object)
+        scipy.io.savemat(path, content, do_compression=True, long_field_names=True)
+        return []
+
+    def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        import scipy.io
+
+        m = scipy.io.loadmat(path)
+        columns = [str(np.ravel(c)[0]) for c in np.ravel(m["columns"])]
+        units = [str(np.ravel(c)[0]) if np.size(c) else "" for c in np.ravel(m["units"])]
+        return columns, units, np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
 
 
-def save_parquet(columns: list[str], units: list[str], values: np.ndarray, path: Path) -> Path:
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+class Parquet(ResultFormat):
+    """One float64 column per recorded column, its unit as the field's metadata."""
 
-    fields = [pa.field(c, pa.float64(), metadata={"unit": u})
-              for c, u in zip(columns, units, strict=True)]
-    n = len(values)
-    arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
-        np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]
-    table = pa.Table.from_arrays(arrays, schema=pa.schema(fields))
-    pq.write_table(table, path)
-    return path
+    suffix = ".parquet"
 
+    def write(self, path: Path, columns: list[str], units: list[str],
+              values: np.ndarray) -> list[Path]:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
-def export(columns: list[str], units: list[str], values: np.ndarray, folder: Path,
-           formats: tuple[str, ...]) -> list[Path]:
-    """Write the asked formats into `folder` as result.<ext>; the paths written. Each file is
-    written under a temporary name and renamed when complete, so an export cut short (Ctrl-C,
-    full disk) never leaves a truncated file under the real name."""
-    written = []
+        fields = [pa.field(c, pa.float64(), metadata={"unit": u})
+                  for c, u in zip(columns, units, strict=True)]
+        n = len(values)
+        arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
+            np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]
+        pq.write_table(pa.Table.from_arrays(arrays, schema=pa.schema(fields)), path)
+        return []
 
-    def whole(save: Any, name: str, *args: Any) -> None:
-        tmp = folder / f".partial-{name}"  # same suffix: savemat appends .mat otherwise
-        try:
-            save(*args, tmp)
-            os.replace(tmp, folder / name)
-        finally:
-            tmp.unlink(missing_ok=True)
-        written.append(folder / name)
+    def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        import pyarrow.parquet as pq
 
-    if "csv" in formats:
-        whole(save_csv, "result.csv", columns, values)
-        written.append(save_units(columns, units, folder))
-    if "mat" in formats:
-        whole(save_mat, "result.mat", columns, units, values)
-    if "parquet" in formats:
-        whole(save_parquet, "result.parquet", columns, units, values)
-    return written
+        table = pq.read_table(path)
+        units = [(f.metadata or {}).get(b"unit", b"").decode() for f in table.schema]
+        values = np.column_stack([c.to_numpy() for c in table.columns]) if table.num_rows \
+            else np.zeros((0, table.num_columns))
+        return list(table.column_names), units, values

@@ -1,0 +1,220 @@
+"""One plan of the fixed-step loop, built once from a `System`; the Python schedule
+(`twmr.master.schedule`) and the compiled loop (`twmr.master.compiled`) both render it.
+
+A plan says what happens at every base step n, in order: the Jacobi snapshot of the wired
+outputs (Jacobi only), the point — input writes (each with its expression: unit gain and offset,
+element selection) and feedthrough evaluations in the order of the port graph, each guarded by its
+component's step multiple —, the NaN/Inf check over the outputs the run reads (in chunks of at
+most `CHAIN` terms), the recorded ports, and the steps with their multiples. A renderer only
+chooses how a port value, an evaluation and a step are written in its language, so the two loops
+compute the same expressions in the same order by construction.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TypeVar
+
+from twmr.core.component import Component
+from twmr.scenario.graph import evaluation_plan
+from twmr.scenario.system import Connection, System
+
+#: the fixed-step methods a plan can be built for
+METHODS = ("gauss_seidel", "jacobi")
+#: terms one chained expression may hold (Python's compiler recurses once per operator)
+CHAIN = 64
+
+#: (component, port)
+Port = tuple[str, str]
+#: writes a port's value in a renderer's language: (component, port) -> expression
+Ref = Callable[[str, str], str]
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Write:
+    """Input `port` of component `name` gets `template` with `{cur}` its present value and
+    `{0}`, `{1}`, ... the values of `sources` (the template is a Python expression, numba's too)."""
+
+    name: str
+    port: str
+    template: str
+    sources: tuple[Port, ...]
+    multiple: int = 1
+
+
+@dataclass(frozen=True)
+class Evaluate:
+    """Component `name` computes its feedthrough outputs (`evaluate(t)`)."""
+
+    name: str
+    multiple: int = 1
+
+
+@dataclass(frozen=True)
+class Step:
+    """Component `name` advances by its multiple m of base steps, at the last base step of each
+    period, from the period's start (its new outputs show at the period's end)."""
+
+    name: str
+    multiple: int = 1
+
+    @property
+    def guard(self) -> str | None:
+        """The condition on n under which it steps (None: every step)."""
+        m = self.multiple
+        return None if m == 1 else f"n % {m} == {m - 1}"
+
+    @property
+    def time(self) -> str:
+        """The expression of the time it steps from."""
+        m = self.multiple
+        return "t" if m == 1 else f"t - {m - 1} * h"
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A port read by the check or recorded: `size` None for a scalar, else its element count."""
+
+    name: str
+    port: str
+    size: int | None
+
+
+def guard(action: Write | Evaluate) -> str | None:
+    """The condition on n under which a write or evaluation happens (None: every step); a
+    component with step multiple m samples its inputs and evaluates when n is a multiple of m."""
+    m = action.multiple
+    return None if m == 1 else f"n % {m} == 0"
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The step loop of one system: see the module docstring. Component i is `order[i]`."""
+
+    method: str
+    order: tuple[str, ...]
+    snapshot: tuple[Port, ...]
+    point: tuple[Write | Evaluate, ...]
+    check: tuple[tuple[Signal, ...], ...]
+    record: tuple[Signal, ...]
+    decimation: int
+    steps: tuple[Step, ...]
+
+    def index(self, name: str) -> int:
+        """The number of component `name` in the loop (its place in `order`)."""
+        return self.order.index(name)
+
+    def assignment(self, write: Write, ref: Ref) -> str:
+        """The statement of `write` with port values written by `ref`; under Jacobi the sources
+        are read from the snapshot's locals `s0, s1, ...`."""
+        snap = {key: f"s{k}" for k, key in enumerate(self.snapshot)}
+        values = [snap[s] if snap else ref(*s) for s in write.sources]
+        cur = ref(write.name, write.port)
+        return f"{cur} = {write.template.format(*values, cur=cur)}"
+
+
+def chunks(items: Sequence[T]) -> list[Sequence[T]]:
+    """`items` cut into runs of at most `CHAIN`."""
+    return [items[i:i + CHAIN] for i in range(0, len(items), CHAIN)]
+
+
+def build(system: System, method: str, record: Sequence[Port], decimation: int,
+          check_finite: bool = True) -> Plan:
+    """The plan of `system` under `method` ('gauss_seidel' | 'jacobi'), recording the `record`
+    ports every `decimation` steps; `check_finite` adds the NaN/Inf check."""
+    if method not in METHODS:
+        raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
+    comps = system.components
+    order = tuple(system.order)
+    incoming: dict[Port, list[Connection]] = {}
+    for conn in system.connections:
+        incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
+    if method == "gauss_seidel":
+        actions, _ = evaluation_plan(comps, system.connections)
+        snapshot: tuple[Port, ...] = ()
+    else:  # Jacobi: every input from one snapshot, one evaluation per component, any order
+        actions = [("write", n, p) for n in order for p in comps[n].inputs if (n, p) in incoming]
+        actions += [("evaluate", n, "") for n in order if comps[n].has_feedthrough]
+        snapshot = tuple(sorted({(c.src, c.src_port) for c in system.connections}))
+    point: list[Write | Evaluate] = []
+    for action, name, port in actions:
+        m = system.multiple(name)
+        if action == "write":
+            sources: list[Port] = []
+
+            def placeholder(c: Connection, _s: list[Port] = sources) -> str:
+                _s.append((c.src, c.src_port))
+                return f"{{{len(_s) - 1}}}"
+
+            template = input_value(system, incoming[(name, port)], "{cur}", placeholder)
+            point.append(Write(name, port, template, tuple(sources), m))
+        else:
+            point.append(Evaluate(name, m))
+    # outputs that are read (wired or recorded): a NaN elsewhere cannot spread or be seen
+    watched = list(dict.fromkeys([(c.src, c.src_port) for c in system.connections] +
+                                 [s for s in record if comps[s[0]].variables[s[1]].kind
+                                  in ("output", "state")]))
+    terms = [_signal(system, n, p) for n, p in watched
+             if comps[n].variables[p].type == "Real"] if check_finite else []
+    check = tuple(tuple(c) for c in chunks(terms))
+    steps = tuple(Step(n, system.multiple(n)) for n in order
+                  if type(comps[n]).do_step is not Component.do_step)
+    return Plan(method, order, snapshot, tuple(point), check,
+                tuple(_signal(system, n, p) for n, p in record), decimation, steps)
+
+
+def _signal(system: System, name: str, port: str) -> Signal:
+    return Signal(name, port, system.components[name].variables[port].size)
+
+
+def _element(expr: str, index: int | None) -> str:
+    return expr if index is None else f"{expr}[{index}]"
+
+
+def input_value(system: System, conns: list[Connection], cur: str,
+                source_of: Callable[[Connection], str]) -> str:
+    """Expression of the new value of the input that `conns` write (all to one port, whose
+    current value is the expression `cur`): the source as is for one whole-port wire, else a
+    tuple of elements in which unconnected elements keep their value; unit gain and offset
+    applied."""
+    comps = system.components
+    c0 = conns[0]
+    var = comps[c0.dst].variables[c0.dst_port]
+    if len(conns) == 1 and c0.dst_index is None:
+        return _value_expr(c0, source_of(c0), comps[c0.src].variables[c0.src_port].size,
+                           var.size)
+    elems = [f"{cur}[{k}]" for k in range(var.width)]
+    for c in conns:
+        src_var = comps[c.src].variables[c.src_port]
+        sidx = c.src_index if c.src_index is not None else (
+            (None,) if src_var.size is None else tuple(range(src_var.width)))
+        didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
+        for s_, d in zip(sidx, didx, strict=False):
+            e = _element(source_of(c), s_)
+            if c.gain != 1.0 or c.offset != 0.0:
+                e = f"({e} * {c.gain!r} + {c.offset!r})"
+            elems[d] = e
+    return "(" + ", ".join(elems) + ("," if len(elems) == 1 else "") + ")"
+
+
+def _value_expr(conn: Connection, src_expr: str, src_size: int | None,
+                dst_size: int | None) -> str:
+    """Expression giving the destination input's new value from `src_expr` (the source port
+    value), with element selection, unit gain/offset and tuple/scalar shape applied."""
+    scaled = conn.gain != 1.0 or conn.offset != 0.0
+    if not scaled and conn.src_index is None:
+        return src_expr  # whole port: share the tuple / scalar, no copy
+    if conn.src_index is not None:
+        idx: list[int | None] = list(conn.src_index)
+    else:
+        idx = [None] if src_size is None else list(range(src_size))
+    parts = []
+    for i in idx:
+        e = _element(src_expr, i)
+        if scaled:
+            e = f"({e} * {conn.gain!r} + {conn.offset!r})"
+        parts.append(e)
+    if dst_size is None:
+        return parts[0]
+    return "(" + ", ".join(parts) + ("," if len(parts) == 1 else "") + ")"
