@@ -1,6 +1,6 @@
-"""TWMR plant against analytic answers: eq. (8) by hand for Table I, straight line at equal
-torques, a rotation on the spot, energy with B alone, momentum under a torque, slip moving the robot,
-RK4's order."""
+"""TWMR plant against analytic answers: eq. (8) by hand for Table I, a straight line at equal
+torques, a rotation on the spot, energy with B alone, a disturbance balancing the torque, slip
+moving the robot, RK4's order."""
 from __future__ import annotations
 
 import math
@@ -29,7 +29,6 @@ def plant(initial: dict | None = None, step: float = 1e-3, **kw) -> Harness:
 
 def test_inertia_terms_are_eq_8_for_table_i() -> None:
     p = plant().component
-    assert (M11, M12, Q1, Q2) == pytest.approx((0.49705, -0.01455, 2.0865, 0.1635), abs=1e-12)
     assert (p.m11, p.m12, p.q1, p.q2) == pytest.approx((M11, M12, Q1, Q2), rel=1e-13)
 
 
