@@ -129,7 +129,7 @@ def test_a_kernel_that_covers_no_parameters_and_no_python_method_is_named() -> N
         def kernel(self, h: float) -> Kernel | None:
             return None
 
-    with Harness(Nothing, name="odd") as c, pytest.raises(TypeError, match="'odd'.*Fix:"):
+    with Harness(Nothing, name="odd") as c, pytest.raises(TypeError, match=r"'odd'.*Fix:"):
         c.initialize().step()
 
 
