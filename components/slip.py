@@ -37,7 +37,8 @@ def slip_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: SlipProfile) -> tup
     """`SlipDisturbance.evaluate` (every profile but `random`): u = (pose,); y = (slip_rate,
     slip_accel, disturbance, model)."""
     pose = u[0]
-    muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(p, t, pose[0], pose[1])
+    # the profile it hands the plant (`model`, the values of p): one evaluation for both
+    muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(y[3], t, pose[0], pose[1])
     return x, ((muR, muL, dl), (muR2, muL2, dl2), (tdR, tdL), y[3])
 
 

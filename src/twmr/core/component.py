@@ -22,36 +22,52 @@ import copy
 import dataclasses
 import functools
 from collections.abc import Callable
-from operator import itemgetter
 from pathlib import Path
 from typing import Any, ClassVar
 
-from twmr.core.kernel import Kernel
+from twmr.core.kernel import Kernel, KernelFunction
 from twmr.core.port import Input, Output, Parameter, State, Variable
 
 #: attributes of a component that runs a kernel: its private state x, and the kernel in use
 _X, _RUN = "_kernel_x", "_kernel_run"
 
 
-def _getter(names: list[str]) -> Callable[[dict[str, Any]], tuple]:
-    """The tuple of the values of `names` in a component's `__dict__`."""
-    if len(names) == 1:
-        name = names[0]
-        return lambda d: (d[name],)
-    if not names:
-        return lambda d: ()
-    return itemgetter(*names)
+def _python(fn: Any) -> Any:
+    """What a Python call runs of kernel function `fn`: a `kernel_function`'s plain function, a
+    numba function compiled."""
+    return fn.py_func if isinstance(fn, KernelFunction) else fn
 
 
 class _Run:
-    """The kernel a component runs in Python, made for steps of `h` [s], with the getters of its
-    port tuples; shared, not copied, by a saved state (it follows from the parameters)."""
+    """The kernel a component runs in Python, made for steps of `h` [s], as two functions
+    `evaluate(t)` and `step(t, h)` generated for its ports (values read from and written to the
+    component's `__dict__` by name); shared, not copied, by a saved state (it follows from the
+    parameters)."""
 
     def __init__(self, h: float, kernel: Kernel, comp: Component):
-        self.h, self.kernel = h, kernel
-        self.names = list(comp.outputs)
-        self.outputs = _getter(self.names)
-        self.inputs = _getter(list(comp.inputs))
+        self.h = h
+        d = comp.__dict__
+
+        def ports(names: list[str]) -> str:
+            return "(" + "".join(f"d[{n!r}], " for n in names) + ")"
+
+        ys, us = ports(list(comp.outputs)), ports(list(comp.inputs))
+        report = getattr(kernel.sync, "__wrapped__", kernel.sync)  # the block's own sync
+        env: dict[str, Any] = {"d": d, "p": kernel.params, "report": report,
+                               "ev": _python(kernel.evaluate), "st": _python(kernel.step)}
+        lines = []
+        for name, fn, args in (("evaluate", "ev", "t"), ("step", "st", "t, h")):
+            lines.append(f"def {name}({args}):")
+            if env[fn] is None:
+                lines.append("    pass")
+                continue
+            lines.append(f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)")
+            lines.append(f"    d[{_X!r}] = x")
+            if report is not None:
+                lines.append("    report(x)")
+        exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
+        self.evaluate: Callable[[float], None] = env["evaluate"]
+        self.step: Callable[[float, float], None] = env["step"]
 
     def __deepcopy__(self, memo: dict[int, Any]) -> _Run:
         return self
@@ -73,6 +89,7 @@ def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, floa
             d[_X] = x
             if report is not None:
                 report(x)
+        sync.__wrapped__ = report  # type: ignore[attr-defined]
         return dataclasses.replace(k, state=x, sync=sync)
     return kernel
 
@@ -210,28 +227,16 @@ class Component:
         """`evaluate` of a block that offers a kernel: its `evaluate` function on (held state,
         outputs, inputs, parameters), the outputs written back. Before the first step the
         kernel is made with h = 0 (the step is not known yet; evaluate must not depend on it)."""
-        d = self.__dict__
-        run = d.get(_RUN) or self._make_run(0.0)
-        k = run.kernel
-        if k.evaluate is None:
-            return
-        x, y = k.evaluate(t, d[_X], run.outputs(d), run.inputs(d), k.params)
-        d.update(zip(run.names, y, strict=True))
-        k.sync(x)  # type: ignore[misc]  # `_holding` gives every kernel one
+        run = self.__dict__.get(_RUN) or self._make_run(0.0)
+        run.evaluate(t)
 
     def kernel_do_step(self, t: float, h: float) -> None:
         """`do_step` of a block that offers a kernel: its `step` function from t to t + h [s]
         (the kernel made again when h changes), the outputs written back."""
-        d = self.__dict__
-        run = d.get(_RUN)
+        run = self.__dict__.get(_RUN)
         if run is None or run.h != h:
             run = self._make_run(h)
-        k = run.kernel
-        if k.step is None:
-            return
-        x, y = k.step(t, h, d[_X], run.outputs(d), run.inputs(d), k.params)
-        d.update(zip(run.names, y, strict=True))
-        k.sync(x)  # type: ignore[misc]
+        run.step(t, h)
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
