@@ -6,14 +6,9 @@ floats — the 2x2 algebra spelled out — so one compiled call does a whole ste
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
-try:
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a dependency; this keeps the model importable
-    def njit(*args, **kwargs):  # type: ignore[no-untyped-def]
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from numba import njit
 
 
 def inertia(a: float, I_G: float, I_D: float, I_W: float, r: float, b: float, m_W: float,
@@ -53,29 +48,56 @@ def derivative(x: float, y: float, th: float, wR: float, wL: float,
     return dx, dy, varpi, (m11 * fR - m12 * fL) / det, (m11 * fL - m12 * fR) / det
 
 
-#: codes of the slip profiles the plant evaluates itself (`slip_disturbance.model`); 0: none given
+#: codes of the slip profiles (`SlipProfile.code`); HELD: none given, the plant holds its slip
+#: inputs over each step
 HELD, PAPER, NO_SLIP, CONSTANT, STEP, MUD = 0, 1, 2, 3, 4, 5
-#: length of the profile descriptor: code, slip gain, disturbance gain, slip value (3),
-#: disturbance value (2), step time, mud centre (2), mud radius, phase of the paper profile
-DESCRIPTOR = 13
+#: the slip profiles a kernel defines (`slip_at`; the plant evaluates them at its RK4 stages),
+#: name -> code; the slip block's `random` profile is sampled in Python (its code: HELD)
+PROFILES = {"paper": PAPER, "none": NO_SLIP, "constant": CONSTANT, "step": STEP, "mud": MUD}
+
+
+class SlipProfile(NamedTuple):
+    """A slip profile: the slip block's parameter table, its `model` output and the plant's
+    `slip_model` input (these values in this order)."""
+
+    code: float  #: PROFILES
+    slip_gain: float
+    disturbance_gain: float
+    slip_R: float  #: slip value mu_R' [m/s] (constant, step, mud)
+    slip_L: float  #: mu_L' [m/s]
+    slip_delta: float  #: delta' [m/s]
+    disturbance_R: float  #: tau_d [N.m] (constant, step, mud)
+    disturbance_L: float
+    step_time: float  #: [s]
+    mud_x: float  #: mud patch centre [m]
+    mud_y: float
+    mud_radius: float  #: [m]
+    phase: float  #: time shift of the paper profile [s]
+
+
+#: length of a profile descriptor (`SlipProfile`)
+DESCRIPTOR = len(SlipProfile._fields)
 
 
 @njit(cache=True, error_model="numpy")
 def slip_at(p: tuple, t: float, x: float, y: float
             ) -> tuple[float, float, float, float, float, float, float, float]:
     """Slip rates [m/s], slip accelerations [m/s2] and disturbance [N.m] of profile `p` (a
-    descriptor, see DESCRIPTOR) at time t [s] with M at (x, y) [m] (Sec. IV-A for `paper`)."""
-    code, g, gd = p[0], p[1], p[2]
+    `SlipProfile`, or its values as a tuple) at time t [s] with M at (x, y) [m] (Sec. IV-A for
+    `paper`); zero for HELD."""
+    q = SlipProfile(*p)
+    code, g, gd = q.code, q.slip_gain, q.disturbance_gain
     if code == PAPER:
-        tp = t + p[12]
+        tp = t + q.phase
         c, s = math.cos(tp), math.sin(tp)
         return (g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
                 gd * 2.0 * math.sin(3.0 * tp), gd * 2.0 * math.cos(3.0 * tp))
-    on = code == CONSTANT or (code == STEP and t >= p[8]) or (
-        code == MUD and math.hypot(x - p[9], y - p[10]) <= p[11])
+    on = code == CONSTANT or (code == STEP and t >= q.step_time) or (
+        code == MUD and math.hypot(x - q.mud_x, y - q.mud_y) <= q.mud_radius)
     if not on:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    return g * p[3], g * p[4], g * p[5], 0.0, 0.0, 0.0, gd * p[6], gd * p[7]
+    return (g * q.slip_R, g * q.slip_L, g * q.slip_delta, 0.0, 0.0, 0.0, gd * q.disturbance_R,
+            gd * q.disturbance_L)
 
 
 @njit(cache=True, error_model="numpy")
@@ -86,9 +108,9 @@ def rk4(n: int, hs: float, t0: float, x: float, y: float, th: float, wR: float, 
         ) -> tuple[float, float, float, float, float, float, float]:
     """`n` classical RK4 steps of size `hs` [s] from t0 [s]; returns the new state and the centre
     of mass G (eq. 4 minus eq. 11: G = M + a (cos, sin)). Torques are held over the steps (the
-    controller's zero-order hold); slip and disturbance too, unless the descriptor `p` gives
+    controller's zero-order hold); slip and disturbance too, unless `p` (a `SlipProfile`) gives
     their profile, which is then evaluated at every RK4 stage (its time and stage position)."""
-    live = p[0] != HELD
+    live = SlipProfile(*p).code != HELD
     for i in range(n):
         t = t0 + i * hs
         if live:

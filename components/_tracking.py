@@ -20,27 +20,57 @@ torque_limit) are the bounded-torque configuration of docs/reproduction.md, not 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
-from twmr.components._model import inertia, njit, tracking_law
+from twmr.components._model import inertia, tracking_law
 from twmr.core import STRING, Component, Input, Output, Parameter
-from twmr.master.compiled import Kernel
+from twmr.core.kernel import Kernel, kernel_function
+
+#: drive sides and saturations, name -> code
+DRIVES = {"auto": 0, "forward": 1, "backward": 2}
+CLIP, SCALE = 0, 1
+SATURATIONS = {"clip": CLIP, "scale": SCALE}
 
 
-@njit(cache=True, error_model="numpy")
-def limited_law(u: tuple, p: tuple, dR: float, dL: float
+class LawParams(NamedTuple):
+    """The parameter table of the law (`tracking_law`) and of the torque limit: the nominal model,
+    the gains, the signed look-ahead L of the drive side chosen at `initialize`."""
+
+    m11: float  #: [kg.m2]
+    m12: float
+    m_G: float  #: [kg]
+    r: float  #: [m]
+    b: float
+    lam: float  #: [1/s]
+    vartheta: float  #: [1/s]
+    k: float
+    L: float  #: [m]
+    eps_singular: float  #: [m]
+    phi: float
+    torque_limit: float  #: [N.m]; 0: none
+    saturation: float  #: SATURATIONS
+
+
+class TrackingState(NamedTuple):
+    """The controllers' private state."""
+
+    saturated: float  #: 1.0 when the last torque was limited, else 0.0
+
+
+@kernel_function
+def limited_law(u: tuple, p: LawParams, dR: float, dL: float
                 ) -> tuple[float, float, float, float, float, float, float]:
-    """`TrackingController.evaluate` as a kernel: (tau_R, tau_L, s_1, s_2, e_p1, e_p2,
-    saturated 0/1) from u = (pose, wheel_speed, ref_position, ref_velocity, ref_acceleration),
-    p = (the 11 gains of `tracking_law`, torque_limit [N.m], 1 for saturation scale else 0, ...)
-    and the adaptive term (dR, dL)."""
+    """(tau_R, tau_L, s_1, s_2, e_p1, e_p2, saturated 0/1) from u = (pose, wheel_speed,
+    ref_position, ref_velocity, ref_acceleration) and the adaptive term (dR, dL): the law, then
+    the torque limit."""
     (x, y, th), (wR, wL), (xT, yT), (vxT, vyT) = u[0], u[1], u[2], u[3]
-    tR, tL, s1, s2, e1, e2 = tracking_law(x, y, th, wR, wL, xT, yT, vxT, vyT, dR, dL, p[0],
-                                          p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9],
-                                          p[10])
-    lim = p[11]
+    tR, tL, s1, s2, e1, e2 = tracking_law(x, y, th, wR, wL, xT, yT, vxT, vyT, dR, dL, p.m11,
+                                          p.m12, p.m_G, p.r, p.b, p.lam, p.vartheta, p.k, p.L,
+                                          p.eps_singular, p.phi)
+    lim = p.torque_limit
     saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
     if saturated:
-        if p[12] == 1.0:
+        if p.saturation == SCALE:
             f = lim / max(abs(tR), abs(tL))
             tR, tL = tR * f, tL * f
         else:
@@ -48,11 +78,12 @@ def limited_law(u: tuple, p: tuple, dR: float, dL: float
     return tR, tL, s1, s2, e1, e2, 1.0 if saturated else 0.0
 
 
-@njit(cache=True, error_model="numpy")
-def smc_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
-    """Kernel of the SMC's `evaluate`: y = (torque, error, s)."""
+@kernel_function
+def smc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: LawParams
+                 ) -> tuple[TrackingState, tuple]:
+    """The SMC's `evaluate`: y = (torque, error, s)."""
     tR, tL, s1, s2, e1, e2, sat = limited_law(u, p, 0.0, 0.0)
-    return (sat,), ((tR, tL), (e1, e2), (s1, s2))
+    return TrackingState(sat), ((tR, tL), (e1, e2), (s1, s2))
 
 
 class TrackingController(Component):
@@ -98,29 +129,26 @@ class TrackingController(Component):
     s = Output(size=2, depends_on=_deps, description="sliding variable, eq. (25)")
 
     def initialize(self) -> None:
-        if self.saturation not in ("clip", "scale"):
+        if self.saturation not in SATURATIONS:
             raise ValueError(f"unknown saturation '{self.saturation}'; use 'clip' or 'scale'")
-        if self.drive not in ("auto", "forward", "backward"):
+        if self.drive not in DRIVES:
             raise ValueError(f"unknown drive '{self.drive}'; use 'auto', 'forward' or 'backward'")
         self.direction = self.drive if self.drive != "auto" else self.start_direction()
-        L = self.lookahead if self.direction == "forward" else -self.lookahead
         self.m11, self.m12, _, _ = inertia(self.a, self.I_G, self.I_D, self.I_W, self.r, self.b,
                                            self.m_W, self.m_G)
-        self._gains = (self.m11, self.m12, self.m_G, self.r, self.b, self.lam, self.vartheta,
-                       self.k, L, self.eps_singular, self.phi)
         self.evaluate(self.start_time)
 
-    def kernel_params(self) -> tuple[float, ...]:
-        """The shared kernel parameters (see `limited_law`), set after `initialize`."""
-        return (*map(float, self._gains), float(self.torque_limit),
-                1.0 if self.saturation == "scale" else 0.0)
+    def law_params(self) -> LawParams:
+        """The law's table (after `initialize`: the nominal M and the drive side)."""
+        L = self.lookahead if self.direction == "forward" else -self.lookahead
+        return LawParams(float(self.m11), float(self.m12), float(self.m_G), float(self.r),
+                         float(self.b), float(self.lam), float(self.vartheta), float(self.k),
+                         float(L), float(self.eps_singular), float(self.phi),
+                         float(self.torque_limit), float(SATURATIONS[self.saturation]))
 
-    def kernel(self, h: float) -> Kernel | None:
-        """The compiled form (the SMC's: no adaptation); subclasses give their own."""
-        if type(self).adaptive_term is not TrackingController.adaptive_term:
-            return None
-        return Kernel(params=self.kernel_params(), state=(float(self.saturated),),
-                      evaluate=smc_evaluate)
+    def kernel(self, h: float) -> Kernel:
+        """The SMC's definition (no adaptation); the ASMC gives its own."""
+        return Kernel(params=self.law_params(), state=TrackingState(0.0), evaluate=smc_evaluate)
 
     def start_direction(self) -> str:
         """'forward' when the target, one second ahead, lies in front of M along the body axis
@@ -130,23 +158,3 @@ class TrackingController(Component):
         c, s = math.cos(th), math.sin(th)
         ahead = c * (xT - x) + s * (yT - y) + (c * vx + s * vy) * 1.0
         return "forward" if ahead >= 0.0 else "backward"
-
-    def adaptive_term(self) -> tuple[float, float]:
-        """d_hat of eq. (32); zero for plain SMC."""
-        return 0.0, 0.0
-
-    def evaluate(self, t: float) -> None:
-        tR, tL, s1, s2, e1, e2 = tracking_law(
-            *self.pose, *self.wheel_speed, *self.ref_position, *self.ref_velocity,
-            *self.adaptive_term(), *self._gains)
-        lim = self.torque_limit
-        self.saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
-        if self.saturated:
-            if self.saturation == "scale":
-                f = lim / max(abs(tR), abs(tL))
-                tR, tL = tR * f, tL * f
-            else:
-                tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
-        self.torque = (tR, tL)
-        self.s = (s1, s2)
-        self.error = (e1, e2)

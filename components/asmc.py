@@ -8,32 +8,42 @@ clamp of |e_p1|). d_hat is integrated exactly for s held over the step: d_hat +=
 """
 from __future__ import annotations
 
-from twmr.components._model import njit
-from twmr.components._tracking import TrackingController, limited_law
+from typing import NamedTuple
+
+from twmr.components._tracking import LawParams, TrackingController, TrackingState, limited_law
 from twmr.core import BOOLEAN, Output, Parameter
-from twmr.master.compiled import Kernel
+from twmr.core.kernel import Kernel, kernel_function
 
 
-@njit(cache=True, error_model="numpy")
-def asmc_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
-    """Kernel of `AsmcController.evaluate`: y = (torque, error, s, d_hat); x = (saturated,)."""
+class AsmcParams(NamedTuple):
+    """The ASMC's parameter table: the law's, and the adaptation's."""
+
+    law: LawParams
+    eta: float  #: adaptation gain, eq. (33)
+    d_hat_limit: float  #: projection |d_hat_i| <= this; 0: none
+    hold_saturated: float  #: 1.0: hold d_hat while the torque is limited
+
+
+@kernel_function
+def asmc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
+                  ) -> tuple[TrackingState, tuple]:
+    """`AsmcController.evaluate`: y = (torque, error, s, d_hat)."""
     dR, dL = y[3]
-    tR, tL, s1, s2, e1, e2, sat = limited_law(u, p, dR, dL)
-    return (sat,), ((tR, tL), (e1, e2), (s1, s2), y[3])
+    tR, tL, s1, s2, e1, e2, sat = limited_law(u, p.law, dR, dL)
+    return TrackingState(sat), ((tR, tL), (e1, e2), (s1, s2), y[3])
 
 
-@njit(cache=True, error_model="numpy")
-def asmc_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
-              ) -> tuple[tuple, tuple]:
-    """Kernel of `AsmcController.do_step` (eq. 33); p ends with (eta, d_hat_limit,
-    hold_saturated 0/1)."""
-    if x[0] == 1.0 and p[15] == 1.0:
+@kernel_function
+def asmc_step(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
+              ) -> tuple[TrackingState, tuple]:
+    """`AsmcController.do_step`: d_hat by eq. (33), held while saturated (anti-windup), clamped
+    to the projection."""
+    if x.saturated == 1.0 and p.hold_saturated == 1.0:
         return x, y
     s1, s2 = y[2]
     d1, d2 = y[3]
-    eta = p[13]
-    d1, d2 = d1 + eta * s1 * h, d2 + eta * s2 * h  # eq. (33)
-    m = p[14]
+    d1, d2 = d1 + p.eta * s1 * h, d2 + p.eta * s2 * h  # eq. (33)
+    m = p.d_hat_limit
     if m > 0.0:
         d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
     return x, (y[0], y[1], y[2], (d1, d2))
@@ -55,21 +65,8 @@ class AsmcController(TrackingController):
         super().initialize()
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        return Kernel(params=(*self.kernel_params(), float(self.eta), float(self.d_hat_limit),
-                              1.0 if self.hold_saturated else 0.0),
-                      state=(float(self.saturated),), evaluate=asmc_evaluate, step=asmc_step)
-
-    def adaptive_term(self) -> tuple[float, float]:
-        return self.d_hat
-
-    def do_step(self, t: float, h: float) -> None:
-        if self.saturated and self.hold_saturated:
-            return
-        s1, s2 = self.s
-        d1, d2 = self.d_hat
-        d1, d2 = d1 + self.eta * s1 * h, d2 + self.eta * s2 * h  # eq. (33)
-        m = self.d_hat_limit
-        if m > 0.0:
-            d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
-        self.d_hat = (d1, d2)
+        """The ASMC's definition."""
+        return Kernel(params=AsmcParams(self.law_params(), float(self.eta),
+                                        float(self.d_hat_limit),
+                                        1.0 if self.hold_saturated else 0.0),
+                      state=TrackingState(0.0), evaluate=asmc_evaluate, step=asmc_step)

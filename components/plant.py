@@ -17,24 +17,40 @@ paper runs the plant at +25 % (scale 1.25) against the controller's nominal valu
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
-from twmr.components._model import DESCRIPTOR, inertia, njit, rk4
+from twmr.components._model import DESCRIPTOR, inertia, rk4
 from twmr.core import Component, Input, Output, Parameter, State
-from twmr.master.compiled import Kernel
+from twmr.core.kernel import Kernel, kernel_function
 
 
-@njit(cache=True, error_model="numpy")
-def plant_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+class PlantParams(NamedTuple):
+    """The plant's parameter table: RK4 substeps of a step and their size, the coefficients of
+    eq. (8) after `scale`, and the geometry."""
+
+    substeps: int
+    substep: float  #: [s]
+    m11: float  #: [kg.m2]
+    m12: float
+    q1: float  #: [kg.m]
+    q2: float
+    m_G: float  #: [kg]
+    a: float  #: [m]
+    r: float
+    b: float
+
+
+@kernel_function
+def plant_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: PlantParams
                ) -> tuple[tuple, tuple]:
-    """Kernel of `TwmrPlant.do_step`; p = (substeps, substep [s], m11, m12, q1, q2, m_G, a, r,
-    b); u = (torque, slip_rate, slip_accel, disturbance, slip_model); y = (pose, wheel_speed,
-    com)."""
+    """`TwmrPlant.do_step`: u = (torque, slip_rate, slip_accel, disturbance, slip_model);
+    y = (pose, wheel_speed, com)."""
     (px, py, th), (wR, wL) = y[0], y[1]
     tq, rate, acc, dist, model = u
     xn, yn, thn, wRn, wLn, xg, yg = rk4(
-        int(p[0]), p[1], t, px, py, th, wR, wL, tq[0], tq[1], rate[0], rate[1], rate[2],
-        acc[0], acc[1], acc[2], dist[0], dist[1], model, p[2], p[3], p[4], p[5], p[6], p[7],
-        p[8], p[9])
+        p.substeps, p.substep, t, px, py, th, wR, wL, tq[0], tq[1], rate[0], rate[1], rate[2],
+        acc[0], acc[1], acc[2], dist[0], dist[1], model, p.m11, p.m12, p.q1, p.q2, p.m_G, p.a,
+        p.r, p.b)
     return x, ((xn, yn, thn), (wRn, wLn), (xg, yg))
 
 
@@ -70,35 +86,20 @@ class TwmrPlant(Component):
         self.m11, self.m12, self.q1, self.q2 = inertia(
             self.a, k * self.I_G, k * self.I_D, k * self.I_W, self.r, self.b, k * self.m_W,
             k * self.m_G)
-        self.mG = k * self.m_G
-        self._coef = self.coefficients
-        self._h = 0.0
-        rk4(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-            0.0, tuple(self.slip_model), *self._coef)  # compiled kernel loaded now, not in
-        # the first (maybe paced) step
-        self._com()
+        # no RK4 step: the centre of mass at the start, and the compiled model loaded now, not
+        # in the first (maybe paced) step
+        *_, xg, yg = rk4(0, 0.0, self.start_time, *self.pose, *self.wheel_speed, 0.0, 0.0, 0.0,
+                         0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, tuple(self.slip_model),
+                         *self.params(1.0)[2:])
+        self.com = (xg, yg)
+
+    def params(self, h: float) -> PlantParams:
+        """The parameter table for steps of h [s] (after `initialize`)."""
+        n = max(1, math.ceil(h / self.internal_step - 1e-9))
+        return PlantParams(n, h / n, float(self.m11), float(self.m12), float(self.q1),
+                           float(self.q2), float(self.scale * self.m_G), float(self.a),
+                           float(self.r), float(self.b))
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form, for steps of h [s]."""
-        n = max(1, math.ceil(h / self.internal_step - 1e-9))
-        return Kernel(params=(float(n), h / n, *map(float, self._coef)), step=plant_step)
-
-    @property
-    def coefficients(self) -> tuple[float, ...]:
-        """(m11, m12, q1, q2, m_G, a, r, b) as used by the model, after `scale`."""
-        return (self.m11, self.m12, self.q1, self.q2, self.mG, self.a, self.r, self.b)
-
-    def _com(self) -> None:
-        x, y, th = self.pose
-        self.com = (x + self.a * math.cos(th), y + self.a * math.sin(th))
-
-    def do_step(self, t: float, h: float) -> None:
-        if h != self._h:  # substeps for this step size
-            self._n = max(1, math.ceil(h / self.internal_step - 1e-9))
-            self._hs, self._h = h / self._n, h
-        x, y, th, wR, wL, xg, yg = rk4(self._n, self._hs, t, *self.pose, *self.wheel_speed,
-                                       *self.torque, *self.slip_rate, *self.slip_accel,
-                                       *self.disturbance, self.slip_model, *self._coef)
-        self.pose = (x, y, th)
-        self.wheel_speed = (wR, wL)
-        self.com = (xg, yg)
+        """The plant's definition, for steps of h [s]."""
+        return Kernel(params=self.params(h), step=plant_step)

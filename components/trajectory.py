@@ -8,44 +8,58 @@ zero end velocity). Every derivative is analytic.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from twmr.components._model import njit
 from twmr.core import STRING, Component, Output, Parameter
-from twmr.master.compiled import Kernel
+from twmr.core.kernel import Kernel, kernel_function
 
-SHAPES = ("paper1", "circle", "lemniscate", "waypoints")
-#: kernel codes of the analytic shapes (`waypoints` runs in Python only)
-PAPER1, CIRCLE, LEMNISCATE = 0.0, 1.0, 2.0
+#: kernel codes of the analytic shapes, name -> code (`waypoints` runs in Python only)
+PAPER1, CIRCLE, LEMNISCATE = 0, 1, 2
+SHAPES = {"paper1": PAPER1, "circle": CIRCLE, "lemniscate": LEMNISCATE}
+#: every shape name the block takes
+NAMES = (*SHAPES, "waypoints")
 
 
-@njit(cache=True, error_model="numpy")
-def sample_kernel(t: float, p: tuple) -> tuple:
-    """(position, velocity, acceleration) of an analytic shape at t [s]; p = (code, radius,
-    omega, phase, cx, cy), as `Trajectory.sample`."""
-    code = p[0]
-    if code == PAPER1:
+class TrajectoryParams(NamedTuple):
+    """The parameter table of an analytic shape."""
+
+    code: float  #: SHAPES
+    radius: float  #: circle radius / lemniscate size A [m]
+    omega: float  #: [rad/s]
+    phase: float  #: circle phase at t = 0 [rad]
+    cx: float  #: centre [m]
+    cy: float
+
+
+Sample = tuple[tuple[float, float], tuple[float, float], tuple[float, float]]
+
+
+@kernel_function
+def sample_kernel(t: float, p: TrajectoryParams) -> Sample:
+    """(position, velocity, acceleration) of an analytic shape at t [s]."""
+    if p.code == PAPER1:
         return ((-t, math.sin(0.5 * t) + 0.5 * t + 1.0), (-1.0, 0.5 * math.cos(0.5 * t) + 0.5),
                 (0.0, -0.25 * math.sin(0.5 * t)))
-    cx, cy = p[4], p[5]
-    w = p[2]
-    if code == CIRCLE:
-        R, a = p[1], w * t + p[3]
+    cx, cy = p.cx, p.cy
+    w = p.omega
+    if p.code == CIRCLE:
+        R, a = p.radius, w * t + p.phase
         c, s = math.cos(a), math.sin(a)
         return ((cx + R * c, cy + R * s), (-R * w * s, R * w * c),
                 (-R * w * w * c, -R * w * w * s))
-    A = p[1]
+    A = p.radius
     s1, c1 = math.sin(w * t), math.cos(w * t)
     s2, c2 = math.sin(2 * w * t), math.cos(2 * w * t)
     return ((cx + A * s1, cy + A / 2 * s2), (A * w * c1, A * w * c2),
             (-A * w * w * s1, -2 * A * w * w * s2))
 
 
-@njit(cache=True, error_model="numpy")
-def trajectory_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+@kernel_function
+def trajectory_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: TrajectoryParams
                     ) -> tuple[tuple, tuple]:
-    """Kernel step: the outputs at t + h [s]."""
+    """`Trajectory.do_step` of an analytic shape: the outputs at t + h [s]."""
     return x, sample_kernel(t + h, p)
 
 
@@ -53,7 +67,7 @@ class Trajectory(Component):
     """Reference point T(t) with velocity and acceleration; see the module for the shapes."""
 
     kind = "trajectory"
-    shape = Parameter("paper1", type=STRING, description="paper1 | circle | lemniscate | waypoints")
+    shape = Parameter("paper1", type=STRING, description=" | ".join(NAMES))
     radius = Parameter(5.0, unit="m", min=0.0, description="circle radius / lemniscate size A")
     omega = Parameter(0.1 * math.pi, unit="rad/s", description="angular rate")
     phase = Parameter(0.0, unit="rad", description="circle phase at t = 0")
@@ -67,8 +81,8 @@ class Trajectory(Component):
     acceleration = Output(size=2, unit="m/s2", description="(x_T'', y_T'')")
 
     def initialize(self) -> None:
-        if self.shape not in SHAPES:
-            raise ValueError(f"unknown shape '{self.shape}'; use one of {', '.join(SHAPES)}")
+        if self.shape not in NAMES:
+            raise ValueError(f"unknown shape '{self.shape}'; use one of {', '.join(NAMES)}")
         if self.shape == "waypoints":
             pts = np.reshape(np.asarray(self.waypoints, dtype=float), (-1, 2))
             times = np.asarray(self.times, dtype=float)
@@ -78,27 +92,18 @@ class Trajectory(Component):
             from scipy.interpolate import CubicSpline
 
             self._spline = CubicSpline(times, pts, bc_type="clamped")
-        self._set(self.start_time)
+        self.position, self.velocity, self.acceleration = self.sample(self.start_time)
 
-    def sample(self, t: float) -> tuple[tuple[float, float], tuple[float, float],
-                                        tuple[float, float]]:
-        """(position, velocity, acceleration) at time t [s]."""
-        if self.shape == "paper1":
-            return ((-t, math.sin(0.5 * t) + 0.5 * t + 1.0), (-1.0, 0.5 * math.cos(0.5 * t) + 0.5),
-                    (0.0, -0.25 * math.sin(0.5 * t)))
+    def params(self) -> TrajectoryParams:
+        """The table of an analytic shape."""
         cx, cy = self.center
-        w = self.omega
-        if self.shape == "circle":
-            R, a = self.radius, w * t + self.phase
-            c, s = math.cos(a), math.sin(a)
-            return ((cx + R * c, cy + R * s), (-R * w * s, R * w * c),
-                    (-R * w * w * c, -R * w * w * s))
-        if self.shape == "lemniscate":
-            A = self.radius
-            s1, c1 = math.sin(w * t), math.cos(w * t)
-            s2, c2 = math.sin(2 * w * t), math.cos(2 * w * t)
-            return ((cx + A * s1, cy + A / 2 * s2), (A * w * c1, A * w * c2),
-                    (-A * w * w * s1, -2 * A * w * w * s2))
+        return TrajectoryParams(float(SHAPES[self.shape]), float(self.radius), float(self.omega),
+                                float(self.phase), float(cx), float(cy))
+
+    def sample(self, t: float) -> Sample:
+        """(position, velocity, acceleration) at time t [s]."""
+        if self.shape != "waypoints":
+            return sample_kernel(t, self.params())
         sp = self._spline
         tt = min(max(t, float(sp.x[0])), float(sp.x[-1]))
         p, v, a_ = sp(tt), sp(tt, 1), sp(tt, 2)
@@ -107,16 +112,13 @@ class Trajectory(Component):
         return (float(p[0]), float(p[1])), (float(v[0]), float(v[1])), (float(a_[0]), float(a_[1]))
 
     def kernel(self, h: float) -> Kernel | None:
-        """The compiled form (analytic shapes only; `waypoints` runs in Python)."""
-        code = {"paper1": PAPER1, "circle": CIRCLE, "lemniscate": LEMNISCATE}.get(self.shape)
-        if code is None:
+        """The definition of the analytic shapes (`waypoints`, a scipy spline: Python only)."""
+        if self.shape == "waypoints":
             return None
-        cx, cy = self.center
-        return Kernel(params=(code, float(self.radius), float(self.omega), float(self.phase),
-                              float(cx), float(cy)), step=trajectory_step)
-
-    def _set(self, t: float) -> None:
-        self.position, self.velocity, self.acceleration = self.sample(t)
+        return Kernel(params=self.params(), step=trajectory_step)
 
     def do_step(self, t: float, h: float) -> None:
-        self._set(t + h)
+        if self.shape != "waypoints":
+            self.kernel_do_step(t, h)
+            return
+        self.position, self.velocity, self.acceleration = self.sample(t + h)

@@ -1,11 +1,12 @@
-"""Motor driver: ideal pass-through; DC mode against python-control's own simulation."""
+"""Motor driver: ideal pass-through; DC mode against python-control (its zoh discretisation and
+its simulation of the closed current loop)."""
 from __future__ import annotations
 
 import control
 import numpy as np
 import pytest
 
-from twmr.components.motor import MotorDriver
+from twmr.components.motor import MotorDriver, armature_zoh
 from twmr.testing import Harness
 
 
@@ -20,6 +21,17 @@ def test_ideal_mode_passes_torque_exactly() -> None:
     m.set(torque_command=(1.25, -3.5))
     m.evaluate()
     assert m["torque"] == (1.25, -3.5)
+
+
+@pytest.mark.parametrize("h", [1e-5, 1e-3, 0.05])
+@pytest.mark.parametrize("R, L, K_e, gear", [(0.3, 3e-4, 0.06, 20.0), (2.0, 1e-2, 0.1, 5.0)])
+def test_armature_discretisation_is_control_c2d_zoh(R, L, K_e, gear, h) -> None:
+    """The closed form against python-control's zoh of di/dt = (-R i + V - K_e N omega) / L."""
+    arm = control.ss([[-R / L]], [[1.0 / L, -K_e * gear / L]], [[1.0]], [[0.0, 0.0]])
+    d = control.c2d(arm, h, method="zoh")
+    a, b_v, b_w = armature_zoh(R, L, K_e, gear, h)
+    np.testing.assert_allclose((a, b_v, b_w), (d.A[0, 0], d.B[0, 0], d.B[0, 1]), rtol=1e-11,
+                               atol=1e-300)
 
 
 def test_dc_mode_steady_state_torque_equals_command() -> None:

@@ -1,4 +1,6 @@
-"""TWMR plant: eq. (8) term by term, M positive definite, straight driving, energy, RK4 order."""
+"""TWMR plant against analytic answers: eq. (8) by hand for Table I, a straight line at equal
+torques, a rotation on the spot, energy with B alone, a disturbance balancing the torque, slip
+moving the robot, RK4's order."""
 from __future__ import annotations
 
 import math
@@ -6,97 +8,94 @@ import math
 import numpy as np
 import pytest
 
-from twmr.components._model import derivative
 from twmr.components.plant import TwmrPlant
 from twmr.testing import Harness
 
-A, IG, ID, IW, R, B, MW, MG = 0.3, 15.625, 0.0025, 0.1, 0.15, 0.75, 1.0, 30.0
-
-
-def paper_matrices(varpi: float) -> dict[str, np.ndarray]:
-    """The matrices of eq. (8) transcribed independently from the paper (Table I values)."""
-    m11 = MG * (R**2 / 4 + A**2 * R**2 / (4 * B**2)) + R**2 / (4 * B**2) * (IG + 2 * ID) \
-        + 2 * MW * R**2 + IW
-    m12 = MG * (R**2 / 4 - A**2 * R**2 / (4 * B**2)) - R**2 / (4 * B**2) * (IG + 2 * ID)
-    q1 = MG * R / 4 * (1 + A**2 / B**2) + R / (4 * B) * (IG + 2 * ID)
-    q2 = MG * R / 4 * (1 - A**2 / B**2) - R / (4 * B) * (IG + 2 * ID)
-    return {"M": np.array([[m11, m12], [m12, m11]]),
-            "B": MG * R**2 / (2 * B) * varpi * np.array([[0.0, 1.0], [-1.0, 0.0]]),
-            "Q": np.array([[q1, q2], [q2, q1]]),
-            "C": MG * R / 2 * varpi * np.ones(2),
-            "G": MG * A * R / (2 * B) * np.array([1.0, -1.0])}
+A, R, B = 0.3, 0.15, 0.75
+#: eq. (8) for Table I (a 0.3, I_G 15.625, I_D 0.0025, I_W 0.1, r 0.15, b 0.75, m_W 1, m_G 30)
+#: by hand: r^2/(4b^2) = 0.01, I_G + 2 I_D = 15.63, a^2/b^2 = 0.16, r/(4b) = 0.05
+M11 = 30 * (0.005625 + 0.0009) + 0.01 * 15.63 + 2 * 0.0225 + 0.1  # 0.49705
+M12 = 30 * (0.005625 - 0.0009) - 0.01 * 15.63  # -0.01455
+Q1 = 30 * 0.15 / 4 * 1.16 + 0.05 * 15.63  # 2.0865
+Q2 = 30 * 0.15 / 4 * 0.84 - 0.05 * 15.63  # 0.1635
 
 
 def plant(initial: dict | None = None, step: float = 1e-3, **kw) -> Harness:
     """An initialized harness around the plant with parameters `kw` and start values `initial`,
-    on [0, 10] s at communication step `step`. m11, m12, q1, q2 and `coefficients` are the model's
-    own figures, not ports: they are read from `.component`."""
+    on [0, 10] s at communication step `step`."""
     return Harness(TwmrPlant, name="plant", parameters=kw, initial=initial, stop=10.0,
                    step=step).initialize()
 
 
-def test_inertia_terms_match_the_paper() -> None:
+def test_inertia_terms_are_eq_8_for_table_i() -> None:
     p = plant().component
-    mats = paper_matrices(0.0)
-    m11, m12, q1, q2 = p.m11, p.m12, p.q1, p.q2
-    assert m11 == pytest.approx(mats["M"][0, 0], rel=1e-14)
-    assert m12 == pytest.approx(mats["M"][0, 1], rel=1e-14)
-    assert (q1, q2) == pytest.approx((mats["Q"][0, 0], mats["Q"][0, 1]), rel=1e-14)
-    # by hand from Table I: m11 = 30 (0.005625 + 0.000900) + 0.01 (15.63) + 0.045 + 0.1
-    assert m11 == pytest.approx(30 * (0.005625 + 0.0009) + 0.01 * 15.63 + 0.045 + 0.1)
+    assert (p.m11, p.m12, p.q1, p.q2) == pytest.approx((M11, M12, Q1, Q2), rel=1e-13)
 
 
-def test_mass_matrix_is_symmetric_positive_definite() -> None:
-    M = paper_matrices(0.0)["M"]
-    assert np.allclose(M, M.T) and np.all(np.linalg.eigvalsh(M) > 0)
+def test_scale_multiplies_every_mass_and_inertia() -> None:
+    p = plant(scale=1.25).component
+    assert (p.m11, p.m12, p.q1, p.q2) == pytest.approx(
+        (1.25 * M11, 1.25 * M12, 1.25 * Q1, 1.25 * Q2), rel=1e-13)
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_derivative_is_eq_8_and_eq_11_term_by_term(seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    x, y, th, wR, wL = rng.normal(size=5)
-    tau, mu, mu2, td = (rng.normal(size=2), rng.normal(size=3), rng.normal(size=3),
-                        rng.normal(size=2))
-    p = plant().component
-    d = derivative(x, y, th, wR, wL, *tau, *mu, *mu2, *td, *p.coefficients)
-    beta = R * (wR + wL) / 2 + (mu[0] + mu[1]) / 2  # eq. (2)
-    varpi = R * (wR - wL) / (2 * B) + (mu[0] - mu[1]) / (2 * B)  # eq. (3)
-    assert d[0] == pytest.approx(beta * math.cos(th) - mu[2] * math.sin(th))  # eq. (11)
-    assert d[1] == pytest.approx(beta * math.sin(th) + mu[2] * math.cos(th))
-    assert d[2] == pytest.approx(varpi)
-    m = paper_matrices(varpi)
-    nu = np.array([wR, wL])
-    rhs = tau - m["B"] @ nu - m["Q"] @ mu2[:2] - m["C"] * mu[2] - m["G"] * mu2[2] - td  # eq. (8)
-    np.testing.assert_allclose(d[3:], np.linalg.solve(m["M"], rhs), rtol=1e-12)
-
-
-def test_b_is_skew_symmetric() -> None:
-    Bm = paper_matrices(0.7)["B"]
-    np.testing.assert_allclose(Bm, -Bm.T)
-
-
-def test_equal_wheel_speeds_without_slip_drive_straight() -> None:
-    p = plant(initial={"wheel_speed": (2.0, 2.0)})
+def test_equal_torques_drive_a_straight_line_at_the_accelerations_of_eq_8() -> None:
+    """tau_R = tau_L = tau from rest, no slip: varpi = 0, so B = C = 0 and (m11 + m12) phi'' =
+    tau; M moves along theta's direction by r phi'' t^2 / 2 (RK4 is exact for a polynomial)."""
+    theta, tau, T = 0.4, 1.5, 1.0
+    p = plant(initial={"pose": (1.0, -2.0, theta)})
+    p.set(torque=(tau, tau))
     p.step(1000)  # 1 s at 1 ms
+    acc = tau / (M11 + M12)
     x, y, th = p["pose"]
-    assert th == 0.0 and y == 0.0
-    assert x == pytest.approx(2.0 * R * 1.0, rel=1e-12)
-    assert p["com"] == pytest.approx((x + A, 0.0))
+    assert th == theta
+    assert p["wheel_speed"] == pytest.approx((acc * T, acc * T), rel=1e-12)
+    dist = R * acc * T * T / 2
+    assert (x, y) == pytest.approx((1.0 + dist * math.cos(theta), -2.0 + dist * math.sin(theta)),
+                                   rel=1e-12)
+    assert p["com"] == pytest.approx((x + A * math.cos(th), y + A * math.sin(th)), rel=1e-12)
 
 
-def kinetic_energy(p: Harness) -> float:
-    nu = np.array(p["wheel_speed"])
+def test_opposite_torques_turn_on_the_spot_when_the_platform_mass_is_negligible() -> None:
+    """m_G -> 0 removes B, C and G: tau_R = -tau_L = tau from rest gives (m11 - m12) phi_R'' =
+    tau, beta = 0 (M stays put) and theta = r tau t^2 / (2 b (m11 - m12))."""
+    tau, T = 0.8, 1.0
+    p = plant(initial={"pose": (0.5, 0.25, 0.0)}, m_G=1e-6)
+    p.set(torque=(tau, -tau))
+    p.step(1000)
     c = p.component
-    M = np.array([[c.m11, c.m12], [c.m12, c.m11]])
-    return 0.5 * nu @ M @ nu
+    x, y, th = p["pose"]
+    acc = tau / (c.m11 - c.m12)
+    assert (x, y) == pytest.approx((0.5, 0.25), abs=1e-6)
+    assert p["wheel_speed"] == pytest.approx((acc * T, -acc * T), rel=1e-6)
+    assert th == pytest.approx(R * tau * T * T / (2 * B * (c.m11 - c.m12)), rel=1e-6)
 
 
 def test_energy_is_conserved_without_torque_slip_or_disturbance() -> None:
+    """B is skew-symmetric: nu' M nu / 2 is constant while B trades speed between the wheels."""
+    M = np.array([[M11, M12], [M12, M11]])
     p = plant(initial={"wheel_speed": (3.0, -1.0)})
-    e0 = kinetic_energy(p)
+    e0 = 0.5 * np.array((3.0, -1.0)) @ M @ np.array((3.0, -1.0))
     p.step(2000)  # 2 s at 1 ms
-    assert kinetic_energy(p) == pytest.approx(e0, rel=1e-9)
-    assert p["wheel_speed"] != (3.0, -1.0)  # B did exchange energy between the wheels
+    nu = np.array(p["wheel_speed"])
+    assert 0.5 * nu @ M @ nu == pytest.approx(e0, rel=1e-9)
+    assert abs(nu[0] - 3.0) > 1e-3  # B did exchange energy between the wheels
+
+
+def test_a_disturbance_equal_to_the_torque_leaves_the_robot_at_rest() -> None:
+    p = plant(initial={"pose": (0.0, 0.0, 1.0)})
+    p.set(torque=(2.0, -3.0), disturbance=(2.0, -3.0))
+    p.step(100)
+    assert p["pose"] == (0.0, 0.0, 1.0) and p["wheel_speed"] == (0.0, 0.0)
+
+
+def test_held_slip_rates_move_the_robot_with_locked_wheels() -> None:
+    """Wheels at rest held by the torque that balances the slip accelerations (zero here): M moves
+    by the slip rates alone, eqs (2), (3), (11): beta = (mu_R' + mu_L') / 2, lateral delta'."""
+    p = plant(initial={"pose": (0.0, 0.0, 0.0)})
+    p.set(slip_rate=(0.2, 0.2, 0.1))
+    p.step(1000)
+    x, y, th = p["pose"]
+    assert (x, y, th) == pytest.approx((0.2, 0.1, 0.0), abs=1e-12)
 
 
 def run(internal_step: float) -> np.ndarray:
@@ -112,9 +111,3 @@ def test_rk4_is_fourth_order() -> None:
     e1 = np.max(np.abs(run(0.1) - exact))
     e2 = np.max(np.abs(run(0.05) - exact))
     assert 10.0 < e1 / e2 < 22.0, e1 / e2
-
-
-def test_scale_multiplies_masses_and_inertias() -> None:
-    p, q = plant(scale=1.25), plant(m_G=37.5, m_W=1.25, I_G=15.625 * 1.25, I_D=0.003125,
-                                     I_W=0.125)
-    assert p.component.coefficients == pytest.approx(q.component.coefficients, rel=1e-14)

@@ -1,65 +1,114 @@
-"""Compiled kernels of the engine's blocks (`twmr.master.compiled`): pure numba functions,
-imported only when a run is compiled (numba stays unloaded otherwise)."""
+"""The definitions of the engine's blocks: their parameter tables and kernel functions
+(`twmr.core.kernel`). Plain Python in a Python run (numba stays unloaded); compiled by numba when
+the compiled loop calls them."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from twmr.core.kernel import kernel_function
 
 
-@njit(cache=True)
-def gain_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
-    """y = k u; p = (k,)."""
-    return x, (p[0] * u[0],)
+class GainParams(NamedTuple):
+    k: float
 
 
-@njit(cache=True)
-def sum_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple) -> tuple[tuple, tuple]:
-    """y = k1 u1 + k2 u2; p = (k1, k2)."""
-    return x, (p[0] * u[0] + p[1] * u[1],)
+class SumParams(NamedTuple):
+    k1: float
+    k2: float
 
 
-@njit(cache=True)
-def integrator_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+class IntegratorParams(NamedTuple):
+    k: float
+
+
+class SineParams(NamedTuple):
+    amplitude: float
+    frequency: float  #: [Hz]
+    phase: float  #: [rad]
+    offset: float
+
+
+class StepParams(NamedTuple):
+    height: float
+    time: float  #: [s]
+    offset: float
+
+
+class StateSpaceParams(NamedTuple):
+    """The zero-order-hold discretisation of x' = A x + B u for the step, and y = C x + D u."""
+
+    a_d: np.ndarray  #: n x n
+    b_d: np.ndarray  #: n
+    c: np.ndarray  #: n
+    d: float
+
+
+@kernel_function
+def gain_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: GainParams) -> tuple[tuple, tuple]:
+    """y = k u."""
+    return x, (p.k * u[0],)
+
+
+@kernel_function
+def sum_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: SumParams) -> tuple[tuple, tuple]:
+    """y = k1 u1 + k2 u2."""
+    return x, (p.k1 * u[0] + p.k2 * u[1],)
+
+
+@kernel_function
+def integrator_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: IntegratorParams
                     ) -> tuple[tuple, tuple]:
-    """y(t + h) = y + k u h; p = (k,)."""
-    return x, (y[0] + p[0] * u[0] * h,)
+    """y(t + h) = y + k u h."""
+    return x, (y[0] + p.k * u[0] * h,)
 
 
-@njit(cache=True)
+@kernel_function
 def delay_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
                ) -> tuple[tuple, tuple]:
     """y(t + h) = u(t)."""
     return x, (u[0],)
 
 
-@njit(cache=True)
-def state_space_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: tuple
+@kernel_function
+def state_space_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: StateSpaceParams
                          ) -> tuple[tuple, tuple]:
-    """y = C x + D u; x = (state vector,), p = (A_d, b_d, c, D); the products through BLAS, as
-    numpy's `@` in the Python block."""
-    return x, (np.dot(p[2], x[0]) + p[3] * u[0],)
+    """y = C x + D u; x = (state vector,). The product through BLAS (`np.dot`), in Python as in
+    numba."""
+    return x, (np.dot(p.c, x[0]) + p.d * u[0],)
 
 
-@njit(cache=True)
-def state_space_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+@kernel_function
+def state_space_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: StateSpaceParams
                      ) -> tuple[tuple, tuple]:
     """x(t + h) = A_d x + b_d u (zero-order hold), then y = C x + D u."""
-    new = np.dot(p[0], x[0]) + p[1] * u[0]
+    new = np.dot(p.a_d, x[0]) + p.b_d * u[0]
     return state_space_evaluate(t + h, (new,), y, u, p)
 
 
-@njit(cache=True)
-def sine_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
-              ) -> tuple[tuple, tuple]:
-    """y(t + h) = offset + amplitude sin(2 pi f (t + h) + phase); p = (amplitude, f, phase,
-    offset)."""
-    return x, (p[3] + p[0] * math.sin(2.0 * math.pi * p[1] * (t + h) + p[2]),)
+@kernel_function
+def sine_at(t: float, p: SineParams) -> float:
+    """offset + amplitude sin(2 pi f t + phase) at t [s]."""
+    return p.offset + p.amplitude * math.sin(2.0 * math.pi * p.frequency * t + p.phase)
 
 
-@njit(cache=True)
-def step_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: tuple
+@kernel_function
+def sine_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: SineParams
               ) -> tuple[tuple, tuple]:
-    """y(t + h) = offset (+ height from `time` [s] on); p = (height, time, offset)."""
-    return x, (p[2] + (p[0] if t + h >= p[1] else 0.0),)
+    """y(t + h)."""
+    return x, (sine_at(t + h, p),)
+
+
+@kernel_function
+def step_at(t: float, p: StepParams) -> float:
+    """offset, plus height from `time` [s] on, at t [s]."""
+    return p.offset + (p.height if t >= p.time else 0.0)
+
+
+@kernel_function
+def step_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: StepParams
+              ) -> tuple[tuple, tuple]:
+    """y(t + h)."""
+    return x, (step_at(t + h, p),)

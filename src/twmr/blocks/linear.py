@@ -1,4 +1,5 @@
-"""Linear blocks: gain, sum, integrator, single-input single-output state space, unit delay."""
+"""Linear blocks: gain, sum, integrator, single-input single-output state space, unit delay. Each
+is defined by its kernel (`twmr.blocks.kernels`)."""
 from __future__ import annotations
 
 import math
@@ -6,9 +7,10 @@ from typing import Any
 
 import numpy as np
 
+from twmr.blocks import kernels
 from twmr.core.component import Component
+from twmr.core.kernel import Kernel
 from twmr.core.port import Input, Output, Parameter
-from twmr.master.compiled import Kernel
 
 
 class Gain(Component):
@@ -23,13 +25,7 @@ class Gain(Component):
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
-        return Kernel(params=(float(self.k),), evaluate=kernels.gain_evaluate)
-
-    def evaluate(self, t: float) -> None:
-        self.y = self.k * self.u
+        return Kernel(params=kernels.GainParams(float(self.k)), evaluate=kernels.gain_evaluate)
 
 
 class Sum(Component):
@@ -46,13 +42,8 @@ class Sum(Component):
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
-        return Kernel(params=(float(self.k1), float(self.k2)), evaluate=kernels.sum_evaluate)
-
-    def evaluate(self, t: float) -> None:
-        self.y = self.k1 * self.u1 + self.k2 * self.u2
+        return Kernel(params=kernels.SumParams(float(self.k1), float(self.k2)),
+                      evaluate=kernels.sum_evaluate)
 
 
 class Integrator(Component):
@@ -68,13 +59,8 @@ class Integrator(Component):
         self.y = self.x0
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
-        return Kernel(params=(float(self.k),), step=kernels.integrator_step)
-
-    def do_step(self, t: float, h: float) -> None:
-        self.y = self.y + self.k * self.u * h
+        return Kernel(params=kernels.IntegratorParams(float(self.k)),
+                      step=kernels.integrator_step)
 
 
 class Delay(Component):
@@ -89,18 +75,12 @@ class Delay(Component):
         self.y = self.y0
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
         return Kernel(step=kernels.delay_step)
-
-    def do_step(self, t: float, h: float) -> None:
-        self.y = self.u
 
 
 class StateSpace(Component):
     """x' = A x + B u, y = C x + D u (single input, single output, n states), discretised exactly
-    for an input held over the step (zero-order hold) at the first `do_step`.
+    for an input held over the step (zero-order hold) for each step size.
 
     A is n*n values row by row, B and C n values each. y depends on u directly only when D != 0."""
 
@@ -125,33 +105,20 @@ class StateSpace(Component):
         self._a = np.reshape(self.A, (n, n))
         self._b = np.reshape(self.B, (n, 1))
         self._c = np.reshape(self.C, (1, n))
-        self._x = np.array(self.x0 or [0.0] * n, dtype=float)
         self._h = math.nan
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form, for steps of h [s] (discretised here, as `do_step` does)."""
-        from twmr.blocks import kernels
-
+        """The definition for steps of h [s] (the discretisation made here)."""
         if h != self._h:
             from scipy.signal import cont2discrete
 
             ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
             self._ad, self._bd, self._h = ad, bd[:, 0], h
-        return Kernel(params=(np.ascontiguousarray(self._ad, dtype=float),
-                              np.ascontiguousarray(self._bd, dtype=float),
-                              np.ascontiguousarray(self._c[0], dtype=float), float(self.D)),
-                      state=(self._x.copy(),), evaluate=kernels.state_space_evaluate,
-                      step=kernels.state_space_step)
-
-    def evaluate(self, t: float) -> None:
-        self.y = float(self._c[0] @ self._x) + self.D * self.u
-
-    def do_step(self, t: float, h: float) -> None:
-        if h != self._h:
-            from scipy.signal import cont2discrete
-
-            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
-            self._ad, self._bd, self._h = ad, bd[:, 0], h
-        self._x = self._ad @ self._x + self._bd * self.u
-        self.evaluate(t + h)
+        n = len(self.B)
+        return Kernel(params=kernels.StateSpaceParams(
+                          np.ascontiguousarray(self._ad, dtype=float),
+                          np.ascontiguousarray(self._bd, dtype=float),
+                          np.ascontiguousarray(self._c[0], dtype=float), float(self.D)),
+                      state=(np.array(self.x0 or [0.0] * n, dtype=float),),
+                      evaluate=kernels.state_space_evaluate, step=kernels.state_space_step)

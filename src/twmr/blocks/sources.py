@@ -1,11 +1,11 @@
-"""Signal sources: outputs are functions of time only (no inputs, no feedthrough)."""
+"""Signal sources: outputs are functions of time only (no inputs, no feedthrough). Each is defined
+by its kernel (`twmr.blocks.kernels`)."""
 from __future__ import annotations
 
-import math
-
+from twmr.blocks import kernels
 from twmr.core.component import Component
+from twmr.core.kernel import Kernel
 from twmr.core.port import Output, Parameter
-from twmr.master.compiled import Kernel
 
 
 class Constant(Component):
@@ -19,7 +19,7 @@ class Constant(Component):
         self.y = self.value
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form: nothing to compute."""
+        """Nothing to compute."""
         return Kernel()
 
 
@@ -33,22 +33,15 @@ class Sine(Component):
     offset = Parameter(0.0)
     y = Output(0.0)
 
-    def _at(self, t: float) -> float:
-        return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t
-                                                       + self.phase)
+    def _params(self) -> kernels.SineParams:
+        return kernels.SineParams(float(self.amplitude), float(self.frequency),
+                                  float(self.phase), float(self.offset))
 
     def initialize(self) -> None:
-        self.y = self._at(self.start_time)
+        self.y = kernels.sine_at(self.start_time, self._params())
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
-        return Kernel(params=(float(self.amplitude), float(self.frequency), float(self.phase),
-                              float(self.offset)), step=kernels.sine_step)
-
-    def do_step(self, t: float, h: float) -> None:
-        self.y = self._at(t + h)
+        return Kernel(params=self._params(), step=kernels.sine_step)
 
 
 class Step(Component):
@@ -60,18 +53,11 @@ class Step(Component):
     offset = Parameter(0.0)
     y = Output(0.0)
 
-    def _at(self, t: float) -> float:
-        return self.offset + (self.height if t >= self.time else 0.0)
+    def _params(self) -> kernels.StepParams:
+        return kernels.StepParams(float(self.height), float(self.time), float(self.offset))
 
     def initialize(self) -> None:
-        self.y = self._at(self.start_time)
-
-    def do_step(self, t: float, h: float) -> None:
-        self.y = self._at(t + h)
+        self.y = kernels.step_at(self.start_time, self._params())
 
     def kernel(self, h: float) -> Kernel:
-        """The compiled form."""
-        from twmr.blocks import kernels
-
-        return Kernel(params=(float(self.height), float(self.time), float(self.offset)),
-                      step=kernels.step_step)
+        return Kernel(params=self._params(), step=kernels.step_step)

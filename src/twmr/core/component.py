@@ -10,14 +10,88 @@ Semantics (what the master relies on):
   (FMI: fmi2GetReal after fmi2SetReal);
 - ``do_step(t, h)`` advances from t to t + h with the inputs held (zero-order hold) and leaves the
   state-dependent outputs at t + h.
+
+A block that offers a kernel (a method ``kernel(h)`` returning a `twmr.core.kernel.Kernel`) needs
+nothing else: its ``evaluate``/``do_step`` run the kernel's functions (`kernel_evaluate`,
+`kernel_do_step`), the component holding the kernel's private state between calls, and the
+compiled loop calls the same functions.
 """
 from __future__ import annotations
 
 import copy
+import dataclasses
+import functools
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
+from twmr.core.kernel import Kernel, KernelFunction
 from twmr.core.port import Input, Output, Parameter, State, Variable
+
+#: attributes of a component that runs a kernel: its private state x, and the kernel in use
+_X, _RUN = "_kernel_x", "_kernel_run"
+
+
+def _python(fn: Any) -> Any:
+    """What a Python call runs of kernel function `fn`: a `kernel_function`'s plain function, a
+    numba function compiled."""
+    return fn.py_func if isinstance(fn, KernelFunction) else fn
+
+
+class _Run:
+    """The kernel a component runs in Python, made for steps of `h` [s], as two functions
+    `evaluate(t)` and `step(t, h)` generated for its ports (values read from and written to the
+    component's `__dict__` by name); shared, not copied, by a saved state (it follows from the
+    parameters)."""
+
+    def __init__(self, h: float, kernel: Kernel, comp: Component):
+        self.h = h
+        d = comp.__dict__
+
+        def ports(names: list[str]) -> str:
+            return "(" + "".join(f"d[{n!r}], " for n in names) + ")"
+
+        ys, us = ports(list(comp.outputs)), ports(list(comp.inputs))
+        report = getattr(kernel.sync, "__wrapped__", kernel.sync)  # the block's own sync
+        env: dict[str, Any] = {"d": d, "p": kernel.params, "report": report,
+                               "ev": _python(kernel.evaluate), "st": _python(kernel.step)}
+        lines = []
+        for name, fn, args in (("evaluate", "ev", "t"), ("step", "st", "t, h")):
+            lines.append(f"def {name}({args}):")
+            if env[fn] is None:
+                lines.append("    pass")
+                continue
+            lines.append(f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)")
+            lines.append(f"    d[{_X!r}] = x")
+            if report is not None:
+                lines.append("    report(x)")
+        exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
+        self.evaluate: Callable[[float], None] = env["evaluate"]
+        self.step: Callable[[float, float], None] = env["step"]
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> _Run:
+        return self
+
+
+def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, float], Kernel | None]:
+    """`kernel(h)` of a block, handing out the private state the component holds (so compiled
+    steps continue where Python ones stopped) and keeping the state compiled steps leave."""
+    @functools.wraps(make)
+    def kernel(self: Component, h: float) -> Kernel | None:
+        k = make(self, h)
+        if k is None or k.fmu is not None:
+            return k
+        d = self.__dict__
+        x = d.setdefault(_X, k.state)
+        report = k.sync
+
+        def sync(x: tuple) -> None:
+            d[_X] = x
+            if report is not None:
+                report(x)
+        sync.__wrapped__ = report  # type: ignore[attr-defined]
+        return dataclasses.replace(k, state=x, sync=sync)
+    return kernel
 
 
 class Component:
@@ -32,6 +106,19 @@ class Component:
     needs_realtime: ClassVar[bool] = False
     #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
     sizing_parameters: frozenset[str] = frozenset()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A class that defines `kernel` gets `evaluate`/`do_step` that run it (unless it, or a
+        base, has its own), and its `kernel(h)` carries the state the component holds."""
+        super().__init_subclass__(**kwargs)
+        make = vars(cls).get("kernel")
+        if make is None or not callable(make):
+            return
+        setattr(cls, "kernel", _holding(make))  # noqa: B010 - Component declares no `kernel`
+        if cls.evaluate is Component.evaluate:
+            cls.evaluate = Component.kernel_evaluate  # type: ignore[method-assign]
+        if cls.do_step is Component.do_step:
+            cls.do_step = Component.kernel_do_step  # type: ignore[method-assign]
 
     def __init__(self, name: str = "", **parameters: Any):
         self.name = name or type(self).__name__
@@ -113,6 +200,8 @@ class Component:
         """Called once before `initialize()` with the experiment's start and stop times [s]."""
         self.start_time = start
         self.stop_time = stop
+        self.__dict__.pop(_X, None)  # a kernel's private state starts again from its `state`
+        self.__dict__.pop(_RUN, None)
 
     def initialize(self) -> None:
         """Compute the outputs at the start time from parameters, states and inputs."""
@@ -122,6 +211,32 @@ class Component:
 
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h [s] with inputs held; leave outputs at t + h."""
+
+    def _make_run(self, h: float) -> _Run:
+        make = getattr(self, "kernel", None)
+        k = make(h) if make is not None else None
+        if k is None:
+            raise TypeError(
+                f"component '{self.name}' ({type(self).__name__}) offers no kernel with these "
+                f"parameters and has no evaluate/do_step of its own. Fix: give the class "
+                f"Python methods for the parameters its kernel does not cover.")
+        run = self.__dict__[_RUN] = _Run(h, k, self)
+        return run
+
+    def kernel_evaluate(self, t: float) -> None:
+        """`evaluate` of a block that offers a kernel: its `evaluate` function on (held state,
+        outputs, inputs, parameters), the outputs written back. Before the first step the
+        kernel is made with h = 0 (the step is not known yet; evaluate must not depend on it)."""
+        run = self.__dict__.get(_RUN) or self._make_run(0.0)
+        run.evaluate(t)
+
+    def kernel_do_step(self, t: float, h: float) -> None:
+        """`do_step` of a block that offers a kernel: its `step` function from t to t + h [s]
+        (the kernel made again when h changes), the outputs written back."""
+        run = self.__dict__.get(_RUN)
+        if run is None or run.h != h:
+            run = self._make_run(h)
+        run.step(t, h)
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""

@@ -28,7 +28,7 @@ from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import runnable
 
 if TYPE_CHECKING:
-    from twmr.master.compiled import Kernel
+    from twmr.core.kernel import Kernel
 
 __all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
 
@@ -443,7 +443,7 @@ class FmuComponent(Component):
 
         import numpy as np
 
-        from twmr.master.compiled import FmuCalls, Kernel
+        from twmr.core.kernel import FmuCalls, Kernel
 
         fmu = self._fmu
         if fmu is None or self.me or self.fmi3 or self._pythonfmu or not hasattr(fmu, "dll"):

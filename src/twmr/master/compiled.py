@@ -42,14 +42,13 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Write, guard
 from twmr.master.schedule import FixedStep
@@ -60,38 +59,6 @@ MODES = ("auto", "on", "off")
 #: numba would be loaded)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
-
-
-@dataclass(frozen=True)
-class Kernel:
-    """A component's compiled form: numba functions `evaluate(t, x, y, u, p) -> (x, y)` and
-    `step(t, h, x, y, u, p) -> (x, y)` (either None), its parameters `params` and initial private
-    state `state` (tuples of floats, of tuples of floats or of numpy arrays), and `sync(x)`,
-    called with the state after every chunk of steps so the Python component can report (e.g.
-    log a warning)."""
-
-    params: tuple = ()
-    state: tuple = ()
-    evaluate: Any = None
-    step: Any = None
-    sync: Callable[[tuple], None] | None = None
-    #: an FMU the loop calls itself through its C function pointers (`FmuComponent.compiled_calls`)
-    fmu: FmuCalls | None = None
-
-
-@dataclass(frozen=True)
-class FmuCalls:
-    """What the generated loop needs to call an FMI 2.0 co-simulation FMU: the ports each call
-    carries, [(port, width)] in the order of their value references. The parameters of its
-    `Kernel` are (fmi2SetReal, fmi2GetReal, fmi2DoStep as ctypes functions taking pointers as
-    size_t, the instance, the value references of the inputs, of the feedthrough outputs and of
-    the outputs read after a step (uint32 arrays), a float64 value buffer); a status above
-    fmi2Warning stops the run, reported by `error(call, status, t)`."""
-
-    inputs: tuple[tuple[str, int], ...]
-    feedthrough: tuple[tuple[str, int], ...]
-    after_step: tuple[tuple[str, int], ...]
-    error: Callable[[str, int, float], BaseException]
 
 
 class CompileError(CosimError):
