@@ -1,7 +1,7 @@
 /* Sliding-mode tracking controllers of the paper: the law of eqs (9)-(32) with the torque limit,
  * and with ADAPTIVE the ASMC's estimate d_hat' = eta s (eq. 33), held while the torque is limited
- * when HOLD_SATURATED. DRIVE (0 auto, 1 forward, 2 backward) sets the side of the look-ahead
- * point, SAT_SCALE how the limit applies (0: clip each wheel, 1: scale both). The C twin of
+ * when HOLD_SATURATED. DRIVE (0 auto, DRIVE_FORWARD, DRIVE_BACKWARD) sets the side of the
+ * look-ahead point, SAT_SCALE how the limit applies (0: clip each wheel, 1: scale both). The C twin of
  * components/_tracking.py, asmc.py, smc.py and _model.tracking_law, in the same order of
  * operations. */
 #include <math.h>
@@ -100,7 +100,8 @@ void kernel_init(Model *m) {
     m->v[V_d_hat] = m->v[V_d_hat0];
     m->v[V_d_hat + 1] = m->v[V_d_hat0 + 1];
 #endif
-    m->w[SIDE] = DRIVE == 1 ? 1.0 : (DRIVE == 2 ? -1.0 : start_side(m->v));
+    m->w[SIDE] = DRIVE == DRIVE_FORWARD ? 1.0
+                 : (DRIVE == DRIVE_BACKWARD ? -1.0 : start_side(m->v));
     inertia(m->v, m->w);
     kernel_eval(m);
 }

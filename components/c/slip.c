@@ -1,27 +1,22 @@
 /* Wheel slip and disturbance generator (Sec. IV-A): profiles paper, none, constant, step, mud
- * (PROFILE in config.h). The C twin of components/slip.py (the random profile is not exported). */
+ * (PROFILE in config.h: one of the codes SLIP_* of components/_model.py). The C twin of
+ * components/slip.py (the random profile is not exported). */
 #include <math.h>
 #include "kernel.h"
-
-/* profile codes, as components/_model.py (macros: PROFILE selects code at compile time) */
-#define PAPER 1
-#define NO_SLIP 2
-#define CONSTANT 3
-#define STEP 4
 
 void kernel_eval(Model *m) {
     double *v = m->v, t = m->time, rate[3] = {0.0, 0.0, 0.0}, accel[3] = {0.0, 0.0, 0.0};
     double dist[2] = {0.0, 0.0}, g = v[V_slip_gain], gd = v[V_disturbance_gain];
     int i;
-#if PROFILE == PAPER
+#if PROFILE == SLIP_PAPER
     double tp = t + v[V_phase];
     rate[0] = 1.0 + cos(tp); rate[1] = 1.0 + sin(tp); rate[2] = cos(tp);
     accel[0] = -sin(tp); accel[1] = cos(tp); accel[2] = -sin(tp);
     dist[0] = 2.0 * sin(3.0 * tp); dist[1] = 2.0 * cos(3.0 * tp);
-#elif PROFILE != NO_SLIP
-#if PROFILE == CONSTANT
+#elif PROFILE != SLIP_NO_SLIP
+#if PROFILE == SLIP_CONSTANT
     int on = 1;
-#elif PROFILE == STEP
+#elif PROFILE == SLIP_STEP
     int on = t >= v[V_step_time];
 #else
     int on = hypot(v[V_pose] - v[V_mud_center], v[V_pose + 1] - v[V_mud_center + 1])

@@ -2,10 +2,11 @@
  * substeps. The C twin of components/plant.py and components/_model.py (inertia, derivative,
  * slip_at, rk4), written in the same order of operations. */
 #include <math.h>
+#include <stdio.h>
 #include "kernel.h"
 
+#define MAX_SUBSTEPS 1e8  /* substeps of one doStep: more is a step size gone wrong */
 enum { M11, M12, Q1, Q2, MG, H_LAST, N_SUB, H_SUB };  /* work values */
-enum { HELD, PAPER, NO_SLIP, CONSTANT, STEP, MUD };  /* codes of the slip_model descriptor */
 
 /* (m11, m12, q1, q2) of eq. (8), exactly as printed (m11 with 2 m_W r^2). */
 static void inertia(double a, double I_G, double I_D, double I_W, double r, double b,
@@ -43,17 +44,17 @@ static void derivative(const double *z, double tR, double tL, const Slip *u, con
 
 /* The slip profile of descriptor p at time t [s] with M at (x, y) [m] (Sec. IV-A: paper). */
 static void slip_at(const double *p, double t, double x, double y, Slip *u) {
-    double g = p[1], gd = p[2];
-    int code = (int)p[0], on, i;
-    if (code == PAPER) {
+    double code = p[0], g = p[1], gd = p[2];  /* codes SLIP_* compared as doubles, as in Python */
+    int on, i;
+    if (code == SLIP_PAPER) {
         double tp = t + p[12], c = cos(tp), s = sin(tp);
         double v[8] = {g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
                        gd * 2.0 * sin(3.0 * tp), gd * 2.0 * cos(3.0 * tp)};
         for (i = 0; i < 8; i++) u->s[i] = v[i];
         return;
     }
-    on = code == CONSTANT || (code == STEP && t >= p[8]) ||
-         (code == MUD && hypot(x - p[9], y - p[10]) <= p[11]);
+    on = code == SLIP_CONSTANT || (code == SLIP_STEP && t >= p[8]) ||
+         (code == SLIP_MUD && hypot(x - p[9], y - p[10]) <= p[11]);
     for (i = 0; i < 8; i++) u->s[i] = 0.0;
     if (on) {
         u->s[0] = g * p[3]; u->s[1] = g * p[4]; u->s[2] = g * p[5];
@@ -82,10 +83,16 @@ void kernel_step(Model *m, double t0, double h) {
     double *v = m->v, *w = m->w, z[5], y[5], k1[5], k2[5], k3[5], k4[5];
     double a = v[V_a], r = v[V_r], b = v[V_b], hs, tR = v[V_torque], tL = v[V_torque + 1];
     const double *p = v + V_slip_model;
-    int live = (int)p[0] != HELD, i, j, n;
+    int live = p[0] != SLIP_HELD, i, j, n;
     Slip u;
     if (h != w[H_LAST]) {  /* substeps for this step size */
         double sub = ceil(h / v[V_internal_step] - 1e-9);
+        if (!(sub <= MAX_SUBSTEPS)) {
+            snprintf(m->error, sizeof m->error, "%.3g RK4 substeps of internal_step = %g s "
+                     "(at most %.0f). Fix: a smaller step or a larger internal_step", sub,
+                     v[V_internal_step], MAX_SUBSTEPS);
+            return;
+        }
         w[N_SUB] = sub > 1.0 ? sub : 1.0;
         w[H_SUB] = h / w[N_SUB];
         w[H_LAST] = h;
