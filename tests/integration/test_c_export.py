@@ -209,3 +209,20 @@ def test_a_non_finite_start_value_is_refused_at_export(tmp_path) -> None:
     with pytest.raises(CosimError, match=r"parameter 'k' = inf is not a finite number.*Fix"):
         export_c_fmu("gain", tmp_path / "g.fmu", {"k": math.inf})
     assert not (tmp_path / "g.fmu").exists()
+
+
+def test_state_space_exported_without_feedthrough_keeps_d_zero(tmp_path) -> None:
+    """D = 0 at export: y does not depend on u in the FMU's structure, so D cannot become
+    nonzero through FMI (its min and max are 0); D != 0 at export may be changed freely."""
+    from fmpy.fmi1 import FMICallException
+
+    strict, vr = _slave(export_c_fmu("state_space", tmp_path / "s0.fmu"), tmp_path / "s0")
+    free, vr1 = _slave(export_c_fmu("state_space", tmp_path / "s1.fmu", {"D": 0.5}),
+                       tmp_path / "s1")
+    try:
+        with pytest.raises(FMICallException):
+            strict.setReal([vr["D"]], [0.5])
+        free.setReal([vr1["D"]], [0.0])
+    finally:
+        for f in (strict, free):
+            f.freeInstance()

@@ -40,5 +40,10 @@ GAIN = CTwin(C / "gain.c", frozenset({"k"}))
 SUM = CTwin(C / "sum.c", frozenset({"k1", "k2"}))
 INTEGRATOR = CTwin(C / "integrator.c", frozenset({"k"}))
 DELAY = CTwin(C / "delay.c")
+def _ss_pinned(comp: Component) -> frozenset[str]:
+    """D = 0 exports a block without feedthrough (y does not depend on u), so D stays 0."""
+    return frozenset({"D"}) if comp.get("D") == 0.0 else frozenset()
+
+
 STATE_SPACE = CTwin(C / "state_space.c", order=state_space_size, order_define="N_SS",
-                    lengths=SS_LENGTHS, orders=(1, 2, 3), work=_ss_work)
+                    lengths=SS_LENGTHS, orders=(1, 2, 3), work=_ss_work, pinned=_ss_pinned)

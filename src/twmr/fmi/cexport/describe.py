@@ -31,6 +31,8 @@ class Element:
     value: float
     var: Any
     code: str  # 'f' fixed / 't' tunable parameter, 'i' input, 's' state, 'o' output
+    lo: float | None = None  # the parameter's min and max in the FMU
+    hi: float | None = None
 
 
 def elements(comp: Component, twin: CTwin) -> list[Element]:
@@ -48,7 +50,10 @@ def elements(comp: Component, twin: CTwin) -> list[Element]:
         else:
             out += [Element(f"{var.name}[{i + 1}]", var.name, i, float(x), var, code)
                     for i, x in enumerate(value)]
+    pinned = twin.pinned(comp)
     for e in out:
+        if e.code in "ft":
+            e.lo, e.hi = (e.value, e.value) if e.port in pinned else (e.var.min, e.var.max)
         if e.code != "o" and not math.isfinite(e.value):
             raise CosimError(f"export {comp.kind}: {e.var.kind} '{e.name}' = {e.value} is not "
                              f"a finite number, and an FMU's start value must be one. Fix: "
@@ -88,10 +93,8 @@ def config_h(comp: Component, twin: CTwin, elems: list[Element], guid: str) -> s
         lines.append("};")
 
     array("double", "START", [_c_double(e.value) for e in elems])
-    array("double", "MIN", [_c_double(-math.inf if e.var.min is None or e.code in "ios"
-                                      else e.var.min) for e in elems])
-    array("double", "MAX", [_c_double(math.inf if e.var.max is None or e.code in "ios"
-                                      else e.var.max) for e in elems])
+    array("double", "MIN", [_c_double(-math.inf if e.lo is None else e.lo) for e in elems])
+    array("double", "MAX", [_c_double(math.inf if e.hi is None else e.hi) for e in elems])
     array("char *const", "NAME", [f'"{e.name}"' for e in elems])
     lines.append(f'static const char KIND[NV + 1] = "{"".join(e.code for e in elems)}";')
     lines += ["", "#endif", ""]
@@ -175,9 +178,8 @@ def model_description(comp: Component, twin: CTwin, elems: list[Element], guid: 
             typed["start"] = repr(e.value)
         if unit:
             typed["unit"] = unit
-        for bound in ("min", "max"):
-            value = getattr(e.var, bound)
-            if value is not None and e.code in "ft":
+        for bound, value in (("min", e.lo), ("max", e.hi)):
+            if value is not None:
                 typed[bound] = repr(float(value))
         if fmi == 2:
             ET.SubElement(ET.SubElement(variables, "ScalarVariable", attrs), "Real", typed)

@@ -34,7 +34,9 @@ class CTwin:
     variable size, `order(comp)` its order n (CosimError for sizes that do not fit), #defined as
     `order_define`, `lengths` the length of each variable-size parameter for order n (an empty
     one is exported as n zeros) and `orders` the orders a test exercises; `work(comp)` the number
-    of work values, `hidden` the parameters not exported."""
+    of work values, `hidden` the parameters not exported, `pinned(comp)` the parameters whose
+    export value decides the FMU's structure (its feedthrough): their min and max are that
+    value."""
 
     source: Path
     tunable: frozenset[str] = frozenset()
@@ -46,6 +48,7 @@ class CTwin:
     orders: tuple[int, ...] = ()
     work: Callable[[Component], int] = field(default=lambda comp: 1)
     hidden: frozenset[str] = frozenset()
+    pinned: Callable[[Component], frozenset[str]] = field(default=lambda comp: frozenset())
 
     def options(self, comp: Component) -> dict[str, int]:
         """The #defines of `comp`'s variant; CosimError for a value the twin does not support."""
