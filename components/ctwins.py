@@ -27,17 +27,22 @@ _TRACKING = {"drive": Choice("DRIVE", {"auto": 0, "forward": 1, "backward": 2}),
              "saturation": Choice("SAT_SCALE", {"clip": 0, "scale": 1})}
 _DRIVES = {"DRIVE_FORWARD": 1, "DRIVE_BACKWARD": 2}
 
-PLANT = CTwin(C / "plant.c", defines=SLIP_CODES, work=lambda comp: 8)
-SLIP = CTwin(C / "slip.c", choices={"profile": Choice("PROFILE", PROFILES)}, defines=SLIP_CODES,
+INERTIA, SLIP_PROFILE = C / "inertia.h", C / "slip_profile.h"
+
+PLANT = CTwin(C / "plant.c", headers=(INERTIA, SLIP_PROFILE), defines=SLIP_CODES,
+              work=lambda comp: 8)
+SLIP = CTwin(C / "slip.c", headers=(SLIP_PROFILE,), defines=SLIP_CODES,
+             choices={"profile": Choice("PROFILE", PROFILES)},
              hidden=frozenset({"bandwidth", "seed"}))
-TRAJECTORY = CTwin(C / "trajectory.c", frozenset({"radius", "omega", "phase", "center"}),
+TRAJECTORY = CTwin(C / "trajectory.c", tunable=frozenset({"radius", "omega", "phase", "center"}),
                    choices={"shape": Choice("SHAPE", {k: int(v) for k, v in SHAPES.items()})},
                    defines={f"SHAPE_{k.upper()}": int(v) for k, v in SHAPES.items()},
                    hidden=frozenset({"waypoints", "times"}))
-ASMC = CTwin(C / "tracking.c", frozenset((*_GAINS, "eta", "d_hat_limit")),
+ASMC = CTwin(C / "tracking.c", headers=(INERTIA,),
+             tunable=frozenset((*_GAINS, "eta", "d_hat_limit")),
              choices={**_TRACKING, "hold_saturated": Choice("HOLD_SATURATED", {True: 1, False: 0})},
              defines={**_DRIVES, "ADAPTIVE": 1}, work=lambda comp: 4)
-SMC = CTwin(C / "tracking.c", frozenset(_GAINS), choices=_TRACKING, defines=_DRIVES,
-            work=lambda comp: 4)
+SMC = CTwin(C / "tracking.c", headers=(INERTIA,), tunable=frozenset(_GAINS), choices=_TRACKING,
+            defines=_DRIVES, work=lambda comp: 4)
 MOTOR = CTwin(C / "motor.c", choices={"mode": Choice("MODE_DC", {"ideal": 0, "dc": 1})},
               work=lambda comp: 9)

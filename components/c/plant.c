@@ -1,32 +1,20 @@
 /* TWMR plant with wheel slip: eqs (1)-(8), (11), classical RK4 with ceil(h / internal_step)
- * substeps. The C twin of components/plant.py and components/_model.py (inertia, derivative,
- * slip_at, rk4), written in the same order of operations. */
+ * substeps. The C twin of components/plant.py and components/_model.py (derivative, rk4; the
+ * inertia and slip_at in inertia.h and slip_profile.h), in the same order of operations. */
 #include <math.h>
 #include <stdio.h>
 #include "kernel.h"
+#include "inertia.h"
+#include "slip_profile.h"
 
 #define MAX_SUBSTEPS 1e8  /* substeps of one doStep: more is a step size gone wrong */
 enum { M11, M12, Q1, Q2, MG, H_LAST, N_SUB, H_SUB };  /* work values */
 
-/* (m11, m12, q1, q2) of eq. (8), exactly as printed (m11 with 2 m_W r^2). */
-static void inertia(double a, double I_G, double I_D, double I_W, double r, double b,
-                    double m_W, double m_G, double *w) {
-    double k = r * r / (4.0 * b * b);
-    w[M11] = m_G * (r * r / 4.0 + a * a * r * r / (4.0 * b * b)) + k * (I_G + 2.0 * I_D)
-             + 2.0 * m_W * r * r + I_W;
-    w[M12] = m_G * (r * r / 4.0 - a * a * r * r / (4.0 * b * b)) - k * (I_G + 2.0 * I_D);
-    w[Q1] = m_G * r / 4.0 * (1.0 + a * a / (b * b)) + r / (4.0 * b) * (I_G + 2.0 * I_D);
-    w[Q2] = m_G * r / 4.0 * (1.0 - a * a / (b * b)) - r / (4.0 * b) * (I_G + 2.0 * I_D);
-}
-
-/* slip rates, accelerations [m/s, m/s2] and disturbance [N.m]: s[0..7] */
-typedef struct { double s[8]; } Slip;
-
 /* State derivative d = (x_M', y_M', theta', phi_R'', phi_L'') at z = (x, y, theta, wR, wL). */
-static void derivative(const double *z, double tR, double tL, const Slip *u, const double *w,
+static void derivative(const double *z, double tR, double tL, const double *u, const double *w,
                        double a, double r, double b, double *d) {
-    double muR = u->s[0], muL = u->s[1], dl = u->s[2], muR2 = u->s[3], muL2 = u->s[4];
-    double dl2 = u->s[5], tdR = u->s[6], tdL = u->s[7], m_G = w[MG];
+    double muR = u[0], muL = u[1], dl = u[2], muR2 = u[3], muL2 = u[4];
+    double dl2 = u[5], tdR = u[6], tdL = u[7], m_G = w[MG];
     double beta = r * (z[3] + z[4]) / 2.0 + (muR + muL) / 2.0;             /* eq. (2) */
     double varpi = r * (z[3] - z[4]) / (2.0 * b) + (muR - muL) / (2.0 * b);  /* eq. (3) */
     double c = cos(z[2]), s = sin(z[2]);
@@ -42,26 +30,6 @@ static void derivative(const double *z, double tR, double tL, const Slip *u, con
     d[4] = (w[M11] * fL - w[M12] * fR) / det;
 }
 
-/* The slip profile of descriptor p at time t [s] with M at (x, y) [m] (Sec. IV-A: paper). */
-static void slip_at(const double *p, double t, double x, double y, Slip *u) {
-    double code = p[0], g = p[1], gd = p[2];  /* codes SLIP_* compared as doubles, as in Python */
-    int on, i;
-    if (code == SLIP_PAPER) {
-        double tp = t + p[12], c = cos(tp), s = sin(tp);
-        double v[8] = {g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
-                       gd * 2.0 * sin(3.0 * tp), gd * 2.0 * cos(3.0 * tp)};
-        for (i = 0; i < 8; i++) u->s[i] = v[i];
-        return;
-    }
-    on = code == SLIP_CONSTANT || (code == SLIP_STEP && t >= p[8]) ||
-         (code == SLIP_MUD && hypot(x - p[9], y - p[10]) <= p[11]);
-    for (i = 0; i < 8; i++) u->s[i] = 0.0;
-    if (on) {
-        u->s[0] = g * p[3]; u->s[1] = g * p[4]; u->s[2] = g * p[5];
-        u->s[6] = gd * p[6]; u->s[7] = gd * p[7];
-    }
-}
-
 static void com(Model *m) {
     double *v = m->v;
     v[V_com] = v[V_pose] + v[V_a] * cos(v[V_pose + 2]);
@@ -71,7 +39,7 @@ static void com(Model *m) {
 void kernel_init(Model *m) {
     double *v = m->v, k = v[V_scale];
     inertia(v[V_a], k * v[V_I_G], k * v[V_I_D], k * v[V_I_W], v[V_r], v[V_b], k * v[V_m_W],
-            k * v[V_m_G], m->w);
+            k * v[V_m_G], m->w + M11);
     m->w[MG] = k * v[V_m_G];
     m->w[H_LAST] = 0.0;
     com(m);
@@ -83,8 +51,8 @@ void kernel_step(Model *m, double t0, double h) {
     double *v = m->v, *w = m->w, z[5], y[5], k1[5], k2[5], k3[5], k4[5];
     double a = v[V_a], r = v[V_r], b = v[V_b], hs, tR = v[V_torque], tL = v[V_torque + 1];
     const double *p = v + V_slip_model;
-    int live = p[0] != SLIP_HELD, i, j, n;
-    Slip u;
+    int live = p[D_CODE] != SLIP_HELD, i, j, n;
+    double u[8];  /* slip rates, accelerations [m/s, m/s2], disturbance [N.m] */
     if (h != w[H_LAST]) {  /* substeps for this step size */
         double sub = ceil(h / v[V_internal_step] - 1e-9);
         if (!(sub <= MAX_SUBSTEPS)) {
@@ -100,27 +68,27 @@ void kernel_step(Model *m, double t0, double h) {
     n = (int)w[N_SUB];
     hs = w[H_SUB];
     for (j = 0; j < 3; j++) {
-        u.s[j] = v[V_slip_rate + j];
-        u.s[3 + j] = v[V_slip_accel + j];
+        u[j] = v[V_slip_rate + j];
+        u[3 + j] = v[V_slip_accel + j];
     }
-    u.s[6] = v[V_disturbance];
-    u.s[7] = v[V_disturbance + 1];
+    u[6] = v[V_disturbance];
+    u[7] = v[V_disturbance + 1];
     for (j = 0; j < 3; j++) z[j] = v[V_pose + j];
     z[3] = v[V_wheel_speed];
     z[4] = v[V_wheel_speed + 1];
     for (i = 0; i < n; i++) {
         double t = t0 + i * hs;
-        if (live) slip_at(p, t, z[0], z[1], &u);
-        derivative(z, tR, tL, &u, w, a, r, b, k1);
+        if (live) slip_at(p, t, z[0], z[1], u);
+        derivative(z, tR, tL, u, w, a, r, b, k1);
         for (j = 0; j < 5; j++) y[j] = z[j] + hs / 2 * k1[j];
-        if (live) slip_at(p, t + hs / 2, y[0], y[1], &u);
-        derivative(y, tR, tL, &u, w, a, r, b, k2);
+        if (live) slip_at(p, t + hs / 2, y[0], y[1], u);
+        derivative(y, tR, tL, u, w, a, r, b, k2);
         for (j = 0; j < 5; j++) y[j] = z[j] + hs / 2 * k2[j];
-        if (live) slip_at(p, t + hs / 2, y[0], y[1], &u);
-        derivative(y, tR, tL, &u, w, a, r, b, k3);
+        if (live) slip_at(p, t + hs / 2, y[0], y[1], u);
+        derivative(y, tR, tL, u, w, a, r, b, k3);
         for (j = 0; j < 5; j++) y[j] = z[j] + hs * k3[j];
-        if (live) slip_at(p, t + hs, y[0], y[1], &u);
-        derivative(y, tR, tL, &u, w, a, r, b, k4);
+        if (live) slip_at(p, t + hs, y[0], y[1], u);
+        derivative(y, tR, tL, u, w, a, r, b, k4);
         for (j = 0; j < 5; j++) z[j] += hs / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
     }
     for (j = 0; j < 3; j++) v[V_pose + j] = z[j];

@@ -6,16 +6,16 @@
  * operations. */
 #include <math.h>
 #include "kernel.h"
+#include "inertia.h"
 
 enum { M11, M12, SIDE, SATURATED };  /* work values: inertia of eq. (8), sign of L, limited */
 
-/* (m11, m12) of eq. (8), exactly as printed (m11 with 2 m_W r^2). */
-static void inertia(const double *v, double *w) {
-    double a = v[V_a], r = v[V_r], b = v[V_b], m_G = v[V_m_G];
-    double k = r * r / (4.0 * b * b);
-    w[M11] = m_G * (r * r / 4.0 + a * a * r * r / (4.0 * b * b)) + k * (v[V_I_G] + 2.0 * v[V_I_D])
-             + 2.0 * v[V_m_W] * r * r + v[V_I_W];
-    w[M12] = m_G * (r * r / 4.0 - a * a * r * r / (4.0 * b * b)) - k * (v[V_I_G] + 2.0 * v[V_I_D]);
+/* (m11, m12) of eq. (8) (inertia.h) */
+static void nominal_inertia(const double *v, double *w) {
+    double q[4];
+    inertia(v[V_a], v[V_I_G], v[V_I_D], v[V_I_W], v[V_r], v[V_b], v[V_m_W], v[V_m_G], q);
+    w[M11] = q[0];
+    w[M12] = q[1];
 }
 
 static double sign(double s) { return s > 0 ? 1.0 : (s < 0 ? -1.0 : 0.0); }
@@ -102,7 +102,7 @@ void kernel_init(Model *m) {
 #endif
     m->w[SIDE] = DRIVE == DRIVE_FORWARD ? 1.0
                  : (DRIVE == DRIVE_BACKWARD ? -1.0 : start_side(m->v));
-    inertia(m->v, m->w);
+    nominal_inertia(m->v, m->w);
     kernel_eval(m);
 }
 

@@ -300,4 +300,5 @@ def test_python_compiled_and_c_forms_are_equal(kind: str) -> None:
 def test_every_c_twin_belongs_to_a_block_and_has_its_source() -> None:
     for kind in twins():
         assert kind in kinds(), f"C twin '{kind}' has no component kind"
-        assert twin_of(kind).source.is_file(), twin_of(kind).source
+        for path in (twin_of(kind).source, *twin_of(kind).headers):
+            assert path.is_file(), path

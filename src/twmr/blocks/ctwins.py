@@ -34,11 +34,11 @@ def _ss_work(comp: Component) -> int:
 
 
 CONSTANT = CTwin(C / "constant.c")
-SINE = CTwin(C / "sine.c", frozenset({"amplitude", "frequency", "phase", "offset"}))
-STEP = CTwin(C / "step.c", frozenset({"height", "time", "offset"}))
-GAIN = CTwin(C / "gain.c", frozenset({"k"}))
-SUM = CTwin(C / "sum.c", frozenset({"k1", "k2"}))
-INTEGRATOR = CTwin(C / "integrator.c", frozenset({"k"}))
+SINE = CTwin(C / "sine.c", tunable=frozenset({"amplitude", "frequency", "phase", "offset"}))
+STEP = CTwin(C / "step.c", tunable=frozenset({"height", "time", "offset"}))
+GAIN = CTwin(C / "gain.c", tunable=frozenset({"k"}))
+SUM = CTwin(C / "sum.c", tunable=frozenset({"k1", "k2"}))
+INTEGRATOR = CTwin(C / "integrator.c", tunable=frozenset({"k"}))
 DELAY = CTwin(C / "delay.c")
 def _ss_pinned(comp: Component) -> frozenset[str]:
     """D = 0 exports a block without feedthrough (y does not depend on u), so D stays 0."""

@@ -89,7 +89,8 @@ def export_c_fmu(kind: str, out_path: str | Path, parameters: dict[str, Any] | N
         src.mkdir()
         for name in (*COMMON, *HEADERS[fmi], f"fmi{fmi}.c"):
             shutil.copy(C_DIR / name, src / name)
-        shutil.copy(twin.source, src / twin.source.name)
+        for path in (twin.source, *twin.headers):
+            shutil.copy(path, src / path.name)
         (src / "config.h").write_text(config_h(comp, twin, elems, guid))
         if fmi == 3:
             (src / "buildDescription.xml").write_text(_build_description(identifier, sources))

@@ -28,7 +28,8 @@ class Choice:
 
 @dataclass(frozen=True)
 class CTwin:
-    """A block's C twin: its C file `source` (implementing kernel.h), the parameters it reads at
+    """A block's C twin: its C file `source` (implementing kernel.h) and the headers it includes
+    from beside it (`headers`, shipped in the FMU's sources too), the parameters it reads at
     every step (`tunable`), the parameters compiled in (`choices`), constants #defined for it
     (`defines`: codes shared with the Python side, taken from its constants); for a block of
     variable size, `order(comp)` its order n (CosimError for sizes that do not fit), #defined as
@@ -39,6 +40,7 @@ class CTwin:
     value."""
 
     source: Path
+    headers: tuple[Path, ...] = ()
     tunable: frozenset[str] = frozenset()
     choices: Mapping[str, Choice] = field(default_factory=dict)
     defines: Mapping[str, int] = field(default_factory=dict)
