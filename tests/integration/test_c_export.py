@@ -3,6 +3,7 @@ paragraph, the FMI rules of parameters (fixed, tunable, min/max), FMU state save
 FMU shipped without its binary compiled from its own sources by an importer."""
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import zipfile
@@ -40,6 +41,7 @@ def test_cli_exports_a_standalone_fmu(tmp_path) -> None:
     (["export", "asmc", "--set", "etta=1"], ["'etta' is not a parameter"]),
     (["export", "gain", "--fmi", "4"], ["invalid choice: 4"]),
     (["export", "gain", "--python", "--fmi", "3"], ["--python exports FMI 2.0 only"]),
+    (["export", "gain", "--set", "k=.inf"], ["'k' = inf is not a finite number"]),
 ])
 def test_cli_refuses_bad_input_in_one_paragraph(args, words, tmp_path) -> None:
     done = subprocess.run([*TWMR, *args, "--out", str(tmp_path / "x.fmu")], capture_output=True,
@@ -141,3 +143,86 @@ def test_fmu_without_binary_compiles_from_its_sources(tmp_path, monkeypatch) -> 
         assert h["y"] == pytest.approx(1.0 + 2.0 * 0.5 * 10 * 1e-3, abs=1e-12)
     built = list((tmp_path / "cache").rglob("*.fmu"))  # compiled here from sources/
     assert built and any(n.startswith("binaries/") for n in zipfile.ZipFile(built[0]).namelist())
+
+
+def _logged_slave(path: Path, fmi: int, tmp: Path, stop: float | None):
+    """An instance of the FMU at `path` in step mode (experiment from 0 to `stop`) whose log
+    lands in the returned FmuLog, and its value references by name."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    from twmr.fmi.log import FmuLog
+
+    md = read_model_description(str(path))
+    log = FmuLog("p")
+    fmu = (FMU2Slave if fmi == 2 else FMU3Slave)(
+        guid=md.guid, unzipDirectory=extract(str(path), str(tmp)),
+        modelIdentifier=md.coSimulation.modelIdentifier, instanceName="p")
+    if fmi == 2:
+        fmu.instantiate(callbacks=log.fmi2_callbacks(), loggingOn=True)
+        fmu.setupExperiment(startTime=0.0, stopTime=stop)
+        fmu.enterInitializationMode()
+    else:
+        fmu.instantiate(loggingOn=True, logMessage=log.fmi3_logger())
+        fmu.enterInitializationMode(startTime=0.0, stopTime=stop)
+    fmu.exitInitializationMode()
+    return fmu, log, {v.name: v.valueReference for v in md.modelVariables}
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_bad_steps_and_nan_inputs_are_refused_and_logged(fmi, tmp_path) -> None:
+    """doStep with h <= 0, h not finite, a step the plant cannot take (h = 1e308: more RK4
+    substeps than it may do) or one past the experiment's stop time, and a NaN input, each give
+    fmi2Error/fmi3Error and a log line saying why; the state is left as it was."""
+    from fmpy.fmi1 import FMICallException
+
+    path = export_c_fmu("twmr_plant", tmp_path / "p.fmu", fmi=fmi)
+    for stop, cases in [(None, [(0.0, "positive finite"), (-1e-3, "positive finite"),
+                                (math.nan, "positive finite"), (math.inf, "positive finite"),
+                                (1e308, "RK4 substeps")]),
+                        (0.01, [(0.007, "after the experiment's stop time")])]:
+        fmu, log, vr = _logged_slave(path, fmi, tmp_path / str(stop), stop)
+        get = fmu.getReal if fmi == 2 else fmu.getFloat64
+        set_ = fmu.setReal if fmi == 2 else fmu.setFloat64
+        try:
+            set_([vr["torque[1]"], vr["torque[2]"]], [1.0, 1.0])
+            fmu.doStep(0.0, 0.004)
+            state = get([vr["pose[1]"], vr["wheel_speed[1]"]])
+            assert state[1] > 0.0
+            for h, why in cases:
+                with pytest.raises(FMICallException):
+                    fmu.doStep(0.004, h)
+                assert "refused" in log.tail()[-1] and why in log.tail()[-1], log.tail()
+                assert get([vr["pose[1]"], vr["wheel_speed[1]"]]) == state
+            with pytest.raises(FMICallException):
+                set_([vr["torque[1]"]], [math.nan])
+            assert "'torque[1]' = NaN is refused" in log.tail()[-1]
+            fmu.doStep(0.004, 0.004)  # still usable; the torque held is the last valid one
+            assert get([vr["wheel_speed[1]"]])[0] == pytest.approx(2 * state[1], rel=1e-12)
+        finally:
+            fmu.terminate()
+            fmu.freeInstance()
+
+
+def test_a_non_finite_start_value_is_refused_at_export(tmp_path) -> None:
+    with pytest.raises(CosimError, match=r"parameter 'k' = inf is not a finite number.*Fix"):
+        export_c_fmu("gain", tmp_path / "g.fmu", {"k": math.inf})
+    assert not (tmp_path / "g.fmu").exists()
+
+
+def test_state_space_exported_without_feedthrough_keeps_d_zero(tmp_path) -> None:
+    """D = 0 at export: y does not depend on u in the FMU's structure, so D cannot become
+    nonzero through FMI (its min and max are 0); D != 0 at export may be changed freely."""
+    from fmpy.fmi1 import FMICallException
+
+    strict, vr = _slave(export_c_fmu("state_space", tmp_path / "s0.fmu"), tmp_path / "s0")
+    free, vr1 = _slave(export_c_fmu("state_space", tmp_path / "s1.fmu", {"D": 0.5}),
+                       tmp_path / "s1")
+    try:
+        with pytest.raises(FMICallException):
+            strict.setReal([vr["D"]], [0.5])
+        free.setReal([vr1["D"]], [0.0])
+    finally:
+        for f in (strict, free):
+            f.freeInstance()

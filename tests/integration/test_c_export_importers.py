@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 from twmr.fmi import fmu_interface
-from twmr.fmi.cexport import C_DIR, KERNELS, export_c_fmu
+from twmr.fmi.cexport import C_DIR, export_c_fmu, twin_of, twins
 from twmr.registry import lookup
 
 HOST = Path(__file__).resolve().parents[1] / "hosts" / "fmi_host.c"
-CASES = [(k, f) for k in KERNELS for f in (2, 3)]
+CASES = [(k, f) for k in sorted(twins()) for f in (2, 3)]
 STEPS = 100
 
 
@@ -57,7 +57,7 @@ def test_fmpy_validates_and_simulates(case, fmus) -> None:
     folder = "binaries/linux64/" if fmi == 2 else "binaries/x86_64-linux/"
     assert any(n.startswith(folder) and n.endswith(".so") for n in names), names
     assert {"sources/config.h", "sources/kernel.h", f"sources/fmi{fmi}.c",
-            f"sources/{KERNELS[kind].source}"} <= set(names)
+            f"sources/{twin_of(kind).source.name}"} <= set(names)
     assert ("sources/buildDescription.xml" in names) == (fmi == 3)
     result = simulate_fmu(str(path), stop_time=0.5, step_size=1e-3, output_interval=0.01)
     assert len(result) == 51
@@ -70,7 +70,7 @@ def test_ports_seen_by_an_importer_are_the_components(case, fmus) -> None:
     kind, _fmi = case
     comp = lookup(kind)(kind)
     ports = {p["name"]: p for p in fmu_interface(fmus[case])["ports"]}
-    hidden = KERNELS[kind].hidden
+    hidden = twin_of(kind).hidden
     for var in comp.variables.values():
         if var.type != "Real" or var.name in hidden:
             assert var.name not in ports

@@ -1,11 +1,16 @@
 """The engine stays light and robot-free: `import twmr.master` loads no YAML or JSON Schema, a
-1-step run loads none of the heavy libraries it does not use, and the engine never imports the
-robot's or the CAN package."""
+1-step run loads none of the heavy libraries it does not use, the engine never imports the
+robot's or the CAN package, and it ships none of their code (no kind of theirs named in its code,
+no C twin of theirs among its files)."""
 from __future__ import annotations
 
+import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
+
+from twmr.registry import plugin
 
 ROOT = Path(__file__).resolve().parents[2]
 HEAVY = ("scipy.signal", "scipy.interpolate", "control", "pandas", "matplotlib", "numba", "can",
@@ -34,10 +39,44 @@ def test_a_one_step_run_loads_only_what_it_uses(tmp_path) -> None:
 
 
 def test_engine_sources_never_import_the_robot_or_can_packages() -> None:
-    import re
-
     banned = re.compile(r"^\s*(from|import)\s+(twmr\.components|twmr\.hw|can|canopen|cantools)\b",
                         re.MULTILINE)
     for path in (ROOT / "src" / "twmr").rglob("*.py"):
         found = banned.search(path.read_text())
         assert found is None, f"{path.relative_to(ROOT)}: {found.group(0)}"
+
+
+def _foreign(targets: dict[str, str]) -> set[str]:
+    """The names registered by the robot's or the CAN package (not by the engine)."""
+    return {name for name, target in targets.items()
+            if target.startswith(("twmr.components.", "twmr.hw."))}
+
+
+def _code_strings(tree: ast.AST) -> set[str]:
+    """Every string constant of a module that is not a docstring."""
+    docs = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) and \
+                isinstance(body[0].value, ast.Constant):
+            docs.add(id(body[0].value))
+    return {n.value for n in ast.walk(tree) if isinstance(n, ast.Constant)
+            and isinstance(n.value, str) and id(n) not in docs}
+
+
+def test_engine_ships_no_robot_code() -> None:
+    from twmr.registry import C_KERNELS, kinds, plugins
+
+    robot = _foreign(kinds()) | _foreign(plugins(C_KERNELS))
+    assert {"twmr_plant", "asmc", "slip_disturbance"} <= robot
+    engine = ROOT / "src" / "twmr"
+    for path in engine.rglob("*.py"):
+        named = robot & _code_strings(ast.parse(path.read_text()))
+        assert not named, f"{path.relative_to(ROOT)} names the robot's kinds {sorted(named)}"
+    engine_twins = {Path(plugin(C_KERNELS, k, "C twin").source).resolve()
+                    for k in set(plugins(C_KERNELS)) - robot}
+    defines_kernel = re.compile(r"^void kernel_step\(", re.MULTILINE)
+    for path in engine.rglob("*.c"):
+        if defines_kernel.search(path.read_text()):
+            assert path.resolve() in engine_twins, (
+                f"{path.relative_to(ROOT)} is a block's C kernel but no engine block's C twin")

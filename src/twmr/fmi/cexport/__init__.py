@@ -1,7 +1,8 @@
-"""Standalone C FMUs (FMI 2.0 / 3.0 co-simulation) of the paper's blocks and the engine's linear
-blocks: C sources in the FMU, a binary compiled here with the system C compiler, no Python at run
-time. `export_c_fmu` is what `twmr export KIND --fmi 2|3` calls; docs/export.md explains the
-design (C kernels that mirror the numba kernels, held together by a test)."""
+"""Standalone C FMUs (FMI 2.0 / 3.0 co-simulation) of any block that registers a C twin
+(`twmr.c_kernels`, see `twin`): the FMI wrapper here (c/), the block's C file from beside the
+block, a binary compiled here with the system C compiler, no Python at run time. `export_c_fmu`
+is what `twmr export KIND --fmi 2|3` calls; docs/export.md explains the design (C twins held
+equal to the blocks' kernels by tests/property/test_block_forms.py)."""
 from __future__ import annotations
 
 import os
@@ -21,9 +22,10 @@ from twmr.fmi.cexport.describe import (
     model_description,
     model_identifier,
 )
-from twmr.fmi.cexport.kernels import KERNELS, kernel_of
+from twmr.fmi.cexport.twin import CTwin, twin_of, twins
 from twmr.registry import lookup
 
+#: the FMI wrapper's sources (every FMU has them) and the FMI headers
 C_DIR = Path(__file__).parent / "c"
 #: compiler flags: no contraction into fused multiply-adds, no fast-math, so results follow the
 #: same IEEE operations as the numba kernels
@@ -32,7 +34,7 @@ COMMON = ("kernel.h", "instance.h", "instance.c")
 HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
            3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 
-__all__ = ["KERNELS", "export_c_fmu"]
+__all__ = ["C_DIR", "CTwin", "export_c_fmu", "twin_of", "twins"]
 
 
 def _platform(fmi: int) -> tuple[str, str]:
@@ -49,7 +51,7 @@ def _component(kind: str, parameters: dict[str, Any]) -> Any:
         cls = lookup(kind)
     except KeyError as err:
         raise CosimError(f"{err.args[0]}. Fix: `twmr components` lists the kinds.") from None
-    kernel_of(kind)
+    twin_of(kind)
     comp = cls(kind)
     for key, value in parameters.items():
         if key not in comp.parameters:
@@ -71,14 +73,13 @@ def export_c_fmu(kind: str, out_path: str | Path, parameters: dict[str, Any] | N
     if fmi not in (2, 3):
         raise CosimError(f"FMI version {fmi!r} is not exported. Fix: use --fmi 2 or --fmi 3.")
     comp = _component(kind, dict(parameters or {}))
-    kernel = kernel_of(kind)
-    options = kernel.options(comp)  # refuses unsupported variants before anything is written
-    if kind == "state_space" and not comp.get("x0"):
-        comp.set_parameter("x0", [0.0] * options["N_SS"])
-    elems = elements(comp, kernel)
+    twin = twin_of(kind)
+    options = twin.options(comp)  # refuses unsupported variants before anything is written
+    twin.fill_empty(comp)
+    elems = elements(comp, twin)
     guid = guid_of(kind, elems, options)
     identifier = model_identifier(kind)
-    sources = ["instance.c", f"fmi{fmi}.c", kernel.source]
+    sources = ["instance.c", f"fmi{fmi}.c", twin.source.name]
     from twmr import __version__
 
     out = Path(out_path).resolve()
@@ -86,13 +87,15 @@ def export_c_fmu(kind: str, out_path: str | Path, parameters: dict[str, Any] | N
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
-        for name in (*COMMON, *HEADERS[fmi], f"fmi{fmi}.c", kernel.source):
+        for name in (*COMMON, *HEADERS[fmi], f"fmi{fmi}.c"):
             shutil.copy(C_DIR / name, src / name)
-        (src / "config.h").write_text(config_h(comp, kernel, elems, guid))
+        for path in (twin.source, *twin.headers):
+            shutil.copy(path, src / path.name)
+        (src / "config.h").write_text(config_h(comp, twin, elems, guid))
         if fmi == 3:
             (src / "buildDescription.xml").write_text(_build_description(identifier, sources))
         (root / "modelDescription.xml").write_bytes(
-            model_description(comp, kernel, elems, guid, fmi, sources, __version__))
+            model_description(comp, twin, elems, guid, fmi, sources, __version__))
         folder, suffix = _platform(fmi)
         binary = root / "binaries" / folder / f"{identifier}{suffix}"
         binary.parent.mkdir(parents=True)

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from twmr.core.component import Component
+from twmr.core.errors import CosimError
 from twmr.core.units import BASES, parse_unit
-from twmr.fmi.cexport.kernels import Kernel, options_text
+from twmr.fmi.cexport.twin import CTwin, options_text
 
 
 @dataclass
@@ -30,22 +31,33 @@ class Element:
     value: float
     var: Any
     code: str  # 'f' fixed / 't' tunable parameter, 'i' input, 's' state, 'o' output
+    lo: float | None = None  # the parameter's min and max in the FMU
+    hi: float | None = None
 
 
-def elements(comp: Component, kernel: Kernel) -> list[Element]:
-    """The exported elements in declaration order (Real variables only; `hidden` left out)."""
+def elements(comp: Component, twin: CTwin) -> list[Element]:
+    """The exported elements in declaration order (Real variables only; `hidden` left out);
+    CosimError for a start value that is not a finite number (FMI has no text for it)."""
     out: list[Element] = []
     for var in comp.variables.values():
-        if var.type != "Real" or var.name in kernel.hidden:
+        if var.type != "Real" or var.name in twin.hidden:
             continue
         code = {"input": "i", "output": "o", "state": "s"}.get(var.kind) or (
-            "t" if var.name in kernel.tunable else "f")
+            "t" if var.name in twin.tunable else "f")
         value = comp.get(var.name)
         if var.size is None:
             out.append(Element(var.name, var.name, None, float(value), var, code))
         else:
             out += [Element(f"{var.name}[{i + 1}]", var.name, i, float(x), var, code)
                     for i, x in enumerate(value)]
+    pinned = twin.pinned(comp)
+    for e in out:
+        if e.code in "ft":
+            e.lo, e.hi = (e.value, e.value) if e.port in pinned else (e.var.min, e.var.max)
+        if e.code != "o" and not math.isfinite(e.value):
+            raise CosimError(f"export {comp.kind}: {e.var.kind} '{e.name}' = {e.value} is not "
+                             f"a finite number, and an FMU's start value must be one. Fix: "
+                             f"give '{e.port}' a finite value (--set {e.port}=...).")
     return out
 
 
@@ -60,7 +72,7 @@ def _c_double(x: float) -> str:
     return repr(float(x))
 
 
-def config_h(comp: Component, kernel: Kernel, elems: list[Element], guid: str) -> str:
+def config_h(comp: Component, twin: CTwin, elems: list[Element], guid: str) -> str:
     """The generated header every C file of the FMU includes."""
     ports: dict[str, int] = {}
     for i, e in enumerate(elems):
@@ -70,9 +82,9 @@ def config_h(comp: Component, kernel: Kernel, elems: list[Element], guid: str) -
              f"the start values. */",
              "#ifndef TWMR_CONFIG_H", "#define TWMR_CONFIG_H", "", "#include <math.h>", "",
              f'#define GUID "{guid}"', f"#define NV {len(elems)}",
-             f"#define NW {max(1, kernel.work(comp))}",
+             f"#define NW {max(1, twin.work(comp))}",
              f"#define HAS_FEEDTHROUGH {int(feedthrough)}"]
-    lines += [f"#define {k} {v}" for k, v in kernel.options(comp).items()]
+    lines += [f"#define {k} {v}" for k, v in twin.options(comp).items()]
     lines += [f"#define V_{name} {i}" for name, i in ports.items()]
 
     def array(ctype: str, name: str, items: list[str]) -> None:
@@ -81,10 +93,8 @@ def config_h(comp: Component, kernel: Kernel, elems: list[Element], guid: str) -
         lines.append("};")
 
     array("double", "START", [_c_double(e.value) for e in elems])
-    array("double", "MIN", [_c_double(-math.inf if e.var.min is None or e.code in "ios"
-                                      else e.var.min) for e in elems])
-    array("double", "MAX", [_c_double(math.inf if e.var.max is None or e.code in "ios"
-                                      else e.var.max) for e in elems])
+    array("double", "MIN", [_c_double(-math.inf if e.lo is None else e.lo) for e in elems])
+    array("double", "MAX", [_c_double(math.inf if e.hi is None else e.hi) for e in elems])
     array("char *const", "NAME", [f'"{e.name}"' for e in elems])
     lines.append(f'static const char KIND[NV + 1] = "{"".join(e.code for e in elems)}";')
     lines += ["", "#endif", ""]
@@ -123,11 +133,11 @@ def unit_definitions(units: dict[str, Any]) -> ET.Element:
     return defs
 
 
-def model_description(comp: Component, kernel: Kernel, elems: list[Element], guid: str,
+def model_description(comp: Component, twin: CTwin, elems: list[Element], guid: str,
                       fmi: int, sources: list[str], version: str) -> bytes:
     """modelDescription.xml of the FMU (FMI `fmi` = 2 or 3, co-simulation)."""
     first = (comp.__doc__ or "").strip().splitlines()
-    compiled = options_text(comp, kernel)
+    compiled = options_text(comp, twin)
     text = first[0] if first else comp.kind
     if compiled:
         text += " Compiled with " + ", ".join(f"{k} = {v}" for k, v in compiled.items()) + "."
@@ -168,9 +178,8 @@ def model_description(comp: Component, kernel: Kernel, elems: list[Element], gui
             typed["start"] = repr(e.value)
         if unit:
             typed["unit"] = unit
-        for bound in ("min", "max"):
-            value = getattr(e.var, bound)
-            if value is not None and e.code in "ft":
+        for bound, value in (("min", e.lo), ("max", e.hi)):
+            if value is not None:
                 typed[bound] = repr(float(value))
         if fmi == 2:
             ET.SubElement(ET.SubElement(variables, "ScalarVariable", attrs), "Real", typed)

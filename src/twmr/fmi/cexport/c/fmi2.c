@@ -66,8 +66,9 @@ void fmi2FreeInstance(fmi2Component c) {
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolerance_defined,
                                fmi2Real tolerance, fmi2Real start, fmi2Boolean stop_defined,
                                fmi2Real stop) {
-    (void)tolerance_defined; (void)tolerance; (void)stop_defined; (void)stop;
+    (void)tolerance_defined; (void)tolerance;
     if (INST->c.phase != PH_INSTANTIATED) return fmi2Error;
+    if (stop_defined) INST->stop = stop;
     INST->c.start = start;
     INST->c.m.time = start;
     return fmi2OK;

@@ -84,7 +84,8 @@ void fmi3FreeInstance(fmi3Instance instance) {
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolerance_defined,
                                        fmi3Float64 tolerance, fmi3Float64 start,
                                        fmi3Boolean stop_defined, fmi3Float64 stop) {
-    (void)tolerance_defined; (void)tolerance; (void)stop_defined; (void)stop;
+    (void)tolerance_defined; (void)tolerance;
+    if (stop_defined) INST->stop = stop;
     return (fmi3Status)inst_enter_init(INST, start);
 }
 

@@ -1,4 +1,5 @@
 /* The part of the FMI wrappers that does not depend on the FMI version. */
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -8,6 +9,7 @@ void inst_reset(Instance *s) {
     memset(&s->c, 0, sizeof s->c);
     memcpy(s->c.m.v, START, sizeof START);
     s->c.phase = PH_INSTANTIATED;
+    s->stop = INFINITY;
 }
 
 void inst_log(Instance *s, int status, const char *category, const char *fmt, ...) {
@@ -49,8 +51,12 @@ int inst_set(Instance *s, size_t index, size_t n, const double *values) {
             inst_log(s, ST_ERROR, "logStatusError", "variable '%s' cannot be set now", NAME[i]);
             return ST_ERROR;
         }
-        if ((KIND[i] == 'f' || KIND[i] == 't') &&
-            (values[j] < MIN[i] || values[j] > MAX[i] || values[j] != values[j])) {
+        if (values[j] != values[j]) {
+            inst_log(s, ST_ERROR, "logStatusError", "'%s' = NaN is refused: not a number",
+                     NAME[i]);
+            return ST_ERROR;
+        }
+        if ((KIND[i] == 'f' || KIND[i] == 't') && (values[j] < MIN[i] || values[j] > MAX[i])) {
             inst_log(s, ST_ERROR, "logStatusError", "'%s' = %g is outside [%g, %g]", NAME[i],
                      values[j], MIN[i], MAX[i]);
             return ST_ERROR;
@@ -92,17 +98,34 @@ int inst_exit_init(Instance *s) {
     return ST_OK;
 }
 
+/* The step from t by h is refused: not in step mode, h not a positive finite number, t not
+ * finite, t + h not after t (h below the resolution of t) or beyond the experiment's stop. */
+static int bad_step(Instance *s, double t, double h) {
+    const char *why = NULL;
+    if (s->c.phase != PH_STEP) why = "not in step mode";
+    else if (!(h > 0.0) || !isfinite(h)) why = "the step size must be a positive finite number";
+    else if (!isfinite(t) || !(t + h > t)) why = "the time would not advance";
+    else if (t + h > s->stop + 1e-9 * fmax(1.0, fabs(s->stop)))
+        why = "it ends after the experiment's stop time";
+    if (why) inst_log(s, ST_ERROR, "logStatusError", "doStep(t = %g, h = %g) refused: %s", t, h,
+                      why);
+    return why != NULL;
+}
+
 int inst_step(Instance *s, double t, double h) {
     Core *c = &s->c;
-    if (c->phase != PH_STEP || !(h > 0.0)) {
-        inst_log(s, ST_ERROR, "logStatusError", "doStep(%g, %g) not allowed now", t, h);
-        return ST_ERROR;
-    }
+    if (bad_step(s, t, h)) return ST_ERROR;
     if (HAS_FEEDTHROUGH && c->dirty) {
         c->m.time = t;
         kernel_eval(&c->m);
     }
     kernel_step(&c->m, t, h);
+    if (c->m.error[0]) {
+        inst_log(s, ST_ERROR, "logStatusError", "doStep(t = %g, h = %g) refused: %s", t, h,
+                 c->m.error);
+        c->m.error[0] = '\0';
+        return ST_ERROR;
+    }
     if (h == c->h) {
         c->k += 1;
     } else {

@@ -25,6 +25,7 @@ struct Instance {
     Core c;
     char *name;
     LogFn log;
+    double stop;         /* the experiment's stop time (INFINITY: not given) */
     void *env;           /* the importer's environment and callbacks */
     const void *callbacks;
     int logging;

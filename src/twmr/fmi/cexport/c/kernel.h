@@ -12,13 +12,15 @@ typedef struct {
     double w[NW];        /* the kernel's own state and derived constants */
     double time;         /* [s] the present communication point */
     char warning[256];   /* a kernel's message, logged by the wrapper, then cleared */
+    char error[256];     /* set by kernel_step when it refuses the step (state unchanged) */
 } Model;
 
 /* Derived constants and the outputs at the start time m->time (Component.initialize). */
 void kernel_init(Model *m);
 /* Direct-feedthrough outputs from the inputs at m->time (Component.evaluate). */
 void kernel_eval(Model *m);
-/* Advance from t to t + h [s] with the inputs held (Component.do_step). */
+/* Advance from t to t + h [s] with the inputs held (Component.do_step); a step it cannot take
+ * leaves the state as it was and says why in m->error. */
 void kernel_step(Model *m, double t, double h);
 
 #endif

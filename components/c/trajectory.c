@@ -3,17 +3,14 @@
 #include <math.h>
 #include "kernel.h"
 
-#define PAPER1 0  /* SHAPE codes (macros: the shape is chosen at compile time) */
-#define CIRCLE 1
-
 /* position, velocity and acceleration of T at time t [s] */
 static void sample(double *v, double t) {
     double *p = v + V_position, *d = v + V_velocity, *a = v + V_acceleration;
-#if SHAPE == PAPER1
+#if SHAPE == SHAPE_PAPER1
     p[0] = -t; p[1] = sin(0.5 * t) + 0.5 * t + 1.0;
     d[0] = -1.0; d[1] = 0.5 * cos(0.5 * t) + 0.5;
     a[0] = 0.0; a[1] = -0.25 * sin(0.5 * t);
-#elif SHAPE == CIRCLE
+#elif SHAPE == SHAPE_CIRCLE
     double cx = v[V_center], cy = v[V_center + 1], w = v[V_omega], R = v[V_radius];
     double an = w * t + v[V_phase], c = cos(an), s = sin(an);
     p[0] = cx + R * c; p[1] = cy + R * s;

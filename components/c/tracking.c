@@ -1,21 +1,21 @@
 /* Sliding-mode tracking controllers of the paper: the law of eqs (9)-(32) with the torque limit,
  * and with ADAPTIVE the ASMC's estimate d_hat' = eta s (eq. 33), held while the torque is limited
- * when HOLD_SATURATED. DRIVE (0 auto, 1 forward, 2 backward) sets the side of the look-ahead
- * point, SAT_SCALE how the limit applies (0: clip each wheel, 1: scale both). The C twin of
+ * when HOLD_SATURATED. DRIVE (0 auto, DRIVE_FORWARD, DRIVE_BACKWARD) sets the side of the
+ * look-ahead point, SAT_SCALE how the limit applies (0: clip each wheel, 1: scale both). The C twin of
  * components/_tracking.py, asmc.py, smc.py and _model.tracking_law, in the same order of
  * operations. */
 #include <math.h>
 #include "kernel.h"
+#include "inertia.h"
 
 enum { M11, M12, SIDE, SATURATED };  /* work values: inertia of eq. (8), sign of L, limited */
 
-/* (m11, m12) of eq. (8), exactly as printed (m11 with 2 m_W r^2). */
-static void inertia(const double *v, double *w) {
-    double a = v[V_a], r = v[V_r], b = v[V_b], m_G = v[V_m_G];
-    double k = r * r / (4.0 * b * b);
-    w[M11] = m_G * (r * r / 4.0 + a * a * r * r / (4.0 * b * b)) + k * (v[V_I_G] + 2.0 * v[V_I_D])
-             + 2.0 * v[V_m_W] * r * r + v[V_I_W];
-    w[M12] = m_G * (r * r / 4.0 - a * a * r * r / (4.0 * b * b)) - k * (v[V_I_G] + 2.0 * v[V_I_D]);
+/* (m11, m12) of eq. (8) (inertia.h) */
+static void nominal_inertia(const double *v, double *w) {
+    double q[4];
+    inertia(v[V_a], v[V_I_G], v[V_I_D], v[V_I_W], v[V_r], v[V_b], v[V_m_W], v[V_m_G], q);
+    w[M11] = q[0];
+    w[M12] = q[1];
 }
 
 static double sign(double s) { return s > 0 ? 1.0 : (s < 0 ? -1.0 : 0.0); }
@@ -100,8 +100,9 @@ void kernel_init(Model *m) {
     m->v[V_d_hat] = m->v[V_d_hat0];
     m->v[V_d_hat + 1] = m->v[V_d_hat0 + 1];
 #endif
-    m->w[SIDE] = DRIVE == 1 ? 1.0 : (DRIVE == 2 ? -1.0 : start_side(m->v));
-    inertia(m->v, m->w);
+    m->w[SIDE] = DRIVE == DRIVE_FORWARD ? 1.0
+                 : (DRIVE == DRIVE_BACKWARD ? -1.0 : start_side(m->v));
+    nominal_inertia(m->v, m->w);
     kernel_eval(m);
 }
 
