@@ -86,14 +86,14 @@ def replay(args: argparse.Namespace) -> int:
                          f"Fix: give the .blf or .asc file `twmr run` wrote beside the results."
                          ) from None
     if not decoded:
-        extra = f" ({len(bad)} frames could not be decoded as {args.protocol}, e.g. {bad[0]})" \
+        extra = f" ({_frames(len(bad))} too short for {args.protocol}, e.g. {bad[0]})" \
             if bad else ""
         raise CosimError(f"{log}: no {args.protocol} frames found in it{extra}. Fix: check "
                          f"--protocol (one of {', '.join(protocols())}) and --firmware, "
                          f"and that this is a bench run's frame log.")
     if bad:
-        print(f"{log}: {len(bad)} frames could not be decoded as {args.protocol} and were "
-              f"skipped (first: {bad[0]})", file=sys.stderr)
+        print(f"{log}: {_frames(len(bad))} of the log too short for {args.protocol}, skipped "
+              f"(first: {bad[0]})", file=sys.stderr)
     out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
     try:
         out.write("time_s,direction,node,signal,value\n")
@@ -104,6 +104,10 @@ def replay(args: argparse.Namespace) -> int:
         if out is not sys.stdout:
             out.close()
     return 0
+
+
+def _frames(n: int) -> str:
+    return f"{n} frame" if n == 1 else f"{n} frames"
 
 
 def _axis_text(axis: Any) -> str:

@@ -170,6 +170,7 @@ class CanMotorDrive(Component):
         self._log_error = ""
         self._late_replies = 0
         self._age_max = 0.0
+        self._protection: dict[int, tuple[bool, str]] = {}
         self._nodes = tuple(int(n) for n in self.node_ids)
         problems = self.check(frozenset())
         if problems:
@@ -232,6 +233,9 @@ class CanMotorDrive(Component):
             self._live().start(self.start_timeout)
         except LinkError as err:
             self._trip(err.fault)
+        finally:
+            if self.link is not None:
+                self._protection = self.link.protection()
         self._publish(time.monotonic())
         self._age_max = 0.0  # measured over the steps
 
@@ -278,12 +282,14 @@ class CanMotorDrive(Component):
         raise HardwareError(self.name, self._t, fault.text())
 
     def report(self) -> dict[str, Any]:
-        """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback."""
+        """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback;
+        by node, the drives that stop by themselves when the host falls silent (and how) and
+        those that do not (and why)."""
         out: dict[str, Any] = {"late_replies": self._late_replies,
                                "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
         if self._log_error:
             out["frame_log_error"] = self._log_error
-        protection = getattr(self, "_protection", {})
+        protection: dict[int, tuple[bool, str]] = getattr(self, "_protection", {})
         out["protected_by_drive"] = {str(n): how for n, (ok, how) in protection.items() if ok}
         out["not_protected_by_drive"] = {str(n): why for n, (ok, why) in protection.items()
                                          if not ok}
@@ -302,7 +308,6 @@ class CanMotorDrive(Component):
         try:
             if link is not None:
                 self._rtt_ns = link.rtt_ns  # for report(), which comes after the stop
-                self._protection = link.protection()
                 link.disable(emergency=self._tripped)
                 link.close()
         finally:

@@ -84,7 +84,7 @@ class Link(ABC):
         bad = [n for n in nodes if n not in cls.node_range]
         if bad:
             return (f"node id {bad[0]} is outside {cls.node_range.start}.."
-                    f"{cls.node_range.stop - 1}, the ids {cls.__name__} can address")
+                    f"{cls.node_range.stop - 1}, the node ids of this protocol")
         if len(set(nodes)) != len(nodes):
             return f"node ids {list(nodes)} repeat: one drive would get both wheels' torque"
         return ""

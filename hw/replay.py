@@ -15,6 +15,7 @@ from typing import Any
 
 import can
 
+from twmr.hw.bus import frame_text
 from twmr.hw.link import DriveSpec, Link, Signals, protocol
 
 
@@ -69,10 +70,9 @@ def decode_frames(frames: Iterable[can.Message], decoder: Decoder,
         direction = "Rx" if msg.is_rx else "Tx"
         try:
             signals = decoder(msg)
-        except (ValueError, struct.error, IndexError, ZeroDivisionError) as err:
+        except (ValueError, struct.error, IndexError):
             if bad is not None:
-                bad.append(f"0x{msg.arbitration_id:03x} [{msg.dlc}] at {msg.timestamp:.6f} s "
-                           f"({err})")
+                bad.append(f"{frame_text(msg)} at {msg.timestamp:.6f} s")
             continue
         for node, signal, value in signals:
             yield Decoded(msg.timestamp, direction, node, signal, float(value))
