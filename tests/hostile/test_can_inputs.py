@@ -14,7 +14,6 @@ from tests.hostile.runner import BENCH, assert_clean_error, assert_ok, run_cli, 
 from twmr.hw import protocol as p
 
 
-
 def bench_with(cwd: Path, old: str, new: str) -> str:
     text = BENCH.read_text()
     assert old in text, old

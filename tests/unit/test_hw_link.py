@@ -34,7 +34,7 @@ def test_an_unknown_protocol_names_the_closest_one() -> None:
 def test_the_drive_refuses_to_save_or_restore_its_state() -> None:
     d = CanMotorDrive("motor")
     assert CanMotorDrive.can_get_and_set_state is False
-    with pytest.raises(CosimError, match="'motor'.*cannot be saved or rolled back"):
+    with pytest.raises(CosimError, match=r"'motor'.*cannot be saved or rolled back"):
         d.get_state()
     with pytest.raises(CosimError, match="cannot be saved or rolled back"):
         d.set_state({})
