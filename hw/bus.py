@@ -114,10 +114,9 @@ class FrameGuard(can.Listener):
     def on_message_received(self, msg: can.Message) -> None:
         self.frame = msg
 
-    def on_error(self, exc: Exception) -> bool:
+    def on_error(self, exc: Exception) -> None:
         self.count += 1
         self.report(self.frame, exc)
-        return True
 
 
 def frame_text(msg: can.Message | None) -> str:

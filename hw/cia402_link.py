@@ -13,6 +13,7 @@ frames latch a fault, and so does a drive leaving OPERATION ENABLED.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import struct
 import threading
@@ -39,7 +40,7 @@ SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
 
 def eds_path(spec: DriveSpec) -> str:
     """The drives' EDS/DCF: `spec.eds`, or the shipped maxon EPOS4 EDS."""
-    return spec.eds or str(resources.files("twmr.hw").joinpath("data", SHIPPED_EDS))
+    return spec.eds or str(resources.files("twmr.hw") / "data" / SHIPPED_EDS)
 
 
 class Cia402Link(Link):
@@ -83,25 +84,25 @@ class Cia402Link(Link):
             raise LinkError(Fault(None, f"cannot open {describe(options)} ({err})",
                                   "check the adapter and the interface/channel/bitrate or "
                                   "can_config parameters")) from err
+        notifier, bus = self.network.notifier, self.network.bus
+        assert notifier is not None and bus is not None  # connect() made them
         if log is not None:
-            self.network.notifier.add_listener(log.received)
-            raw_send = self.network.bus.send
+            notifier.add_listener(log.received)
+            raw_send = bus.send
 
             def logged_send(msg: can.Message, timeout: float | None = None) -> None:
                 raw_send(msg, timeout)
                 log.sent(msg)
 
-            self.network.bus.send = logged_send
-        self.network.notifier.add_listener(self._on_frame)
+            bus.send = logged_send  # type: ignore[method-assign]
+        notifier.add_listener(self._on_frame)
         self.guard = strict_canopen(self.network, self._malformed)
         self.nodes_od: dict[int, Any] = {}
         for n in self.nodes:
             node = canopen.RemoteNode(n, canopen.import_od(str(eds), n))
             self.network.add_node(node)
-            node.emcy.add_callback(lambda e, n=n: self._latch(Fault(
-                n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error register "
-                f"0x{e.register:02x}", "read the drive's error history 0x1003, then fault-reset")))
-            node.nmt.add_heartbeat_callback(lambda state, n=n: self._on_beat(n, state))
+            node.emcy.add_callback(functools.partial(self._on_emcy, n))
+            node.nmt.add_heartbeat_callback(functools.partial(self._on_beat, n))
             self.nodes_od[n] = node
 
     @classmethod
@@ -172,6 +173,11 @@ class Cia402Link(Link):
                           f"malformed frame {frame_text(msg)} ({type(exc).__name__}: {exc})",
                           "check the drive's PDO mapping against its EDS/DCF and that no other "
                           "device uses this node id"))
+
+    def _on_emcy(self, n: int, e: Any) -> None:
+        self._latch(Fault(n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error "
+                          f"register 0x{e.register:02x}",
+                          "read the drive's error history 0x1003, then fault-reset"))
 
     def _on_beat(self, n: int, state: int) -> None:
         with self.lock:

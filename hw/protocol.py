@@ -14,6 +14,7 @@ import struct
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 # command ids (both firmware lines)
 HEARTBEAT, ESTOP, SET_AXIS_STATE, GET_ENCODER_ESTIMATES = 0x01, 0x02, 0x07, 0x09
@@ -78,7 +79,7 @@ def has_sdo(version: str) -> bool:
 
 def emulated_endpoints() -> Path:
     """The emulated ODrive's endpoint table (ids of its own, in flat_endpoints.json form)."""
-    return Path(str(resources.files("twmr.hw").joinpath("data", EMULATED_ENDPOINTS)))
+    return Path(str(resources.files("twmr.hw") / "data" / EMULATED_ENDPOINTS))
 
 
 def load_endpoints(path: str | Path) -> dict[str, tuple[int, str]]:
@@ -132,7 +133,7 @@ def encode_tx_sdo(node: int, endpoint: int, kind: str, value: float | bool) -> t
 
 def dbc_path(version: str) -> Path:
     """The DBC shipped for this firmware line."""
-    return Path(str(resources.files("twmr.hw").joinpath("data", DBC[firmware_line(version)])))
+    return Path(str(resources.files("twmr.hw") / "data" / DBC[firmware_line(version)]))
 
 
 def encode_torque(node: int, wheel_torque: float, gear: float) -> tuple[int, bytes]:
@@ -214,6 +215,8 @@ def check_layout(version: str, path: Path | None = None) -> None:
     import cantools
 
     db = cantools.database.load_file(str(path or dbc_path(version)))
+    if not isinstance(db, cantools.database.can.Database):
+        raise ValueError(f"{path or dbc_path(version)} is not a CAN database (DBC)")
     expect = {SET_INPUT_TORQUE: [(0, 32, True)], GET_ENCODER_ESTIMATES: [(0, 32, True),
                                                                        (32, 32, True)],
               SET_AXIS_STATE: [(0, 32, False)], SET_CONTROLLER_MODE: [(0, 32, False),
@@ -240,7 +243,8 @@ def check_layout(version: str, path: Path | None = None) -> None:
             got = sorted((s.start, s.length, s.is_float) for s in msg.signals)
             if msg.length != 8 or any(f not in got for f in expect_sdo):
                 raise ValueError(f"{msg.name}: layout {got} in the DBC is not the SDO layout")
-    choices = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error").choices or {}
+    signal = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error")
+    choices: dict[Any, Any] = dict(signal.choices or {})
     names = {str(v): int(k) for k, v in choices.items()}
     for bit, table in (("WATCHDOG_TIMER_EXPIRED", WATCHDOG_TIMER_EXPIRED),
                        ("ESTOP_REQUESTED", ESTOP_REQUESTED)):
