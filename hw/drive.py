@@ -125,7 +125,7 @@ class CanMotorDrive(Component):
             problems.append(("node_ids", what + ".", "give two different ids the drives are "
                              f"configured with ({link.node_range.start}.."
                              f"{link.node_range.stop - 1} for {self.protocol})."))
-        for name in sorted(given & foreign_parameters(link)):
+        for name in sorted(given & foreign_parameters(link) if given else ()):
             problems.append((name, f"{name} is not a parameter of protocol {self.protocol}.",
                              f"remove {name}:, or set the protocol it belongs to."))
         if not self.can_config:

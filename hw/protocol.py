@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -210,8 +211,10 @@ def decode_heartbeat(data: bytes, version: str) -> Heartbeat:
     return Heartbeat(values[0], values[1], values[2])
 
 
+@cache
 def check_layout(version: str, path: Path | None = None) -> None:
-    """Raise ValueError when the DBC's layout of the frames used here differs from ours."""
+    """Raise ValueError when the DBC's layout of the frames used here differs from ours (each
+    file is read once per process)."""
     import cantools
 
     db = cantools.database.load_file(str(path or dbc_path(version)))
