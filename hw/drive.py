@@ -108,31 +108,16 @@ class CanMotorDrive(Component):
         return cls(name, **files)
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
-        """The protocol (registered), its own parameters and node ids, the python-can interface;
-        with real drives (emulate: false) explicit torque and speed limits within the drive's
-        rating (max_current x torque_constant x gear)."""
-        from twmr.registry import suggest
-
-        known = protocols()
-        if self.protocol not in known:
-            return [("protocol", f"protocol '{self.protocol}' is unknown"
-                     f"{suggest(self.protocol, known)}.", f"use one of: {', '.join(known)} "
-                     f"(CAN protocols registered under twmr.can_protocols).")]
+        """The drives' problems (`drive_problems`), parameters of another protocol, the log
+        file; with real drives (emulate: false) explicit torque and speed limits within the
+        drive's rating (max_current x torque_constant x gear)."""
+        problems = self.drive_problems()
+        if problems and problems[0][0] == "protocol":
+            return problems
         link = protocol(self.protocol)
-        problems = link.check(self.spec())
-        what = link.node_problem(tuple(int(n) for n in self.node_ids))
-        if what:
-            problems.append(("node_ids", what + ".", "give two different ids the drives are "
-                             f"configured with ({link.node_range.start}.."
-                             f"{link.node_range.stop - 1} for {self.protocol})."))
         for name in sorted(given & foreign_parameters(link) if given else ()):
             problems.append((name, f"{name} is not a parameter of protocol {self.protocol}.",
                              f"remove {name}:, or set the protocol it belongs to."))
-        if not self.can_config:
-            wrong = interface_problem(self.interface)
-            if wrong:
-                problems.append(("interface", wrong + ".", "give a python-can interface name "
-                                 "(or can_config: a python-can config file)."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() not in (".blf", ".asc")):
@@ -158,6 +143,30 @@ class CanMotorDrive(Component):
                                      f"give at most {rating:g} N.m."))
         return problems
 
+    def drive_problems(self) -> list[tuple[str, str, str]]:
+        """The protocol (registered), its own parameters (`Link.check`), the node ids and the
+        python-can interface: what no run can start without."""
+        from twmr.registry import suggest
+
+        known = protocols()
+        if self.protocol not in known:
+            return [("protocol", f"protocol '{self.protocol}' is unknown"
+                     f"{suggest(self.protocol, known)}.", f"use one of: {', '.join(known)} "
+                     f"(CAN protocols registered under twmr.can_protocols).")]
+        link = protocol(self.protocol)
+        problems = link.check(self.spec())
+        what = link.node_problem(tuple(int(n) for n in self.node_ids))
+        if what:
+            problems.append(("node_ids", what + ".", "give two different ids the drives are "
+                             f"configured with ({link.node_range.start}.."
+                             f"{link.node_range.stop - 1} for {self.protocol})."))
+        if not self.can_config:
+            wrong = interface_problem(self.interface)
+            if wrong:
+                problems.append(("interface", wrong + ".", "give a python-can interface name "
+                                 "(or can_config: a python-can config file)."))
+        return problems
+
     # -- life cycle ------------------------------------------------------------------------------
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
@@ -172,7 +181,7 @@ class CanMotorDrive(Component):
         self._age_max = 0.0
         self._protection: dict[int, tuple[bool, str]] = {}
         self._nodes = tuple(int(n) for n in self.node_ids)
-        problems = self.check(frozenset())
+        problems = self.drive_problems()
         if problems:
             key, what, fix = problems[0]
             raise HardwareError(self.name, start, f"parameter '{key}': {what} Fix: {fix}")
@@ -187,16 +196,18 @@ class CanMotorDrive(Component):
         path = self._log_path()
         self.log = FrameLog(path) if path else None
         spec = self.spec()
-        try:
-            if self.emulate:
+        if self.emulate:
+            try:
                 emulator, spec = link.emulate(spec, options)
-                self.emulators = [emulator]
+            except (OSError, ValueError, ImportError, can.CanError) as err:
+                raise HardwareError(self.name, start, f"cannot start the emulated drives "
+                                    f"({err}). Fix: check interface, channel and can_config."
+                                    ) from err
+            self.emulators = [emulator]
+        try:
             self.link = link(spec, options, self.log)
         except LinkError as err:
             raise HardwareError(self.name, start, err.fault.text()) from err
-        except (OSError, ValueError, ImportError, can.CanError) as err:
-            raise HardwareError(self.name, start, f"cannot start the emulated drives ({err}). "
-                                f"Fix: check interface, channel and can_config.") from err
 
     def spec(self) -> DriveSpec:
         """The drives as every protocol sees them (each reads its own fields)."""
