@@ -33,8 +33,26 @@ def bus_options(interface: str, channel: str, bitrate: int, can_config: str = ""
                              f"[{context}] section)") from None
         if not options.get("interface"):
             raise ValueError(f"{path} [{context}] names no interface")
+        wrong = interface_problem(str(options["interface"]))
+        if wrong:
+            raise ValueError(f"{path} [{context}]: {wrong}")
         return options
+    wrong = interface_problem(interface)
+    if wrong:
+        raise ValueError(wrong)
     return {"interface": interface, "channel": channel, "bitrate": int(bitrate)}
+
+
+def interface_problem(interface: str) -> str:
+    """'' when python-can knows the interface name (`can.interfaces.VALID_INTERFACES`), else
+    what is wrong, with the closest name."""
+    from twmr.registry import suggest
+
+    known = sorted(can.interfaces.VALID_INTERFACES)
+    if interface in known:
+        return ""
+    return (f"python-can has no interface '{interface}'{suggest(interface, known)}; it knows "
+            f"{', '.join(known)}")
 
 
 def describe(options: dict[str, Any]) -> str:
@@ -96,10 +114,9 @@ class FrameGuard(can.Listener):
     def on_message_received(self, msg: can.Message) -> None:
         self.frame = msg
 
-    def on_error(self, exc: Exception) -> bool:
+    def on_error(self, exc: Exception) -> None:
         self.count += 1
         self.report(self.frame, exc)
-        return True
 
 
 def frame_text(msg: can.Message | None) -> str:

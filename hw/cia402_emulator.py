@@ -13,7 +13,7 @@ import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import canopen
 
@@ -29,7 +29,9 @@ class Cia402Axis:
                  rated_torque_mNm: int, increments_per_rev: int, inertia: float):
         self.node_id, self.gear, self.inertia = node_id, gear, inertia
         self.increments_per_rev = increments_per_rev
-        self.node = canopen.LocalNode(node_id, canopen.import_od(str(eds), node_id))
+        # canopen types its dictionary entries as a union; the EDS decides which each one is
+        self.node: Any = cast(Any, canopen.LocalNode(node_id, canopen.import_od(str(eds),
+                                                                               node_id)))
         network.add_node(self.node)
         self.node.sdo[c.MOTOR_RATED_TORQUE].raw = rated_torque_mNm
         self.has_max = c.MAX_TORQUE in self.node.object_dictionary

@@ -1,5 +1,5 @@
-"""Host side of CiA 402 drives through the `canopen` package: one network, one RemoteNode per axis
-with the object dictionary of its EDS/DCF (used unchanged).
+"""Host side of CiA 402 drives through the `canopen` package (the `cia402` protocol): one network,
+one RemoteNode per axis with the object dictionary of its EDS/DCF (used unchanged).
 
 Configuration (SDO, pre-operational): modes of operation 0x6060 = 10 (cyclic synchronous torque),
 motor rated torque 0x6076 read back, max torque 0x6072 written from the torque limit when the
@@ -13,12 +13,16 @@ frames latch a fault, and so does a drive leaving OPERATION ENABLED.
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
+import struct
 import threading
 import time
 from collections.abc import Sequence
+from dataclasses import replace
+from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import can
 import canopen
@@ -26,20 +30,38 @@ import canopen
 from twmr.hw import cia402 as c
 from twmr.hw.bus import FrameLog, describe, frame_text, strict_canopen
 from twmr.hw.cia402 import State
+from twmr.hw.link import DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
 log = logging.getLogger("twmr.hw")
 _KEYS = {c.STATUSWORD: "status", c.VELOCITY_ACTUAL: "rpm", c.POSITION_ACTUAL: "inc"}
+SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
 
 
-class Cia402Link:
-    """CiA 402 axes `nodes` (wheel order) on one CANopen network over python-can `options`."""
+def eds_path(spec: DriveSpec) -> str:
+    """The drives' EDS/DCF: `spec.eds`, or the shipped maxon EPOS4 EDS."""
+    return spec.eds or str(resources.files("twmr.hw") / "data" / SHIPPED_EDS)
 
-    def __init__(self, nodes: Sequence[int], options: dict[str, Any], eds: str | Path,
-                 gear: float, increments_per_rev: int, rated_torque_mNm: int,
-                 log: FrameLog | None = None):
-        self.nodes, self.gear, self.increments_per_rev = tuple(nodes), gear, increments_per_rev
-        self.default_rated = rated_torque_mNm
+
+class Cia402Link(Link):
+    """CiA 402 axes `spec.nodes` (wheel order) on one CANopen network over python-can
+    `options`."""
+
+    #: CANopen nodes are 1..127 (0 is the NMT broadcast); the host's heartbeat takes 127
+    node_range: ClassVar[range] = range(1, 127)
+    default_nodes: ClassVar[tuple[int, int]] = (1, 2)
+    own_parameters: ClassVar[frozenset[str]] = frozenset(
+        {"eds", "rated_torque", "increments_per_rev"})
+
+    def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
+        problems = self.check(spec)
+        if problems:
+            raise LinkError(Fault(None, problems[0][1].rstrip("."), problems[0][2]))
+        self.spec = spec
+        self.nodes, self.gear = tuple(spec.nodes), spec.gear
+        self.increments_per_rev = spec.increments_per_rev
+        self.default_rated = spec.rated_torque
+        eds = eds_path(spec)
         self.log = log
         self.lock = threading.Lock()
         self.values = {n: {"status": 0, "rpm": 0, "inc": 0, "stamp": 0.0} for n in self.nodes}
@@ -62,26 +84,73 @@ class Cia402Link:
             raise LinkError(Fault(None, f"cannot open {describe(options)} ({err})",
                                   "check the adapter and the interface/channel/bitrate or "
                                   "can_config parameters")) from err
+        notifier, bus = self.network.notifier, self.network.bus
+        assert notifier is not None and bus is not None  # connect() made them
         if log is not None:
-            self.network.notifier.add_listener(log.received)
-            raw_send = self.network.bus.send
+            notifier.add_listener(log.received)
+            raw_send = bus.send
 
             def logged_send(msg: can.Message, timeout: float | None = None) -> None:
                 raw_send(msg, timeout)
                 log.sent(msg)
 
-            self.network.bus.send = logged_send
-        self.network.notifier.add_listener(self._on_frame)
+            bus.send = logged_send  # type: ignore[method-assign]
+        notifier.add_listener(self._on_frame)
         self.guard = strict_canopen(self.network, self._malformed)
         self.nodes_od: dict[int, Any] = {}
         for n in self.nodes:
             node = canopen.RemoteNode(n, canopen.import_od(str(eds), n))
             self.network.add_node(node)
-            node.emcy.add_callback(lambda e, n=n: self._latch(Fault(
-                n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error register "
-                f"0x{e.register:02x}", "read the drive's error history 0x1003, then fault-reset")))
-            node.nmt.add_heartbeat_callback(lambda state, n=n: self._on_beat(n, state))
+            node.emcy.add_callback(functools.partial(self._on_emcy, n))
+            node.nmt.add_heartbeat_callback(functools.partial(self._on_beat, n))
             self.nodes_od[n] = node
+
+    @classmethod
+    def check(cls, spec: DriveSpec) -> list[tuple[str, str, str]]:
+        """The EDS/DCF exists; rated torque and encoder resolution are positive."""
+        if spec.eds and not Path(spec.eds).is_file():
+            return [("eds", f"the EDS/DCF {spec.eds} does not exist.",
+                     "give the drive's description file (relative paths are against the "
+                     "scenario's folder), or leave eds: out for the shipped maxon EPOS4 EDS.")]
+        for key in ("rated_torque", "increments_per_rev"):
+            if getattr(spec, key) <= 0:
+                return [(key, f"{key} is {getattr(spec, key)}; it scales every torque or "
+                         f"position frame and must be positive.",
+                         "give the motor's rated torque in mN.m (0x6076) and the encoder's "
+                         "increments per motor turn.")]
+        return []
+
+    @classmethod
+    def decode(cls, msg: can.Message, spec: DriveSpec) -> Signals:
+        """The PDOs this link maps (RPDO1 0x200+n: controlword, target torque; TPDO1 0x180+n:
+        statusword, velocity; TPDO2 0x280+n: position), SYNC, EMCY and heartbeats."""
+        ident, data = msg.arbitration_id, bytes(msg.data)
+        base, node = ident & 0x780, ident & 0x7F
+        if ident == 0x080:
+            return [(None, "sync", 1.0)]
+        if base == 0x200:
+            word, permille = struct.unpack_from("<Hh", data)
+            return [(node, "controlword", word), (node, "torque_command",
+                    c.permille_to_torque(permille, spec.gear, spec.rated_torque))]
+        if base == 0x180:
+            word, rpm = struct.unpack_from("<Hi", data)
+            return [(node, "statusword", word), (node, "speed", c.velocity_to_si(rpm, spec.gear))]
+        if base == 0x280:
+            (inc,) = struct.unpack_from("<i", data)
+            return [(node, "angle", c.position_to_si(inc, spec.gear, spec.increments_per_rev))]
+        if base == 0x080 and node:
+            return [(node, "emcy", struct.unpack_from("<H", data)[0])]
+        if base == 0x700:
+            return [(node, "heartbeat", struct.unpack_from("<B", data)[0])]
+        return []
+
+    @classmethod
+    def emulate(cls, spec: DriveSpec, options: dict[str, Any]) -> tuple[Emulator, DriveSpec]:
+        from twmr.hw.cia402_emulator import Cia402Emulator
+
+        eds = eds_path(spec)
+        return Cia402Emulator(spec.nodes, eds, options, spec.gear, spec.rated_torque,
+                              spec.increments_per_rev), replace(spec, eds=eds)
 
     # -- bus ------------------------------------------------------------------------------------
     def _on_frame(self, msg: can.Message) -> None:
@@ -104,6 +173,11 @@ class Cia402Link:
                           f"malformed frame {frame_text(msg)} ({type(exc).__name__}: {exc})",
                           "check the drive's PDO mapping against its EDS/DCF and that no other "
                           "device uses this node id"))
+
+    def _on_emcy(self, n: int, e: Any) -> None:
+        self._latch(Fault(n, f"EMCY 0x{e.code:04x} ({e.get_desc() or 'no description'}), error "
+                          f"register 0x{e.register:02x}",
+                          "read the drive's error history 0x1003, then fault-reset"))
 
     def _on_beat(self, n: int, state: int) -> None:
         with self.lock:
@@ -186,11 +260,11 @@ class Cia402Link:
         for node in self.nodes_od.values():
             node.nmt.state = "OPERATIONAL"
 
-    def start(self, timeout: float, torque_limit: float, host_timeout: float = 0.5) -> None:
+    def start(self, timeout: float) -> None:
         """Configure, then walk every axis to OPERATION ENABLED (fault reset first if needed);
         `LinkError` when an axis does not answer or is not enabled in time."""
         try:
-            self.configure(torque_limit, host_timeout)
+            self.configure(self.spec.torque_limit, self.spec.heartbeat_timeout)
         except (canopen.SdoCommunicationError, canopen.SdoAbortedError) as err:
             raise LinkError(Fault(None, f"SDO configuration of nodes {self.nodes} failed "
                                   f"({err})", "check node ids, power, the EDS and the bus")
@@ -258,6 +332,13 @@ class Cia402Link:
         with self.lock:
             return dict(self.beats)
 
+    def protection(self) -> dict[int, tuple[bool, str]]:
+        ms = round(self.spec.heartbeat_timeout * 1e3)
+        return {n: (True, f"heartbeat consumer 0x1016 (host node {c.HOST_NODE}, {ms} ms) with "
+                          f"0x6007 = fault") if self.protected.get(n) else
+                (False, "the EDS/DCF has no heartbeat consumer 0x1016 or abort option 0x6007")
+                for n in self.nodes}
+
     def disable(self, emergency: bool = False) -> None:
         """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis."""
         self.running = False
@@ -266,6 +347,7 @@ class Cia402Link:
             self._send({n: word for n in self.nodes}, {})
 
     def close(self) -> None:
+        """Stop the host's heartbeat and disconnect the network."""
         if self.host_beat is not None:
             self.host_beat.stop()
         self.network.disconnect()

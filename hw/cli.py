@@ -9,50 +9,41 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.hw.link import protocols
 
 
 def emulate_drive(args: argparse.Namespace) -> int:
-    """Emulated drives (ODrive or CiA 402) answering on a python-can bus until Ctrl-C."""
-    if not args.node:
-        args.node = [0, 1] if args.protocol == "odrive" else [1, 2]
+    """Emulated drives of any registered protocol answering on a python-can bus until Ctrl-C."""
     import can
 
     from twmr.hw.bus import bus_options, describe
-    from twmr.hw.safety import node_id_problem
+    from twmr.hw.link import DriveSpec, protocol
 
-    problem = node_id_problem(args.protocol, args.node)
+    link = protocol(args.protocol)
+    nodes = tuple(args.node) if args.node else link.default_nodes
+    problem = link.node_problem(nodes)
     if problem:
         raise CosimError(f"emulate-drive: {problem}. Fix: give --node ids the protocol can "
-                         f"address (ODrive 0..63, CANopen 1..126), each once.")
-    if args.eds and args.protocol != "cia402":
-        raise CosimError(f"emulate-drive: --eds {args.eds} is for CiA 402 drives. Fix: add "
-                         f"--protocol cia402, or leave --eds out.")
-    if args.eds and not Path(args.eds).is_file():
-        raise CosimError(f"emulate-drive: the EDS/DCF {args.eds} does not exist. Fix: give the "
-                         f"drive's description file.")
-
+                         f"address ({link.node_range.start}..{link.node_range.stop - 1}), each "
+                         f"once.")
+    if args.eds and "eds" not in link.own_parameters:
+        raise CosimError(f"emulate-drive: --eds {args.eds} is not an option of protocol "
+                         f"{args.protocol}. Fix: choose the protocol whose drives read an "
+                         f"EDS/DCF (--protocol cia402), or leave --eds out.")
+    spec = DriveSpec(nodes=nodes, gear=args.gear, firmware=args.firmware,
+                     torque_constant=args.torque_constant, encoder_period=args.encoder_period,
+                     eds=args.eds or "")
+    for key, what, fix in link.check(spec):
+        raise CosimError(f"emulate-drive: --{key.replace('_', '-')}: {what} Fix: {fix}")
     try:
         options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
                               args.can_context)
-        if args.protocol == "odrive":
-            from twmr.hw.emulator import OdriveEmulator
-
-            emu: Any = OdriveEmulator(tuple(args.node), options, args.firmware, args.gear,
-                                      encoder_period=args.encoder_period,
-                                      torque_constant=args.torque_constant)
-        else:
-            from importlib import resources
-
-            from twmr.hw.cia402_emulator import Cia402Emulator
-
-            eds = args.eds or str(resources.files("twmr.hw").joinpath(
-                "data", "maxon_epos4_module_50-5.eds"))
-            emu = Cia402Emulator(tuple(args.node), eds, options, args.gear)
+        emu, _ = link.emulate(spec, options)
     except (OSError, ValueError, ImportError, can.CanError) as err:
         raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
                          f"--interface/--channel, --can-config and --eds.") from None
-    print(f"emulating {args.protocol} drives {args.node} on {describe(options)}; Ctrl-C stops",
-          file=sys.stderr)
+    print(f"emulating {args.protocol} drives {list(nodes)} on {describe(options)}; Ctrl-C "
+          f"stops", file=sys.stderr)
     try:
         while True:
             time.sleep(1.0)
@@ -64,6 +55,8 @@ def emulate_drive(args: argparse.Namespace) -> int:
 
 def replay(args: argparse.Namespace) -> int:
     """A run's frame log decoded to SI values (CSV), or played onto a bus."""
+    import can
+
     from twmr.hw.bus import bus_options, describe
     from twmr.hw.replay import Decoder, decode_log, play
 
@@ -72,21 +65,35 @@ def replay(args: argparse.Namespace) -> int:
         raise CosimError(f"{log}: no such frame log. Fix: give the <name>_frames.blf (or .asc) "
                          f"that `twmr run` wrote beside the results.")
     if args.play:
-        options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
-                              args.can_context)
-        n = play(log, options, paced=not args.fast)
+        try:
+            options = bus_options(args.interface, args.channel, args.bitrate,
+                                  args.can_config or "", args.can_context)
+            n = play(log, options, paced=not args.fast)
+        except (OSError, ValueError, ImportError, can.CanError) as err:
+            raise CosimError(f"replay --play: cannot send {log} ({err}). Fix: give a "
+                             f"python-can --interface and --channel that exist here, or "
+                             f"--can-config.") from None
         print(f"{n} frames of {log} sent on {describe(options)}", file=sys.stderr)
         return 0
     decoder = Decoder(args.protocol, args.firmware, args.gear, args.rated_torque)
+    for key, what, fix in decoder.problems():
+        raise CosimError(f"replay: --{key.replace('_', '-')}: {what} Fix: {fix}")
+    bad: list[str] = []
     try:
-        decoded = decode_log(log, decoder)
+        decoded = decode_log(log, decoder, bad)
     except Exception as err:  # noqa: BLE001 - python-can's readers raise many kinds
         raise CosimError(f"{log}: cannot read it as a frame log ({type(err).__name__}: {err}). "
                          f"Fix: give the .blf or .asc file `twmr run` wrote beside the results."
                          ) from None
     if not decoded:
-        raise CosimError(f"{log}: no {args.protocol} frames found in it. Fix: check --protocol "
-                         f"(odrive or cia402) and that this is a bench run's frame log.")
+        extra = f" ({_frames(len(bad))} too short for {args.protocol}, e.g. {bad[0]})" \
+            if bad else ""
+        raise CosimError(f"{log}: no {args.protocol} frames found in it{extra}. Fix: check "
+                         f"--protocol (one of {', '.join(protocols())}) and --firmware, "
+                         f"and that this is a bench run's frame log.")
+    if bad:
+        print(f"{log}: {_frames(len(bad))} of the log too short for {args.protocol}, skipped "
+              f"(first: {bad[0]})", file=sys.stderr)
     out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
     try:
         out.write("time_s,direction,node,signal,value\n")
@@ -99,6 +106,10 @@ def replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _frames(n: int) -> str:
+    return f"{n} frame" if n == 1 else f"{n} frames"
+
+
 def _axis_text(axis: Any) -> str:
     state = getattr(axis.state, "value", axis.state)
     error = f" err 0x{axis.error:x}" if getattr(axis, "error", 0) else ""
@@ -109,7 +120,7 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     """Add `emulate-drive` and `replay` to the command line."""
     em = subparsers.add_parser("emulate-drive", parents=[common],
                                help="emulated drives on a CAN bus (no hardware)")
-    em.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
+    em.add_argument("--protocol", choices=protocols(), default="odrive")
     em.add_argument("--interface", default="virtual")
     em.add_argument("--channel", default="twmr")
     em.add_argument("--bitrate", type=int, default=1_000_000)
@@ -122,12 +133,13 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     em.add_argument("--eds", help="CiA 402: EDS/DCF of the drives (default: shipped EPOS4)")
     em.add_argument("--gear", type=float, default=1.0)
     em.add_argument("--node", type=int, action="append", default=None,
-                    help="axis node id (repeatable; default 0 and 1, CiA 402: 1 and 2)")
+                    help="axis node id (repeatable; default: the protocol's, ODrive 0 and 1, "
+                    "CiA 402 1 and 2)")
     em.set_defaults(fn=emulate_drive)
     rp = subparsers.add_parser("replay", parents=[common],
                                help="decode a run's CAN frame log to CSV, or play it onto a bus")
     rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
-    rp.add_argument("--protocol", choices=("odrive", "cia402"), default="odrive")
+    rp.add_argument("--protocol", choices=protocols(), default="odrive")
     rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
     rp.add_argument("--gear", type=float, default=1.0, help="motor turns per wheel turn")
     rp.add_argument("--rated-torque", type=int, default=1000, help="CiA 402 0x6076 [mN.m]")

@@ -1,8 +1,10 @@
 """`CanMotorDrive` (kind `can_drive`): two wheel motors on CAN drives with the ports of the
 simulated motor driver, so a scenario swaps one for the other by its `kind:` alone.
 
-Protocols: ODrive CAN Simple (`odrive_link`) or CiA 402 over CANopen (`cia402_link`). The bus is
-python-can's (`interface`, `channel`, `bitrate`, or a python-can config file `can_config`).
+Protocols: any `Link` registered under `twmr.can_protocols` (`protocol:`), shipped: ODrive CAN
+Simple (`odrive`) and CiA 402 over CANopen (`cia402`); the block knows them only through that
+interface. The bus is python-can's (`interface`, `channel`, `bitrate`, or a python-can config file
+`can_config`).
 
 Each step: `evaluate(t)` limits the torque command to `torque_limit` and sends it at once (the
 torque output depends directly on the command, as for the simulated driver, and is what the drives
@@ -13,23 +15,34 @@ error frame, bus-off), feedback older than `watchdog_periods` steps or a heartbe
 `heartbeat_timeout` sends zero torque and disables the drives at once, and stops the run with a
 `HardwareError` naming the block and the node. `terminate()` — after a normal end, an error or
 Ctrl-C — sends zero torque and disables every drive. Every frame is logged (python-can BLF/ASC)
-beside the results unless `log_file: ""`.
+beside the results unless `log_file: ""`. `report()` says which drives stop by themselves when the
+host falls silent (ODrive 0.6.x: the axis watchdog the host set and read back; CiA 402: the
+heartbeat consumer) and which do not. Hardware cannot be rolled back: `get_state`/`set_state`
+refuse.
 """
 from __future__ import annotations
 
 import math
 import time
-from importlib import resources
 from pathlib import Path
 from typing import Any, ClassVar
 
+import can
 import numpy as np
 
-from twmr.core import BOOLEAN, STRING, Component, HardwareError, Input, Output, Parameter
-from twmr.hw.bus import FrameLog, bus_options
-from twmr.hw.safety import Fault, LinkError, clamp, node_id_problem, stale
-
-SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
+from twmr.core import (
+    BOOLEAN,
+    STRING,
+    Component,
+    CosimError,
+    HardwareError,
+    Input,
+    Output,
+    Parameter,
+)
+from twmr.hw.bus import FrameLog, bus_options, interface_problem
+from twmr.hw.link import DriveSpec, Link, foreign_parameters, protocol, protocols
+from twmr.hw.safety import Fault, LinkError, clamp, stale
 
 
 class CanMotorDrive(Component):
@@ -37,10 +50,11 @@ class CanMotorDrive(Component):
 
     kind = "can_drive"
     needs_realtime: ClassVar[bool] = True
-    can_get_and_set_state: ClassVar[bool] = False
-    construction_parameters = ("eds", "can_config")
+    can_get_and_set_state: ClassVar[bool] = False  # hardware cannot be rolled back
+    construction_parameters = ("eds", "can_config", "endpoints")
 
-    protocol = Parameter("odrive", type=STRING, description="odrive | cia402")
+    protocol = Parameter("odrive", type=STRING, description="a registered CAN protocol "
+                         "(twmr.can_protocols): odrive | cia402")
     interface = Parameter("virtual", type=STRING, description="python-can interface")
     channel = Parameter("twmr", type=STRING, description="python-can channel")
     bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
@@ -58,12 +72,16 @@ class CanMotorDrive(Component):
     max_current = Parameter(0.0, unit="A", min=0.0, description="the drive's rated maximum "
                             "motor current (0: not stated; required with emulate: false)")
     firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
+    drive_watchdog = Parameter(0.1, unit="s", min=0.0, description="ODrive 0.6.x: the axis "
+                               "watchdog timeout the host sets and reads back (0: not set)")
+    endpoints = Parameter("", type=STRING, description="ODrive 0.6.x: flat_endpoints.json of "
+                          "the firmware build (endpoint ids of the watchdog)")
     encoder = Parameter("cyclic", type=STRING, description="ODrive: cyclic | polled estimates")
     eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
                     "shipped maxon EPOS4 EDS)")
-    rated_torque = Parameter(100_000, type="Integer", description="CiA 402: rated torque "
-                             "[mN.m] used when the drive reports 0 in 0x6076")
-    increments_per_rev = Parameter(4096, type="Integer", description="CiA 402: encoder "
+    rated_torque = Parameter(100_000, type="Integer", min=1, description="CiA 402: rated "
+                             "torque [mN.m] used when the drive reports 0 in 0x6076")
+    increments_per_rev = Parameter(4096, type="Integer", min=1, description="CiA 402: encoder "
                                    "increments per motor revolution")
     watchdog_periods = Parameter(10, type="Integer", min=1, description="host watchdog: steps "
                                  "without fresh feedback before the drives are disabled")
@@ -90,15 +108,16 @@ class CanMotorDrive(Component):
         return cls(name, **files)
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
-        """Node ids per protocol; with real drives (emulate: false) explicit torque and speed
-        limits within the drive's rating (max_current x torque_constant x gear)."""
-        problems = []
-        nodes = tuple(int(n) for n in self.node_ids)
-        what = node_id_problem(self.protocol, nodes)
-        if what:
-            problems.append(("node_ids" if "protocol" not in what else "protocol", what + ".",
-                             "give two different ids the drives are configured with (ODrive "
-                             "0..63, CANopen 1..126)."))
+        """The drives' problems (`drive_problems`), parameters of another protocol, the log
+        file; with real drives (emulate: false) explicit torque and speed limits within the
+        drive's rating (max_current x torque_constant x gear)."""
+        problems = self.drive_problems()
+        if problems and problems[0][0] == "protocol":
+            return problems
+        link = protocol(self.protocol)
+        for name in sorted(given & foreign_parameters(link) if given else ()):
+            problems.append((name, f"{name} is not a parameter of protocol {self.protocol}.",
+                             f"remove {name}:, or set the protocol it belongs to."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() not in (".blf", ".asc")):
@@ -106,9 +125,6 @@ class CanMotorDrive(Component):
                              f"file name inside the results folder.",
                              "give a plain name such as motor.blf (it is written beside the "
                              "results), 'auto' or ''."))
-        if self.eds and self.protocol != "cia402":
-            problems.append(("eds", "an EDS/DCF is given but the protocol is not cia402.",
-                             "remove eds:, or set protocol: cia402."))
         if not self.emulate:
             missing = [k for k in ("torque_limit", "speed_limit", "max_current")
                        if k not in given]
@@ -127,11 +143,35 @@ class CanMotorDrive(Component):
                                      f"give at most {rating:g} N.m."))
         return problems
 
+    def drive_problems(self) -> list[tuple[str, str, str]]:
+        """The protocol (registered), its own parameters (`Link.check`), the node ids and the
+        python-can interface: what no run can start without."""
+        from twmr.registry import suggest
+
+        known = protocols()
+        if self.protocol not in known:
+            return [("protocol", f"protocol '{self.protocol}' is unknown"
+                     f"{suggest(self.protocol, known)}.", f"use one of: {', '.join(known)} "
+                     f"(CAN protocols registered under twmr.can_protocols).")]
+        link = protocol(self.protocol)
+        problems = link.check(self.spec())
+        what = link.node_problem(tuple(int(n) for n in self.node_ids))
+        if what:
+            problems.append(("node_ids", what + ".", "give two different ids the drives are "
+                             f"configured with ({link.node_range.start}.."
+                             f"{link.node_range.stop - 1} for {self.protocol})."))
+        if not self.can_config:
+            wrong = interface_problem(self.interface)
+            if wrong:
+                problems.append(("interface", wrong + ".", "give a python-can interface name "
+                                 "(or can_config: a python-can config file)."))
+        return problems
+
     # -- life cycle ------------------------------------------------------------------------------
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
         self._t = start
-        self.link: Any = None
+        self.link: Link | None = None
         self.emulators: list[Any] = []
         self.log: FrameLog | None = None
         self._tripped = False
@@ -139,10 +179,13 @@ class CanMotorDrive(Component):
         self._log_error = ""
         self._late_replies = 0
         self._age_max = 0.0
+        self._protection: dict[int, tuple[bool, str]] = {}
         self._nodes = tuple(int(n) for n in self.node_ids)
-        if self.protocol not in ("odrive", "cia402"):
-            raise HardwareError(self.name, start, f"protocol '{self.protocol}' is unknown. Fix: "
-                                f"use protocol: odrive or cia402.")
+        problems = self.drive_problems()
+        if problems:
+            key, what, fix = problems[0]
+            raise HardwareError(self.name, start, f"parameter '{key}': {what} Fix: {fix}")
+        link = protocol(self.protocol)
         try:
             options = bus_options(self.interface, self.channel, int(self.bitrate),
                                   self.can_config, self.can_context)
@@ -152,12 +195,30 @@ class CanMotorDrive(Component):
                                 ) from err
         path = self._log_path()
         self.log = FrameLog(path) if path else None
+        spec = self.spec()
         if self.emulate:
-            self._start_emulators(options)
+            try:
+                emulator, spec = link.emulate(spec, options)
+            except (OSError, ValueError, ImportError, can.CanError) as err:
+                raise HardwareError(self.name, start, f"cannot start the emulated drives "
+                                    f"({err}). Fix: check interface, channel and can_config."
+                                    ) from err
+            self.emulators = [emulator]
         try:
-            self.link = self._open_link(options)
+            self.link = link(spec, options, self.log)
         except LinkError as err:
             raise HardwareError(self.name, start, err.fault.text()) from err
+
+    def spec(self) -> DriveSpec:
+        """The drives as every protocol sees them (each reads its own fields)."""
+        return DriveSpec(
+            nodes=tuple(int(n) for n in self.node_ids), gear=float(self.gear),
+            torque_limit=float(self.torque_limit), speed_limit=float(self.speed_limit),
+            heartbeat_timeout=float(self.heartbeat_timeout), firmware=str(self.firmware),
+            encoder=str(self.encoder), torque_constant=float(self.torque_constant),
+            drive_watchdog=float(self.drive_watchdog), endpoints=str(self.endpoints),
+            eds=str(self.eds), rated_torque=int(self.rated_torque),
+            increments_per_rev=int(self.increments_per_rev))
 
     def prepare(self, run: Any) -> None:
         self._run_folder = run.folder
@@ -170,42 +231,22 @@ class CanMotorDrive(Component):
         return Path(out) / (f"{self.name}_frames.blf" if self.log_file == "auto"
                             else self.log_file)
 
-    def _eds(self) -> str:
-        return self.eds or str(resources.files("twmr.hw").joinpath("data", SHIPPED_EDS))
+    def get_state(self) -> Any:
+        raise CosimError(f"component '{self.name}' (can_drive): the state of real drives cannot "
+                         f"be saved or rolled back. Fix: use an algorithm that does not roll "
+                         f"back, or the simulated motor (kind: motor_driver) for this run.")
 
-    def _open_link(self, options: dict[str, Any]) -> Any:
-        if self.protocol == "odrive":
-            from twmr.hw.odrive_link import OdriveLink
-
-            return OdriveLink(self._nodes, options, self.firmware, self.gear, self.encoder,
-                              self.log)
-        from twmr.hw.cia402_link import Cia402Link
-
-        return Cia402Link(self._nodes, options, self._eds(), self.gear,
-                          int(self.increments_per_rev), int(self.rated_torque), self.log)
-
-    def _start_emulators(self, options: dict[str, Any]) -> None:
-        if self.protocol == "odrive":
-            from twmr.hw.emulator import OdriveEmulator
-
-            self.emulators = [OdriveEmulator(self._nodes, options, self.firmware, self.gear,
-                                             torque_constant=self.torque_constant)]
-        else:
-            from twmr.hw.cia402_emulator import Cia402Emulator
-
-            self.emulators = [Cia402Emulator(self._nodes, self._eds(), options, self.gear,
-                                             int(self.rated_torque),
-                                             int(self.increments_per_rev))]
+    def set_state(self, state: Any) -> None:
+        self.get_state()
 
     def initialize(self) -> None:
         try:
-            if self.protocol == "odrive":
-                current = self.torque_limit / (self.gear * self.torque_constant)
-                self.link.start(self.start_timeout, self.speed_limit, current)
-            else:
-                self.link.start(self.start_timeout, self.torque_limit, self.heartbeat_timeout)
+            self._live().start(self.start_timeout)
         except LinkError as err:
             self._trip(err.fault)
+        finally:
+            if self.link is not None:
+                self._protection = self.link.protection()
         self._publish(time.monotonic())
         self._age_max = 0.0  # measured over the steps
 
@@ -213,7 +254,7 @@ class CanMotorDrive(Component):
         """Send the (limited) torque command now: the drives apply it over [t, t + h)."""
         self._t = t
         try:
-            self.torque = self.link.command(clamp(self.torque_command, self.torque_limit))
+            self.torque = self._live().command(clamp(self.torque_command, self.torque_limit))
         except LinkError as err:
             self._trip(err.fault)
 
@@ -221,18 +262,25 @@ class CanMotorDrive(Component):
         self._t = t
         for emu in self.emulators:
             emu.set_load_speeds(dict(zip(self._nodes, self.wheel_speed, strict=False)))
-        if not self.link.wait_feedback(self.reply_timeout):
+        if not self._live().wait_feedback(self.reply_timeout):
             self._late_replies += 1
         now = time.monotonic()
-        fault = self.link.fault or stale(
-            now, {n: fb[2] for n, fb in zip(self._nodes, self.link.feedback(), strict=False)},
-            self.link.heartbeats(), self.watchdog_periods * h, self.heartbeat_timeout)
+        fault = self._live().fault or stale(
+            now, {n: fb[2] for n, fb in zip(self._nodes, self._live().feedback(), strict=False)},
+            self._live().heartbeats(), self.watchdog_periods * h, self.heartbeat_timeout)
         if fault is not None:
             self._trip(fault)
         self._publish(now)
 
+    def _live(self) -> Link:
+        """The started link (setup() succeeded)."""
+        if self.link is None:
+            raise HardwareError(self.name, self._t, "the drives are not started (setup() did not "
+                                "succeed). Fix: see the first error of this run.")
+        return self.link
+
     def _publish(self, now: float) -> None:
-        fb = self.link.feedback()
+        fb = self._live().feedback()
         self._age_max = max(self._age_max, max(now - f[2] for f in fb))
         self.angle = (fb[0][0], fb[1][0])
         self.measured_speed = (fb[0][1], fb[1][1])
@@ -245,11 +293,17 @@ class CanMotorDrive(Component):
         raise HardwareError(self.name, self._t, fault.text())
 
     def report(self) -> dict[str, Any]:
-        """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback."""
+        """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback;
+        by node, the drives that stop by themselves when the host falls silent (and how) and
+        those that do not (and why)."""
         out: dict[str, Any] = {"late_replies": self._late_replies,
                                "feedback_age_max_ms": round(1e3 * self._age_max, 3)}
         if self._log_error:
             out["frame_log_error"] = self._log_error
+        protection: dict[int, tuple[bool, str]] = getattr(self, "_protection", {})
+        out["protected_by_drive"] = {str(n): how for n, (ok, how) in protection.items() if ok}
+        out["not_protected_by_drive"] = {str(n): why for n, (ok, why) in protection.items()
+                                         if not ok}
         rtt = np.asarray(getattr(self.link, "rtt_ns", self._rtt_ns), dtype=float) / 1e3
         if rtt.size:
             out.update(can_rtt_p50_us=float(np.percentile(rtt, 50)),
@@ -268,10 +322,10 @@ class CanMotorDrive(Component):
                 link.disable(emergency=self._tripped)
                 link.close()
         finally:
-            if getattr(self, "log", None) is not None:
-                self.log.close()
-                self._log_error = self.log.error
-                self.log = None
+            log, self.log = getattr(self, "log", None), None
+            if log is not None:
+                log.close()
+                self._log_error = log.error
             for emu in getattr(self, "emulators", ()):
                 emu.close()
             self.emulators = []

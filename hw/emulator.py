@@ -5,8 +5,13 @@ on Set_Axis_State, refused while an error is latched; Estop -> IDLE with ESTOP_R
 Clear_Errors), the controller mode (torque commands count only in TORQUE_CONTROL), the limits of
 Set_Limits, and the torque command. It sends Heartbeat and Get_Encoder_Estimates cyclically
 (`heartbeat_period`, `encoder_period`; 0 turns the encoder messages off) and answers them when asked
-by a remote frame. Drive-side safety as on a real ODrive: the axis watchdog drops to IDLE with
-WATCHDOG_TIMER_EXPIRED when no Set_Input_Torque came for `command_timeout` [s]; the motor torque
+by a remote frame. With firmware 0.6.x it answers RxSdo for the endpoints of its table
+(`endpoints`, a flat_endpoints.json; by default its own): writes set them, reads are answered by
+TxSdo. Drive-side safety as on a real ODrive: once enabled (`axis0.config.enable_watchdog`, off
+from the factory, or `watchdog_timeout` given here as if set with odrivetool), the axis watchdog
+drops a closed-loop axis to IDLE with WATCHDOG_TIMER_EXPIRED and zero torque when no
+Set_Input_Torque came for `watchdog_timeout` [s]; every state change is logged in `events`. The
+motor torque
 is limited to current_limit * torque_constant, and to zero when the speed is past the velocity
 limit in the torque's direction (the torque-mode velocity limiter).
 
@@ -47,6 +52,21 @@ class Axis:
     current_limit: float = 10.0  # A (the firmware's default)
     last_command: float = field(default_factory=time.monotonic)
     external_speed: float | None = None
+    watchdog_enabled: bool = False
+    watchdog_timeout: float = 0.0  # [s]
+
+
+@dataclass(frozen=True)
+class Event:
+    """A state change of an emulated axis: when (monotonic [s]), the axis state and error after
+    it, the torque applied [N.m], and when the last host input came before it."""
+
+    time: float
+    node: int
+    state: int
+    error: int
+    torque: float
+    last_command: float
 
 
 class OdriveEmulator:
@@ -55,12 +75,19 @@ class OdriveEmulator:
     def __init__(self, node_ids: tuple[int, ...] = (0, 1),
                  options: Mapping[str, Any] | None = None, firmware: str = "0.6.10",
                  gear: float = 1.0, encoder_period: float = 1e-3, heartbeat_period: float = 0.1,
-                 torque_tau: float = 0.0, inertia: float = 0.05, command_timeout: float = 0.1,
-                 torque_constant: float = 0.04):
+                 torque_tau: float = 0.0, inertia: float = 0.05, watchdog_timeout: float = 0.0,
+                 torque_constant: float = 0.04, endpoints: str | None = None):
+        p.firmware_line(firmware)  # ValueError here, not in the thread
+        self.sdo = p.has_sdo(firmware)
+        table = p.load_endpoints(endpoints or p.emulated_endpoints())
+        self.endpoints = {ident: (name, kind) for name, (ident, kind) in table.items()
+                          if name in (p.WATCHDOG_TIMEOUT, p.ENABLE_WATCHDOG)}
         self.firmware, self.gear, self.torque_constant = firmware, gear, torque_constant
         self.encoder_period, self.heartbeat_period = encoder_period, heartbeat_period
-        self.torque_tau, self.inertia, self.command_timeout = torque_tau, inertia, command_timeout
-        self.axes = {n: Axis(n) for n in node_ids}
+        self.torque_tau, self.inertia = torque_tau, inertia
+        self.axes = {n: Axis(n, watchdog_enabled=watchdog_timeout > 0,
+                             watchdog_timeout=watchdog_timeout) for n in node_ids}
+        self.events: deque[Event] = deque(maxlen=10_000)
         self.bus = can.Bus(**dict(options or {"interface": "virtual", "channel": "twmr"}))
         self.lock = threading.Lock()
         self.silent = False  # stops answering and sending (a dead drive) when set
@@ -92,6 +119,27 @@ class OdriveEmulator:
         self._send(p.encode_heartbeat(axis.node, p.Heartbeat(axis.error, axis.state),
                                       self.firmware))
 
+    def _log(self, axis: Axis) -> None:
+        self.events.append(Event(time.monotonic(), axis.node, axis.state, axis.error,
+                                 axis.torque, axis.last_command))
+
+    def _endpoint(self, axis: Axis, msg: can.Message) -> None:
+        """RxSdo: write one of the watchdog's endpoints, or answer a read with TxSdo."""
+        opcode, ident, raw = p.decode_sdo(bytes(msg.data))
+        if ident not in self.endpoints:
+            return  # not in this build's table: no answer
+        name, kind = self.endpoints[ident]
+        if opcode == p.SDO_WRITE:
+            value = p.sdo_value(raw, kind)
+            if name == p.WATCHDOG_TIMEOUT:
+                axis.watchdog_timeout = float(value)
+            else:
+                axis.watchdog_enabled = bool(value)
+                axis.last_command = time.monotonic()  # enabling feeds it
+        elif opcode == p.SDO_READ:
+            held = axis.watchdog_timeout if name == p.WATCHDOG_TIMEOUT else axis.watchdog_enabled
+            self._send(p.encode_tx_sdo(axis.node, ident, kind, held))
+
     def _handle(self, msg: can.Message) -> None:
         node, cmd = p.split_id(msg.arbitration_id)
         axis = self.axes.get(node)
@@ -115,7 +163,10 @@ class OdriveEmulator:
                     axis.last_command = time.monotonic()
                 elif requested == p.AXIS_IDLE:
                     axis.state = p.AXIS_IDLE
+                self._log(axis)
                 self._heartbeat(axis)
+            elif cmd == p.RX_SDO and self.sdo:
+                self._endpoint(axis, msg)
             elif cmd == p.SET_CONTROLLER_MODE:
                 axis.control_mode = int.from_bytes(msg.data[:4], "little")
             elif cmd == p.SET_LIMITS:
@@ -124,6 +175,7 @@ class OdriveEmulator:
                 axis.state = p.AXIS_IDLE
                 axis.command = 0.0
                 axis.error |= p.error_bit("estop", self.firmware)
+                self._log(axis)
             elif cmd == p.CLEAR_ERRORS:
                 axis.error = 0
 
@@ -141,10 +193,13 @@ class OdriveEmulator:
         now = time.monotonic()
         with self.lock:
             for axis in self.axes.values():
-                if axis.state == p.AXIS_CLOSED_LOOP and \
-                        now - axis.last_command > self.command_timeout:
+                expired = axis.watchdog_enabled and \
+                    now - axis.last_command > axis.watchdog_timeout
+                if axis.state == p.AXIS_CLOSED_LOOP and expired:
                     axis.state = p.AXIS_IDLE
                     axis.error |= p.error_bit("watchdog", self.firmware)
+                    axis.torque = 0.0
+                    self._log(axis)
                 target = self._target(axis)
                 if self.torque_tau > 0:
                     axis.torque += (target - axis.torque) * (1 - math.exp(-dt / self.torque_tau))

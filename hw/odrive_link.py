@@ -1,13 +1,18 @@
-"""Host side of ODrive axes (CAN Simple) on one python-can bus.
+"""Host side of ODrive axes (CAN Simple) on one python-can bus: the `odrive` protocol.
 
-Start-up: the firmware's DBC is checked against our frame layouts (cantools); each axis gets
-Clear_Errors, Set_Limits, Set_Controller_Mode(torque, passthrough) and
-Set_Axis_State(CLOSED_LOOP_CONTROL), and must report CLOSED_LOOP_CONTROL in its heartbeat with
-an encoder frame within the start timeout (zero torque is sent meanwhile, which feeds the drives'
-own watchdogs). Each period: Set_Input_Torque to every axis and, with `encoder: polled`, a remote
-request of Get_Encoder_Estimates whose reply time is the round trip; with `encoder: cyclic` the
-drives send their estimates at their own rate. The notifier thread keeps the latest estimates and
-heartbeats, and latches the first fault (axis error, axis out of closed loop, error frame).
+Start-up: the firmware's DBC is checked against our frame layouts (cantools). Where the firmware
+has RxSdo/TxSdo (0.6.x) and the endpoint ids are known (`endpoints`: the build's
+flat_endpoints.json; the emulator's own table when emulated), each axis's own watchdog is set
+(`axis0.config.watchdog_timeout` = `drive_watchdog`, `enable_watchdog` = true) and read back
+through TxSdo: a drive whose values come back is protected by its own watchdog when the host
+falls silent (bus-off, crash). Then each axis gets Clear_Errors, Set_Limits,
+Set_Controller_Mode(torque, passthrough) and Set_Axis_State(CLOSED_LOOP_CONTROL), and must
+report CLOSED_LOOP_CONTROL in its heartbeat with an encoder frame within the start timeout
+(zero torque is sent meanwhile, which feeds the drives' own watchdogs). Each period:
+Set_Input_Torque to every axis and, with `encoder: polled`, a remote request of
+Get_Encoder_Estimates whose reply time is the round trip; with `encoder: cyclic` the drives send
+their estimates at their own rate. The notifier thread keeps the latest estimates, heartbeats
+and SDO answers, and latches the first fault (axis error, axis out of closed loop, error frame).
 """
 from __future__ import annotations
 
@@ -16,25 +21,34 @@ import math
 import threading
 import time
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import replace
+from typing import Any, ClassVar
 
 import can
 
 from twmr.hw import protocol as p
 from twmr.hw.bus import FrameGuard, FrameLog, describe, frame_text
+from twmr.hw.link import DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
+ENCODERS = ("cyclic", "polled")
 
-class OdriveLink:
-    """ODrive axes `nodes` (wheel order) on the bus given by python-can `options`."""
 
-    def __init__(self, nodes: Sequence[int], options: dict[str, Any], firmware: str,
-                 gear: float, encoder: str = "cyclic", log: FrameLog | None = None):
-        if encoder not in ("cyclic", "polled"):
-            raise ValueError(f"encoder '{encoder}' is unknown; use cyclic or polled")
-        self.nodes, self.firmware, self.gear = tuple(nodes), firmware, gear
-        self.polled = encoder == "polled"
-        p.check_layout(firmware)
+class OdriveLink(Link):
+    """ODrive axes `spec.nodes` (wheel order) on the bus given by python-can `options`."""
+
+    node_range: ClassVar[range] = range(0, 64)  # 6 bits of node id in the 11-bit identifier
+    default_nodes: ClassVar[tuple[int, int]] = (0, 1)
+    own_parameters: ClassVar[frozenset[str]] = frozenset(
+        {"firmware", "encoder", "drive_watchdog", "endpoints"})
+
+    def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
+        problems = self.check(spec)
+        if problems:
+            raise LinkError(Fault(None, problems[0][1].rstrip("."), problems[0][2]))
+        self.spec = spec
+        self.nodes, self.firmware, self.gear = tuple(spec.nodes), spec.firmware, spec.gear
+        self.polled = spec.encoder == "polled"
         self.log = log
         self.lock = threading.Lock()
         self.estimates = {n: (0.0, 0.0, 0.0) for n in self.nodes}  # angle, speed, stamp
@@ -43,6 +57,10 @@ class OdriveLink:
         self.fault: Fault | None = None
         self.running = False  # closed loop reached: leaving it is a fault
         self.rtt_ns: list[int] = []
+        self.watchdog: dict[int, tuple[bool, str]] = {n: (False, "not started")
+                                                      for n in self.nodes}
+        self._sdo: dict[tuple[int, int], bytes] = {}  # (node, endpoint) -> value read back
+        self._sdo_seen = threading.Condition(self.lock)
         self._asked: dict[int, int] = {}
         self._replied = threading.Event()
         self._rtr = {n: can.Message(arbitration_id=p.can_id(n, p.GET_ENCODER_ESTIMATES),
@@ -57,6 +75,70 @@ class OdriveLink:
         self.guard = FrameGuard(self._malformed)
         listeners: list[Any] = [self.guard, self._on_frame] + ([log.received] if log else [])
         self.notifier = can.Notifier(self.bus, listeners, timeout=0.01)
+
+    @classmethod
+    def check(cls, spec: DriveSpec) -> list[tuple[str, str, str]]:
+        """Firmware line (and its DBC against our layouts), encoder mode, endpoint table."""
+        try:
+            p.check_layout(spec.firmware)
+        except ValueError as err:
+            return [("firmware", f"{err}.", "give the firmware the drives run, 0.5.x or 0.6.x "
+                     "(e.g. 0.6.10), as odrivetool reports it.")]
+        if spec.encoder not in ENCODERS:
+            return [("encoder", f"encoder '{spec.encoder}' is unknown.",
+                     f"use one of: {', '.join(ENCODERS)}.")]
+        if spec.endpoints:
+            try:
+                table = p.load_endpoints(spec.endpoints)
+            except ValueError as err:
+                return [("endpoints", f"{err}.", "give the flat_endpoints.json of the drives' "
+                         "firmware build (odrivetool keeps it; ODrive publishes one per "
+                         "release), or endpoints: ''.")]
+            missing = [k for k in (p.WATCHDOG_TIMEOUT, p.ENABLE_WATCHDOG) if k not in table]
+            if missing:
+                return [("endpoints", f"{spec.endpoints} has no endpoint {missing[0]}.",
+                         "give the flat_endpoints.json of the drives' own firmware build.")]
+        return []
+
+    @classmethod
+    def decode(cls, msg: can.Message, spec: DriveSpec) -> Signals:
+        """CAN Simple frames of `spec.firmware`, scaled with `spec.gear`."""
+        node, cmd = p.split_id(msg.arbitration_id)
+        data = bytes(msg.data)
+        if msg.is_remote_frame:
+            return [(node, f"request_0x{cmd:02x}", 1.0)]
+        if cmd == p.SET_INPUT_TORQUE:
+            return [(node, "torque_command", p.decode_torque(data, spec.gear))]
+        if cmd == p.GET_ENCODER_ESTIMATES:
+            angle, speed = p.decode_encoder(data, spec.gear)
+            return [(node, "angle", angle), (node, "speed", speed)]
+        if cmd == p.HEARTBEAT:
+            beat = p.decode_heartbeat(data, spec.firmware)
+            return [(node, "axis_error", beat.axis_error), (node, "axis_state", beat.axis_state)]
+        if cmd == p.SET_AXIS_STATE:
+            return [(node, "requested_state", int.from_bytes(data[:4], "little"))]
+        if cmd == p.SET_LIMITS:
+            speed, current = p.decode_limits(data, spec.gear)
+            return [(node, "speed_limit", speed), (node, "current_limit", current)]
+        if cmd in (p.RX_SDO, p.TX_SDO) and p.has_sdo(spec.firmware):
+            opcode, endpoint, raw = p.decode_sdo(data)
+            what = "sdo_answer" if cmd == p.TX_SDO else ("sdo_write" if opcode else "sdo_read")
+            return [(node, f"{what}_{endpoint}", int.from_bytes(raw, "little"))]
+        names = {p.ESTOP: "estop", p.CLEAR_ERRORS: "clear_errors",
+                 p.SET_CONTROLLER_MODE: "controller_mode"}
+        return [(node, names[cmd], 1.0)] if cmd in names else []
+
+    @classmethod
+    def emulate(cls, spec: DriveSpec, options: dict[str, Any]) -> tuple[Emulator, DriveSpec]:
+        """Emulated ODrives; the host reaches them with the emulator's endpoint table unless
+        `spec.endpoints` names one."""
+        from twmr.hw.emulator import OdriveEmulator
+
+        endpoints = spec.endpoints or str(p.emulated_endpoints())
+        return OdriveEmulator(spec.nodes, options, spec.firmware, spec.gear,
+                              encoder_period=spec.encoder_period,
+                              torque_constant=spec.torque_constant,
+                              endpoints=endpoints), replace(spec, endpoints=endpoints)
 
     # -- bus -----------------------------------------------------------------------------------
     def _send(self, ident: int, data: bytes) -> None:
@@ -95,6 +177,11 @@ class OdriveLink:
                     self.rtt_ns.append(time.perf_counter_ns() - sent)
                     if not self._asked:
                         self._replied.set()
+        elif cmd == p.TX_SDO and p.has_sdo(self.firmware):
+            _, endpoint, raw = p.decode_sdo(bytes(msg.data))
+            with self._sdo_seen:
+                self._sdo[(node, endpoint)] = raw
+                self._sdo_seen.notify_all()
         elif cmd == p.HEARTBEAT:
             beat = p.decode_heartbeat(msg.data, self.firmware)
             with self.lock:
@@ -118,8 +205,61 @@ class OdriveLink:
                 self.fault = fault
 
     # -- life cycle ------------------------------------------------------------------------------
-    def start(self, timeout: float, wheel_speed_limit: float, current_limit: float) -> None:
-        """Every axis to closed-loop torque control; `LinkError` when one is not there in time."""
+    def _set_watchdogs(self, timeout: float) -> None:
+        """Each axis's own watchdog set through RxSdo and read back through TxSdo (0.6.x);
+        `self.watchdog` says per node whether it holds, and why not."""
+        spec = self.spec
+        if not p.has_sdo(self.firmware):
+            self.watchdog = {n: (False, f"firmware {self.firmware} has no RxSdo/TxSdo: enable "
+                                 "the axis watchdog with odrivetool (docs/bench.md)")
+                             for n in self.nodes}
+            return
+        if spec.drive_watchdog <= 0:
+            self.watchdog = {n: (False, "not set by the host (drive_watchdog: 0)")
+                             for n in self.nodes}
+            return
+        if not spec.endpoints:
+            self.watchdog = {n: (False, "endpoint ids unknown: give endpoints: (the "
+                                 "flat_endpoints.json of the firmware build)")
+                             for n in self.nodes}
+            return
+        table = p.load_endpoints(spec.endpoints)
+        wanted = {p.WATCHDOG_TIMEOUT: spec.drive_watchdog, p.ENABLE_WATCHDOG: True}
+        for n in self.nodes:
+            for name, value in wanted.items():
+                endpoint, kind = table[name]
+                self._send(*p.encode_sdo(n, p.SDO_WRITE, endpoint, kind, value))
+            for name in wanted:
+                self._send(*p.encode_sdo(n, p.SDO_READ, table[name][0], table[name][1]))
+        deadline = time.monotonic() + timeout
+        keys = {(n, table[name][0]) for n in self.nodes for name in wanted}
+        with self._sdo_seen:
+            while not keys <= self._sdo.keys() and time.monotonic() < deadline:
+                self._sdo_seen.wait(deadline - time.monotonic())
+            got = dict(self._sdo)
+        for n in self.nodes:
+            back = {name: got.get((n, table[name][0])) for name in wanted}
+            if any(raw is None for raw in back.values()):
+                self.watchdog[n] = (False, f"no TxSdo answer within {timeout:g} s: the drive "
+                                    "does not confirm its watchdog")
+                continue
+            seen = {name: p.sdo_value(raw, table[name][1]) for name, raw in back.items()
+                    if raw is not None}
+            expect = p.wire_value(table[p.WATCHDOG_TIMEOUT][1], spec.drive_watchdog)
+            if seen[p.ENABLE_WATCHDOG] and seen[p.WATCHDOG_TIMEOUT] == expect:
+                self.watchdog[n] = (True, f"axis watchdog {spec.drive_watchdog:g} s, set and "
+                                    "read back")
+            else:
+                self.watchdog[n] = (False, f"read back enable_watchdog="
+                                    f"{bool(seen[p.ENABLE_WATCHDOG])}, watchdog_timeout="
+                                    f"{seen[p.WATCHDOG_TIMEOUT]:g} s: not what was written")
+
+    def start(self, timeout: float) -> None:
+        """The axis watchdogs (where the firmware allows), then every axis to closed-loop torque
+        control; `LinkError` when one is not there in time."""
+        self._set_watchdogs(min(timeout, 0.5))
+        wheel_speed_limit = self.spec.speed_limit
+        current_limit = self.spec.torque_limit / (self.gear * self.spec.torque_constant)
         for n in self.nodes:
             self._send(*p.encode_clear_errors(n, self.firmware))
             self._send(*p.encode_limits(n, wheel_speed_limit, current_limit, self.gear))
@@ -167,6 +307,9 @@ class OdriveLink:
         with self.lock:
             return dict(self.beats)
 
+    def protection(self) -> dict[int, tuple[bool, str]]:
+        return dict(self.watchdog)
+
     def disable(self, emergency: bool = False) -> None:
         """Zero torque, then IDLE (or Estop when `emergency`) to every axis; errors ignored."""
         self.running = False
@@ -178,5 +321,6 @@ class OdriveLink:
                     self._send(ident, data)
 
     def close(self) -> None:
+        """Stop the bus thread and shut the bus down."""
         self.notifier.stop()
         self.bus.shutdown()

@@ -12,12 +12,20 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 # command ids (both firmware lines)
 HEARTBEAT, ESTOP, SET_AXIS_STATE, GET_ENCODER_ESTIMATES = 0x01, 0x02, 0x07, 0x09
 SET_CONTROLLER_MODE, SET_INPUT_TORQUE, SET_LIMITS, CLEAR_ERRORS = 0x0B, 0x0E, 0x0F, 0x18
+# arbitrary endpoint access (0.6.x only): RxSdo host -> drive, TxSdo drive -> host (read answers)
+RX_SDO, TX_SDO = 0x04, 0x05
+SDO_READ, SDO_WRITE = 0, 1
+SDO_LINES = frozenset({"0.6"})
+# the axis watchdog's endpoints (ids come from the firmware build's flat_endpoints.json)
+WATCHDOG_TIMEOUT, ENABLE_WATCHDOG = "axis0.config.watchdog_timeout", "axis0.config.enable_watchdog"
 # axis states and modes
 AXIS_IDLE, AXIS_CLOSED_LOOP = 1, 8
 CONTROL_TORQUE, INPUT_PASSTHROUGH = 1, 1
@@ -27,7 +35,11 @@ _2F32 = struct.Struct("<ff")
 _U32 = struct.Struct("<I4x")
 _2U32 = struct.Struct("<II")
 _HEARTBEAT = {"0.5": struct.Struct("<IBBBB"), "0.6": struct.Struct("<IBBBx")}
+_SDO = struct.Struct("<BHB4s")  # opcode (reserved in TxSdo), endpoint id, reserved, value
+_VALUE = {"float": "<f", "bool": "<?", "boolean": "<?", "uint8": "<B", "uint16": "<H",
+          "uint32": "<I", "int32": "<i"}
 DBC = {"0.5": "odrive-cansimple_v0.5.6.dbc", "0.6": "odrive-cansimple-0.6.10.dbc"}
+EMULATED_ENDPOINTS = "odrive-endpoints-emulated.json"
 # axis error bits that differ between the firmware lines (from the DBCs' value tables)
 WATCHDOG_TIMER_EXPIRED = {"0.5": 0x800, "0.6": 0x1000000}
 ESTOP_REQUESTED = {"0.5": 0x4000, "0.6": 0x2000000}
@@ -61,9 +73,68 @@ def firmware_line(version: str) -> str:
     return line
 
 
+def has_sdo(version: str) -> bool:
+    """Whether the firmware line's CAN Simple has RxSdo/TxSdo (0.6.x; 0.5.x has not)."""
+    return firmware_line(version) in SDO_LINES
+
+
+def emulated_endpoints() -> Path:
+    """The emulated ODrive's endpoint table (ids of its own, in flat_endpoints.json form)."""
+    return Path(str(resources.files("twmr.hw") / "data" / EMULATED_ENDPOINTS))
+
+
+def load_endpoints(path: str | Path) -> dict[str, tuple[int, str]]:
+    """name -> (endpoint id, type) of an ODrive `flat_endpoints.json` (the file ODrive publishes
+    for each firmware build: {"endpoints": {"axis0.config.watchdog_timeout": {"id": ..,
+    "type": "float"}, ...}}). ValueError when the file cannot be read or holds no endpoint
+    table."""
+    import json
+
+    source = Path(path)
+    try:
+        table = json.loads(source.read_text(encoding="utf-8"))["endpoints"]
+        return {str(k): (int(v["id"]), str(v["type"])) for k, v in table.items()}
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"{source} is not an ODrive flat_endpoints.json ({type(err).__name__}: "
+                         f"{err})") from None
+
+
+def encode_sdo(node: int, opcode: int, endpoint: int, kind: str,
+               value: float | bool = 0) -> tuple[int, bytes]:
+    """RxSdo: read (`SDO_READ`) or write an endpoint of type `kind` ('float', 'bool', ...)."""
+    raw = _pack_value(kind, value) if opcode == SDO_WRITE else bytes(4)
+    return can_id(node, RX_SDO), _SDO.pack(opcode, endpoint, 0, raw)
+
+
+def _pack_value(kind: str, value: float | bool) -> bytes:
+    return struct.pack(_VALUE[kind], value).ljust(4, b"\0")
+
+
+def wire_value(kind: str, value: float | bool) -> float | bool:
+    """`value` as an endpoint of type `kind` holds it (float32 for 'float')."""
+    return sdo_value(_pack_value(kind, value), kind)
+
+
+def decode_sdo(data: bytes) -> tuple[int, int, bytes]:
+    """(opcode, endpoint id, 4 value bytes) of an RxSdo or TxSdo payload."""
+    opcode, endpoint, _, raw = _SDO.unpack_from(data)
+    return opcode, endpoint, raw
+
+
+def sdo_value(raw: bytes, kind: str) -> float | bool:
+    """The value of an endpoint of type `kind` in the 4 value bytes of an SDO frame."""
+    fmt = _VALUE[kind]
+    return struct.unpack_from(fmt, raw)[0]
+
+
+def encode_tx_sdo(node: int, endpoint: int, kind: str, value: float | bool) -> tuple[int, bytes]:
+    """TxSdo: the drive's answer to a read."""
+    return can_id(node, TX_SDO), _SDO.pack(0, endpoint, 0, _pack_value(kind, value))
+
+
 def dbc_path(version: str) -> Path:
     """The DBC shipped for this firmware line."""
-    return Path(str(resources.files("twmr.hw").joinpath("data", DBC[firmware_line(version)])))
+    return Path(str(resources.files("twmr.hw") / "data" / DBC[firmware_line(version)]))
 
 
 def encode_torque(node: int, wheel_torque: float, gear: float) -> tuple[int, bytes]:
@@ -140,11 +211,15 @@ def decode_heartbeat(data: bytes, version: str) -> Heartbeat:
     return Heartbeat(values[0], values[1], values[2])
 
 
+@cache
 def check_layout(version: str, path: Path | None = None) -> None:
-    """Raise ValueError when the DBC's layout of the frames used here differs from ours."""
+    """Raise ValueError when the DBC's layout of the frames used here differs from ours (each
+    file is read once per process)."""
     import cantools
 
     db = cantools.database.load_file(str(path or dbc_path(version)))
+    if not isinstance(db, cantools.database.can.Database):
+        raise ValueError(f"{path or dbc_path(version)} is not a CAN database (DBC)")
     expect = {SET_INPUT_TORQUE: [(0, 32, True)], GET_ENCODER_ESTIMATES: [(0, 32, True),
                                                                        (32, 32, True)],
               SET_AXIS_STATE: [(0, 32, False)], SET_CONTROLLER_MODE: [(0, 32, False),
@@ -164,7 +239,15 @@ def check_layout(version: str, path: Path | None = None) -> None:
         for f in fields:
             if f not in got or msg.signals[0].byte_order != "little_endian":
                 raise ValueError(f"{msg.name}: layout {got} in the DBC does not hold {f}")
-    choices = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error").choices or {}
+    if line in SDO_LINES:
+        expect_sdo = [(0, 8, False), (8, 16, False), (32, 32, False)]
+        for cmd in (RX_SDO, TX_SDO):
+            msg = db.get_message_by_frame_id(cmd)
+            got = sorted((s.start, s.length, s.is_float) for s in msg.signals)
+            if msg.length != 8 or any(f not in got for f in expect_sdo):
+                raise ValueError(f"{msg.name}: layout {got} in the DBC is not the SDO layout")
+    signal = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error")
+    choices: dict[Any, Any] = dict(signal.choices or {})
     names = {str(v): int(k) for k, v in choices.items()}
     for bit, table in (("WATCHDOG_TIMER_EXPIRED", WATCHDOG_TIMER_EXPIRED),
                        ("ESTOP_REQUESTED", ESTOP_REQUESTED)):

@@ -1,22 +1,22 @@
 """Frame logs of a run (python-can BLF/ASC, written by `bus.FrameLog`) read back: each frame
-decoded to SI values per drive node, or played onto a bus with its original timing.
-
-ODrive frames decode with the CAN Simple layouts of `protocol`; CiA 402 frames with the PDO
-mapping `cia402_link` configures (RPDO1 0x200+n: controlword, target torque; TPDO1 0x180+n:
-statusword, velocity; TPDO2 0x280+n: position), SYNC, EMCY and heartbeats.
+decoded to SI values per drive node by the protocol's own `Link.decode` (found in the
+`twmr.can_protocols` registry), or played onto a bus with its original timing. A frame its
+protocol cannot decode (too short for its identifier) is skipped and counted, never the end of
+the log.
 """
 from __future__ import annotations
 
 import struct
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import can
 
-from twmr.hw import cia402 as c
-from twmr.hw import protocol as p
+from twmr.hw.bus import frame_text
+from twmr.hw.link import DriveSpec, Link, Signals, protocol
 
 
 @dataclass(frozen=True)
@@ -40,69 +40,48 @@ class Decoder:
     rated_torque: int = 1000  # CiA 402 0x6076 [mN.m]
     increments_per_rev: int = 4096
 
-    def __call__(self, msg: can.Message) -> list[tuple[int | None, str, float]]:
+    @cached_property
+    def _link(self) -> type[Link]:
+        return protocol(self.protocol)
+
+    @cached_property
+    def _spec(self) -> DriveSpec:
+        return DriveSpec(gear=self.gear, firmware=self.firmware, rated_torque=self.rated_torque,
+                         increments_per_rev=self.increments_per_rev)
+
+    def problems(self) -> list[tuple[str, str, str]]:
+        """What is wrong with the decoding parameters (parameter, what, fix)."""
+        found = [] if self.gear > 0 else [("gear", f"gear {self.gear:g} is not positive.",
+                                           "give the motor turns per wheel turn (> 0).")]
+        return found + self._link.check(self._spec)
+
+    def __call__(self, msg: can.Message) -> Signals:
         """(node, signal, value) of what `msg` carries; [] for frames it does not know."""
         if msg.is_error_frame:
             return [(None, "error_frame", 1.0)]
-        if self.protocol == "odrive":
-            return self._odrive(msg)
-        return self._cia402(msg)
-
-    def _odrive(self, msg: can.Message) -> list[tuple[int | None, str, float]]:
-        node, cmd = p.split_id(msg.arbitration_id)
-        data = bytes(msg.data)
-        if msg.is_remote_frame:
-            return [(node, f"request_0x{cmd:02x}", 1.0)]
-        if cmd == p.SET_INPUT_TORQUE:
-            return [(node, "torque_command", p.decode_torque(data, self.gear))]
-        if cmd == p.GET_ENCODER_ESTIMATES:
-            angle, speed = p.decode_encoder(data, self.gear)
-            return [(node, "angle", angle), (node, "speed", speed)]
-        if cmd == p.HEARTBEAT:
-            beat = p.decode_heartbeat(data, self.firmware)
-            return [(node, "axis_error", beat.axis_error), (node, "axis_state", beat.axis_state)]
-        if cmd == p.SET_AXIS_STATE:
-            return [(node, "requested_state", int.from_bytes(data[:4], "little"))]
-        if cmd == p.SET_LIMITS:
-            speed, current = p.decode_limits(data, self.gear)
-            return [(node, "speed_limit", speed), (node, "current_limit", current)]
-        names = {p.ESTOP: "estop", p.CLEAR_ERRORS: "clear_errors",
-                 p.SET_CONTROLLER_MODE: "controller_mode"}
-        return [(node, names[cmd], 1.0)] if cmd in names else []
-
-    def _cia402(self, msg: can.Message) -> list[tuple[int | None, str, float]]:
-        ident, data = msg.arbitration_id, bytes(msg.data)
-        base, node = ident & 0x780, ident & 0x7F
-        if ident == 0x080:
-            return [(None, "sync", 1.0)]
-        if base == 0x200 and len(data) >= 4:
-            word, permille = struct.unpack_from("<Hh", data)
-            return [(node, "controlword", word), (node, "torque_command",
-                    c.permille_to_torque(permille, self.gear, self.rated_torque))]
-        if base == 0x180 and len(data) >= 6:
-            word, rpm = struct.unpack_from("<Hi", data)
-            return [(node, "statusword", word), (node, "speed", c.velocity_to_si(rpm, self.gear))]
-        if base == 0x280 and len(data) >= 4:
-            (inc,) = struct.unpack_from("<i", data)
-            return [(node, "angle", c.position_to_si(inc, self.gear, self.increments_per_rev))]
-        if base == 0x080 and node and len(data) >= 2:
-            return [(node, "emcy", int.from_bytes(data[:2], "little"))]
-        if base == 0x700 and data:
-            return [(node, "heartbeat", data[0])]
-        return []
+        return self._link.decode(msg, self._spec)
 
 
-def decode_frames(frames: Iterable[can.Message], decoder: Decoder) -> Iterator[Decoded]:
-    """Every known signal of `frames`, in order."""
+def decode_frames(frames: Iterable[can.Message], decoder: Decoder,
+                  bad: list[str] | None = None) -> Iterator[Decoded]:
+    """Every known signal of `frames`, in order; a frame that cannot be decoded is skipped and
+    described in `bad` when given."""
     for msg in frames:
         direction = "Rx" if msg.is_rx else "Tx"
-        for node, signal, value in decoder(msg):
+        try:
+            signals = decoder(msg)
+        except (ValueError, struct.error, IndexError):
+            if bad is not None:
+                bad.append(f"{frame_text(msg)} at {msg.timestamp:.6f} s")
+            continue
+        for node, signal, value in signals:
             yield Decoded(msg.timestamp, direction, node, signal, float(value))
 
 
-def decode_log(path: str | Path, decoder: Decoder) -> list[Decoded]:
-    """The decoded signals of a BLF/ASC frame log."""
-    return list(decode_frames(can.LogReader(str(path)), decoder))
+def decode_log(path: str | Path, decoder: Decoder, bad: list[str] | None = None
+               ) -> list[Decoded]:
+    """The decoded signals of a BLF/ASC frame log (frames that cannot be decoded: in `bad`)."""
+    return list(decode_frames(can.LogReader(str(path)), decoder, bad))
 
 
 def play(path: str | Path, options: dict[str, Any], paced: bool = True) -> int:

@@ -53,23 +53,3 @@ def stale(now: float, feedback: Mapping[int, float], heartbeats: Mapping[int, fl
                          f"timeout {1e3 * heartbeat_timeout:.0f} ms)",
                          "check the drive's power, wiring and its heartbeat period")
     return None
-
-
-#: node ids each protocol can address: ODrive CAN Simple puts 6 bits of node id in the 11-bit
-#: identifier; CANopen nodes are 1..127 (0 is the NMT broadcast) and the host's heartbeat
-#: takes 127
-NODE_RANGE = {"odrive": range(0, 64), "cia402": range(1, 127)}
-
-
-def node_id_problem(protocol: str, nodes: Sequence[int]) -> str:
-    """'' when `nodes` are distinct and addressable by `protocol`, else what is wrong."""
-    valid = NODE_RANGE.get(protocol)
-    if valid is None:
-        return f"protocol '{protocol}' is unknown (odrive or cia402)"
-    bad = [n for n in nodes if n not in valid]
-    if bad:
-        return (f"node id {bad[0]} is outside {valid.start}..{valid.stop - 1}, the ids "
-                f"{protocol} can address")
-    if len(set(nodes)) != len(nodes):
-        return f"node ids {list(nodes)} repeat: one drive would get both wheels' torque"
-    return ""

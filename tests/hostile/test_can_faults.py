@@ -321,8 +321,9 @@ def duplicate_odrive(closed_loop: bool) -> Inject:
 
 def duplicate_cia(b: Bench) -> None:
     from twmr.hw.cia402_emulator import Cia402Emulator
+    from twmr.hw.cia402_link import eds_path
 
-    b.extra.append(Cia402Emulator((2,), b.drive._eds(), b.options, 1.0,
+    b.extra.append(Cia402Emulator((2,), eds_path(b.drive.spec()), b.options, 1.0,
                                   int(b.drive.rated_torque), int(b.drive.increments_per_rev)))
 
 

@@ -1,0 +1,161 @@
+"""The one interface every CAN drive protocol implements, and the protocols by name.
+
+A `Link` is the host side of a drive pair on one python-can bus: open it, `start` (configure and
+enable every axis), `command` torques each period, read `feedback` and `heartbeats`, latch a
+`fault`, `disable` and `close`. The same class says what replay and the emulator need: `decode`
+reads one of its frames back to SI values, `emulate` starts emulated drives that answer its
+frames. `protection()` says which drives stop by themselves when the host falls silent.
+
+Protocols are registered through the entry-point group `twmr.can_protocols` (name ->
+`module:LinkClass`); `protocol(name)` loads one, `protocols()` lists them without importing.
+The drive block, safety, replay and the CLI see nothing but this interface and the registry.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+if TYPE_CHECKING:
+    import can
+
+    from twmr.hw.bus import FrameLog
+    from twmr.hw.safety import Fault
+
+#: (node or None for the bus, signal, value) of one decoded frame
+Signals = list[tuple[int | None, str, float]]
+
+
+@dataclass(frozen=True)
+class DriveSpec:
+    """What a link, its decoder and its emulator need to know of the drives; each protocol
+    reads its own fields (`Link.own_parameters`). SI units at the wheel."""
+
+    nodes: tuple[int, ...] = (0, 1)
+    gear: float = 1.0  # motor turns per wheel turn
+    torque_limit: float = 50.0  # |wheel torque| [N.m]
+    speed_limit: float = 200.0  # wheel speed [rad/s]
+    heartbeat_timeout: float = 0.5  # [s]
+    firmware: str = "0.6.10"  # ODrive
+    encoder: str = "cyclic"  # ODrive: cyclic | polled
+    torque_constant: float = 0.04  # ODrive [N.m/A]
+    drive_watchdog: float = 0.1  # ODrive axis watchdog set by the host [s]; 0: not set
+    endpoints: str = ""  # ODrive flat_endpoints.json of the firmware build
+    encoder_period: float = 1e-3  # emulated ODrive: cyclic estimates period [s]
+    eds: str = ""  # CiA 402 EDS/DCF
+    rated_torque: int = 1000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
+    increments_per_rev: int = 4096  # CiA 402 encoder increments per motor turn
+
+
+class Emulator(Protocol):
+    """Emulated drives answering a link's frames (a thread of their own)."""
+
+    axes: Mapping[int, Any]
+
+    def set_load_speeds(self, speeds: Mapping[int, float]) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class Link(ABC):
+    """The host side of one protocol's drives `spec.nodes` (wheel order) on bus `options`."""
+
+    #: node ids the protocol can address, and the ids `twmr emulate-drive` uses by default
+    node_range: ClassVar[range]
+    default_nodes: ClassVar[tuple[int, int]]
+    #: drive-block parameters that only this protocol reads
+    own_parameters: ClassVar[frozenset[str]] = frozenset()
+    fault: Fault | None
+    rtt_ns: list[int]
+
+    @abstractmethod
+    def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
+        """Open the bus; `LinkError` when it cannot be opened."""
+
+    @classmethod
+    def check(cls, spec: DriveSpec) -> list[tuple[str, str, str]]:
+        """Problems of the protocol's own parameters (parameter, what, fix), before any I/O."""
+        return []
+
+    @classmethod
+    def node_problem(cls, nodes: Sequence[int]) -> str:
+        """'' when `nodes` are distinct and addressable, else what is wrong."""
+        bad = [n for n in nodes if n not in cls.node_range]
+        if bad:
+            return (f"node id {bad[0]} is outside {cls.node_range.start}.."
+                    f"{cls.node_range.stop - 1}, the node ids of this protocol")
+        if len(set(nodes)) != len(nodes):
+            return f"node ids {list(nodes)} repeat: one drive would get both wheels' torque"
+        return ""
+
+    @classmethod
+    @abstractmethod
+    def decode(cls, msg: can.Message, spec: DriveSpec) -> Signals:
+        """What one frame of this protocol carries, in SI; [] for frames it does not know.
+        Raises ValueError/struct.error for a frame too short for its identifier."""
+
+    @classmethod
+    @abstractmethod
+    def emulate(cls, spec: DriveSpec, options: dict[str, Any]) -> tuple[Emulator, DriveSpec]:
+        """Emulated drives `spec.nodes` answering on bus `options`, and the spec the host
+        reaches them with."""
+
+    @abstractmethod
+    def start(self, timeout: float) -> None:
+        """Configure and enable every axis within `timeout` [s]; `LinkError` otherwise."""
+
+    @abstractmethod
+    def command(self, torques: Sequence[float]) -> tuple[float, ...]:
+        """Send wheel torques [N.m]; the torques the drives receive (wire quantisation)."""
+
+    @abstractmethod
+    def wait_feedback(self, timeout: float) -> bool:
+        """Wait up to `timeout` [s] for this period's feedback (True when it all came)."""
+
+    @abstractmethod
+    def feedback(self) -> list[tuple[float, float, float]]:
+        """(wheel angle [rad], wheel speed [rad/s], monotonic time of its frame) per axis."""
+
+    @abstractmethod
+    def heartbeats(self) -> dict[int, float]:
+        """Monotonic time of each drive's last heartbeat, by node."""
+
+    @abstractmethod
+    def protection(self) -> dict[int, tuple[bool, str]]:
+        """Per node: whether the drive stops by itself when the host falls silent, and how
+        (or why not)."""
+
+    @abstractmethod
+    def disable(self, emergency: bool = False) -> None:
+        """Zero torque, then disable every axis (the emergency form after a fault)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the bus (after `disable`)."""
+
+
+def protocols() -> list[str]:
+    """The registered protocol names (nothing imported)."""
+    from twmr.registry import CAN_PROTOCOLS, plugins
+
+    return sorted(plugins(CAN_PROTOCOLS))
+
+
+def foreign_parameters(link: type[Link]) -> frozenset[str]:
+    """Drive-block parameters that other registered protocols read and `link` does not."""
+    others = {key for name in protocols() for key in protocol(name).own_parameters}
+    return frozenset(others - link.own_parameters)
+
+
+def protocol(name: str) -> type[Link]:
+    """The `Link` class registered as `name`; CosimError naming the known ones otherwise."""
+    from twmr.registry import CAN_PROTOCOLS, plugin
+
+    link = plugin(CAN_PROTOCOLS, name, "CAN protocol")
+    if not (isinstance(link, type) and issubclass(link, Link)):
+        from twmr.core.errors import CosimError
+
+        raise CosimError(f"CAN protocol '{name}' is registered as {link!r}, not a Link class. "
+                         f"Fix: register a subclass of twmr.hw.link.Link under twmr.can_protocols.")
+    return link
