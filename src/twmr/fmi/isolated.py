@@ -38,7 +38,7 @@ TERMINATE_TIMEOUT = 5.0
 _CALLS = {"create": "loading", "prepare": "prepare", "setup": "instantiation",
           "initialize": "initialization", "evaluate": "evaluate (get/set of inputs and outputs)",
           "do_step": "doStep", "get_state": "getFMUstate", "set_state": "setFMUstate",
-          "terminate": "terminate"}
+          "release_state": "freeFMUstate", "terminate": "terminate"}
 _FIX = ("check the FMU's inputs and parameters at this time (the results up to it are saved), "
         "or report it to the FMU's vendor; anything the FMU printed is on standard error.")
 
@@ -48,6 +48,7 @@ class IsolatedFmu(Component):
 
     kind = "fmu"
     generic_units = FmuComponent.generic_units
+    state_attributes = ("_t",)
 
     def __init__(self, name: str = "", path: str | Path = "", timeout: float = 10.0,
                  **kwargs: Any):
@@ -61,6 +62,7 @@ class IsolatedFmu(Component):
             raise FmuError(self.name, None, f"timeout {timeout} is not positive. Fix: give the "
                            f"longest one FMU call may take in seconds, e.g. timeout: 10")
         self._kwargs = kwargs
+        self.can_get_and_set_state = self._desc.can_get_and_set_state
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
         self.variables = dict(self._desc.variables)
         self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})
@@ -220,13 +222,22 @@ class IsolatedFmu(Component):
         d.update(zip(self._outputs, values, strict=False))
 
     def get_state(self) -> Any:
-        """The worker keeps the FMU state; this holds its index and the port values."""
-        return self._call("get_state"), {n: self.__dict__[n] for n in self.variables}
+        """(the worker's `FmuComponent` state, these ports and time): the FMU's own state
+        crosses the socket as bytes when it serialises, else as a token the worker holds."""
+        if not self.can_get_and_set_state:
+            raise self._desc.no_state("save")
+        return self._call("get_state"), super().get_state()
 
     def set_state(self, state: Any) -> None:
-        index, values = state
-        self._call("set_state", (index,))
-        self.__dict__.update(values)
+        if not self.can_get_and_set_state:
+            raise self._desc.no_state("restore")
+        worker, values = state
+        self._call("set_state", (worker,))
+        super().set_state(values)
+
+    def release_state(self, state: Any) -> None:
+        if self._conn is not None:
+            self._call("release_state", (state[0],))
 
     def report(self) -> dict[str, Any]:
         return self._report

@@ -47,7 +47,6 @@ class _Server:
         self.values: dict[str, Any] = {}
         self.inputs: tuple[str, ...] = ()
         self.outputs: tuple[str, ...] = ()
-        self.saved: list[Any] = []
 
     def create(self, name: str, path: str, kwargs: dict[str, Any],
                values: dict[str, Any]) -> None:
@@ -87,13 +86,15 @@ class _Server:
         self.fmu.do_step(t, h)
         return [d[n] for n in self.outputs]
 
-    def get_state(self) -> int:
-        """The FMU state stays here; the parent gets its index."""
-        self.saved.append(self.fmu.get_state())
-        return len(self.saved) - 1
+    def get_state(self) -> Any:
+        """The FMU's state as plain values (bytes, or a token for a state held by the FMU)."""
+        return self.fmu.get_state()
 
-    def set_state(self, index: int) -> None:
-        self.fmu.set_state(self.saved[index])
+    def set_state(self, state: Any) -> None:
+        self.fmu.set_state(state)
+
+    def release_state(self, state: Any) -> None:
+        self.fmu.release_state(state)
 
     def terminate(self) -> dict[str, Any]:
         """The FMU's `report()`, taken before it is terminated."""
