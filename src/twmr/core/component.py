@@ -13,6 +13,7 @@ Semantics (what the master relies on):
 """
 from __future__ import annotations
 
+import numbers
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -20,7 +21,7 @@ from twmr.core.errors import ComponentError
 from twmr.core.port import Input, Output, Parameter, State, Variable
 
 #: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
-PLAIN = (type(None), bool, int, float, complex, str, bytes)
+PLAIN = (type(None), numbers.Number, str, bytes)
 #: a saved state: (name, value) for each input, output, state and `state_attributes` entry
 SavedState = tuple[tuple[str, Any], ...]
 
