@@ -22,6 +22,7 @@ from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError
+from twmr.fmi import guard
 from twmr.fmi.description import FmuPort, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
@@ -95,6 +96,8 @@ class FmuComponent(Component):
         self._serializes = bool(iface.canSerializeFMUstate)
         self._states: FmuStates | None = None
         self._inputs_set = False
+        self._guarded = False  # between guard.enter() in setup and guard.leave() in terminate
+        self.run_folder: Path | None = None  # where the run keeps its rows (for guard messages)
         try:
             self.ports, self._variables = ports_of(self.md, parameters)
         except ValueError as err:
@@ -176,6 +179,7 @@ class FmuComponent(Component):
         return getattr(self._fmu, f"get{suffix}"), getattr(self._fmu, f"set{suffix}")
 
     def prepare(self, run: Any) -> None:
+        self.run_folder = run.folder
         self._wired = run.wired_inputs(self.name)
         self._read = run.read_outputs(self.name)
 
@@ -184,6 +188,9 @@ class FmuComponent(Component):
         from fmpy import extract
 
         self._t = start
+        if not self._guarded:
+            guard.enter()
+            self._guarded = True
         self._unzipped = self._call("extract", extract, str(self.path),
                                     tempfile.mkdtemp(prefix="twmr-fmu-"))
         iface = self.md.modelExchange if self.me else self.md.coSimulation
@@ -500,3 +507,6 @@ class FmuComponent(Component):
         if self._unzipped:
             shutil.rmtree(self._unzipped, ignore_errors=True)
             self._unzipped = None
+        if self._guarded:
+            self._guarded = False
+            guard.leave()

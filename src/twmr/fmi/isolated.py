@@ -12,6 +12,8 @@ over as a file descriptor).
 """
 from __future__ import annotations
 
+import contextlib
+import math
 import os
 import pickle
 import select
@@ -28,7 +30,7 @@ from typing import Any
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
 from twmr.fmi.fmu import FmuComponent
-from twmr.fmi.worker import wait
+from twmr.fmi.worker import receive
 
 #: the longest the worker may take to start: an interpreter, fmpy, reading the FMU [s]
 START_TIMEOUT = 60.0
@@ -57,10 +59,14 @@ class IsolatedFmu(Component):
         super().__init__(name)
         self._desc = FmuComponent(self.name, path, **kwargs)
         self.path = Path(path)
-        self._timeout = float(timeout)
+        try:
+            self._timeout = float(timeout)
+        except (TypeError, ValueError):
+            self._timeout = math.nan
         if not self._timeout > 0:
-            raise FmuError(self.name, None, f"timeout {timeout} is not positive. Fix: give the "
-                           f"longest one FMU call may take in seconds, e.g. timeout: 10")
+            raise FmuError(self.name, None, f"timeout {timeout!r} is not positive. Fix: give "
+                           f"the longest one FMU call may take in seconds, e.g. timeout: 10 "
+                           f"(.inf: no limit)")
         self._kwargs = kwargs
         self.can_get_and_set_state = self._desc.can_get_and_set_state
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
@@ -108,7 +114,7 @@ class IsolatedFmu(Component):
             self._proc = subprocess.Popen(
                 [sys.executable, "-u", "-m", "twmr.fmi.worker", str(theirs.fileno()),
                  self._tmp, str(self.path)], pass_fds=(theirs.fileno(),), stdin=subprocess.PIPE,
-                stdout=2, env=env)
+                stdout=2, env=env, start_new_session=True)
         except OSError as exc:
             ours.close()
             self._end_worker(0.0)
@@ -130,20 +136,30 @@ class IsolatedFmu(Component):
             raise FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} cannot run: "
                            f"its process is not running ({self._ended}).")
         request = pickle.dumps((method, args), pickle.HIGHEST_PROTOCOL)
+        limit = self._timeout if limit is None else limit
         try:
             conn.send_bytes(request)
             self._pending = True
-            limit = self._timeout if limit is None else limit
-            if not wait(self._poll, limit):
+            reply = receive(conn, self._poll, limit)
+            if reply is None:
                 self._ended = f"it did not return within {limit:g} s"
                 self._end_worker(0.0)
                 raise FmuError(self.name, self._t, f"FMU '{self.path.name}' did not return "
                                f"within {limit:g} s from {what}; its process was killed. Fix: "
                                f"if the FMU is only slow, raise `timeout:` under the "
                                f"component's parameters; else {_FIX}")
-            status, value = pickle.loads(conn.recv_bytes())
+            status, value = pickle.loads(reply)
         except (EOFError, OSError):
             raise self._died(what) from None
+        except FmuError:
+            raise
+        except Exception:  # noqa: BLE001 - a frame or pickle the worker did not write
+            self._ended = "it sent a reply that is not one"
+            self._end_worker(0.0)
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': its process sent "
+                           f"something that is not a reply during {what} (the FMU wrote to "
+                           f"the worker's socket?); the process was killed. Fix: {_FIX}"
+                           ) from None
         self._pending = False
         if status == 0:
             return value
@@ -184,6 +200,8 @@ class IsolatedFmu(Component):
             except subprocess.TimeoutExpired:
                 proc.kill()
                 code = proc.wait()
+            with contextlib.suppress(OSError):  # what the FMU started, in the worker's group
+                os.killpg(proc.pid, signal.SIGKILL)
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._tmp = None
@@ -249,10 +267,9 @@ class IsolatedFmu(Component):
             return
         grace = min(self._timeout, TERMINATE_TIMEOUT)
         try:
-            if self._pending and self._poll.poll(grace * 1e3):
-                assert self._conn is not None
-                self._conn.recv_bytes()  # the answer to the call cut short
-                self._pending = False
+            if self._pending and self._conn is not None and \
+                    receive(self._conn, self._poll, grace) is not None:
+                self._pending = False  # the answer to the call cut short, read
             if not self._pending:
                 self._report = self._call("terminate", (), grace)
         except BaseException:  # noqa: BLE001 - terminating after a failure must not mask it

@@ -17,12 +17,14 @@ of file, that is when the parent has gone, even in the middle of an FMU call.
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import pickle
 import select
 import shutil
 import signal
+import struct
 import sys
 import threading
 import time
@@ -30,6 +32,7 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.fmi import guard
 from twmr.fmi.fmu import FmuComponent
 from twmr.master.execution import RunContext
 
@@ -105,13 +108,50 @@ class _Server:
 
 def wait(poller: select.poll, timeout: float | None) -> bool:
     """Whether the socket registered with `poller` became readable (a message, or closed) within
-    `timeout` [s] (None: no limit); polls for `SPIN` s first, then blocks."""
+    `timeout` [s] (None or beyond `poll`'s range: no limit); polls for `SPIN` s first, then
+    blocks."""
     end = time.perf_counter() + SPIN
     while not poller.poll(0):
         os.sched_yield()  # the other side may be waiting for this CPU
         if time.perf_counter() > end:
-            return bool(poller.poll(None if timeout is None else timeout * 1e3))
+            return bool(poller.poll(_milliseconds(timeout)))
     return True
+
+
+def _milliseconds(timeout: float | None) -> int | None:
+    return None if timeout is None or not timeout * 1e3 < 2**31 - 1 else int(timeout * 1e3)
+
+
+def receive(conn: Connection, poller: select.poll, timeout: float | None) -> bytes | None:
+    """One whole message on `conn` (multiprocessing.connection framing: a 4-byte big-endian
+    length, or -1 and an 8-byte one), or None if it is not all there within `timeout` [s] (None:
+    no limit). EOFError if the other side closed the socket, ValueError for a bad frame."""
+    deadline = None if _milliseconds(timeout) is None else time.monotonic() + float(timeout or 0)
+    fd = conn.fileno()
+    data = bytearray()
+
+    def fill(n: int) -> bool:
+        while len(data) < n:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not (wait(poller, left) if not data else poller.poll(_milliseconds(left))):
+                return False
+            chunk = os.read(fd, n - len(data))
+            if not chunk:
+                raise EOFError
+            data.extend(chunk)
+        return True
+
+    if not fill(4):
+        return None
+    (size,) = struct.unpack("!i", data[:4])
+    start = 4
+    if size == -1:
+        if not fill(12):
+            return None
+        (size,), start = struct.unpack("!Q", data[4:12]), 12
+    elif size < 0:
+        raise ValueError(f"a message length of {size}")
+    return bytes(data[start:]) if fill(start + size) else None
 
 
 def _exit_with_parent(tmp: str) -> None:
@@ -121,6 +161,8 @@ def _exit_with_parent(tmp: str) -> None:
         pass
     if not _ending.is_set():
         shutil.rmtree(tmp, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            os.killpg(0, signal.SIGKILL)  # this process and any the FMU started
         os._exit(1)
 
 
@@ -173,6 +215,7 @@ def main(argv: list[str] | None = None) -> None:
     """Serve one FMU; `argv` is FD TMP PATH (see the module's docstring)."""
     args = sys.argv[1:] if argv is None else argv
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    guard.enabled = False  # the parent reports what the FMU does to this process
     _log_to_stderr()
     threading.Thread(target=_exit_with_parent, args=(args[1],), name="twmr-lifeline",
                      daemon=True).start()
