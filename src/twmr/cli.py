@@ -110,10 +110,13 @@ def _plots(result: Any, title: str) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     from twmr.api import load
+    from twmr.fmi.guard import isolation_advice
     from twmr.scenario.listing import describe
 
     system = load(Path(args.scenario), args.set).system
     print(describe(system))
+    for advice in isolation_advice(system.components):
+        log.warning("warning: %s", advice)
     if args.schedule:
         from twmr.master.schedule import schedule_source
 

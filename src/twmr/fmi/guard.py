@@ -42,6 +42,18 @@ _watchdog: _Watchdog | None = None
 _exit_hook: list[Any] = []  # [callback, key, libc] once registered
 
 
+def isolation_advice(components: dict[str, Any]) -> list[str]:
+    """One warning per FMU of `components` (instance -> component) run in this process: what
+    an unattended run (a sweep, a batch) risks with it, and the fix."""
+    from twmr.fmi.fmu import FmuComponent
+
+    return [f"component '{name}' runs FMU '{comp.path.name}' in this process: a hang inside it "
+            f"stops only with the process, and an exit() or a crash inside it ends the whole "
+            f"run (in a sweep, the worker with every run it holds). Fix: for unattended runs "
+            f"give it isolate: true and a timeout: under its parameters."
+            for name, comp in components.items() if isinstance(comp, FmuComponent)]
+
+
 def enter() -> None:
     """An in-process FMU is being set up (from any thread): guard it until `leave()`."""
     global _active, _watchdog

@@ -149,7 +149,9 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
         switch (i->i[1]) {
         case 1: { volatile int *volatile p = NULL; *p = 1; break; } /* segmentation fault */
         case 2: exit(0);
-        case 3: for (;;) sleep_10ms(); /* hang forever */
+        case 3: /* hang forever */
+            log_msg(i, fmi2OK, "logAll", "faulty: hanging in doStep");
+            for (;;) sleep_10ms();
         case 4: {
             char msg[128];
             snprintf(msg, sizeof(msg), "faulty: doStep failed on purpose at step %ld", i->count);
