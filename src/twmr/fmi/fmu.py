@@ -446,7 +446,7 @@ class FmuComponent(Component):
         integ = self._integrator
         if integ is None:
             return ()
-        return (integ.t, integ.next_event, tuple(map(tuple, self._last_cont)),
+        return (integ.saved(), tuple(map(tuple, self._last_cont)),
                 tuple(map(tuple, self._last_disc)))
 
     def set_state(self, state: Any) -> None:
@@ -471,10 +471,9 @@ class FmuComponent(Component):
                            ) from None
         super().set_state(values)
         if self._integrator is not None:
-            integ = self._integrator
-            integ.t, integ.next_event, cont, disc = integrator
+            at, cont, disc = integrator
             self._last_cont, self._last_disc = list(map(list, cont)), list(map(list, disc))
-            integ.restart()
+            self._integrator.restore(at)
 
     def release_state(self, state: Any) -> None:
         if self._states is not None:
