@@ -123,7 +123,7 @@ def _die(text: str, status: int) -> None:
 
 # -- exit() inside an FMU ------------------------------------------------------------------------
 def _on_c_exit(_arg: Any) -> None:
-    if not _exit_hook:
+    if not _exit_hook or _active == 0:  # unregistering, or no FMU is set up: not an FMU's exit
         return
     frame = _fmu_frame(sys._getframe())
     if frame is None:
