@@ -111,12 +111,15 @@ def _plots(result: Any, title: str) -> None:
 
 def cmd_check(args: argparse.Namespace) -> int:
     from twmr.api import load
+    from twmr.fmi.guard import isolation_advice
     from twmr.master.algorithm import algorithm_for
     from twmr.scenario.listing import describe
 
     system = load(Path(args.scenario), args.set).system
     algorithm = algorithm_for(system)
     print(describe(system))
+    for advice in isolation_advice(system.components):
+        log.warning("warning: %s", advice)
     if args.schedule:
         algorithm.prepare(system, list(system.record.signals), system.record.decimation)
         print("generated step loop:")

@@ -18,15 +18,37 @@ compiled loop calls the same functions.
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 import functools
+import numbers
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
+from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel, KernelFunction
 from twmr.core.port import Input, Output, Parameter, State, Variable
+
+#: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
+PLAIN = (type(None), numbers.Number, str, bytes)
+#: a saved state: (name, value) for each input, output, state and `state_attributes` entry
+SavedState = tuple[tuple[str, Any], ...]
+
+
+def plain(value: Any) -> bool:
+    """Whether `value` is a plain immutable value (see `PLAIN`), a numpy array (saved as a
+    copy) or a tuple of them."""
+    if isinstance(value, tuple):
+        return all(plain(v) for v in value)
+    return isinstance(value, PLAIN) or type(value).__name__ == "ndarray"
+
+
+def _frozen(value: Any) -> Any:
+    """`value` with every numpy array in it copied, so a saved state does not change later."""
+    if isinstance(value, tuple):
+        return tuple(_frozen(v) for v in value)
+    return value.copy() if type(value).__name__ == "ndarray" else value
+
 
 #: attributes of a component that runs a kernel: its private state x, and the kernel in use
 _X, _RUN = "_kernel_x", "_kernel_run"
@@ -99,7 +121,11 @@ class Component:
     descriptors and override the life-cycle methods they need."""
 
     kind: ClassVar[str] = ""
-    can_get_and_set_state: ClassVar[bool] = True
+    #: whether `get_state`/`set_state` work (False: hardware, or an FMU that says it cannot)
+    can_get_and_set_state: bool = True
+    #: private attributes that `do_step` changes beyond the declared variables (e.g. a kernel's
+    #: internal state), saved by `get_state`; each must hold a plain value (see `PLAIN`)
+    state_attributes: ClassVar[tuple[str, ...]] = ()
     #: parameters needed to construct the instance (e.g. an FMU's `path`), given to `create`
     construction_parameters: ClassVar[tuple[str, ...]] = ()
     #: hardware in the loop: runs are paced to the wall clock unless the scenario says otherwise
@@ -246,12 +272,47 @@ class Component:
         return {}
 
     def get_state(self) -> Any:
-        """A snapshot of everything `do_step` changes (FMI fmi2GetFMUstate)."""
-        return copy.deepcopy({k: v for k, v in self.__dict__.items() if k != "variables"})
+        """A snapshot of everything `do_step` changes (FMI fmi2GetFMUstate): by default the
+        values of the inputs, outputs and states and of the `state_attributes`, as a tuple of
+        (name, value) pairs that pickles. Raises `ComponentError` if the block cannot."""
+        if not self.can_get_and_set_state:
+            raise self.no_state("save")
+        d = self.__dict__
+        saved = tuple((n, _frozen(d[n])) for n in self._state_names())
+        for name, value in saved:
+            if not plain(value):
+                raise ComponentError(self.name, None, f"cannot save its state: '{name}' holds "
+                                     f"a {type(value).__name__}, not a plain value. Fix: keep "
+                                     f"it as a number, a string, bytes or a tuple of them (or "
+                                     f"override get_state/set_state in {type(self).__name__}).")
+        return saved
 
     def set_state(self, state: Any) -> None:
         """Restore a snapshot taken by `get_state` (FMI fmi2SetFMUstate)."""
-        self.__dict__.update(copy.deepcopy(state))
+        if not self.can_get_and_set_state:
+            raise self.no_state("restore")
+        if not isinstance(state, tuple) or tuple(n for n, _ in state) != self._state_names():
+            raise ComponentError(self.name, None, f"the state given to set_state was not "
+                                 f"saved by a {type(self).__name__} with these ports. Fix: "
+                                 f"restore only states that this component's get_state "
+                                 f"returned.")
+        self.__dict__.update((n, _frozen(v)) for n, v in state)
+
+    def _state_names(self) -> tuple[str, ...]:
+        """What a saved state holds: the ports and states, the `state_attributes`, and the
+        private state of the kernel the block runs (when it runs one)."""
+        names = [n for n, v in self.variables.items() if v.kind != "parameter"]
+        kernel = (_X,) if _X in self.__dict__ else ()
+        return (*names, *self.state_attributes, *kernel)
+
+    def release_state(self, state: Any) -> None:
+        """The caller no longer needs `state` (FMUs free what it holds); by default nothing."""
+
+    def no_state(self, what: str) -> ComponentError:
+        """The error for a block that cannot `what` ('save' or 'restore') its state."""
+        return ComponentError(self.name, None, f"a {self.kind or type(self).__name__} cannot "
+                              f"{what} its state (can_get_and_set_state is false). Fix: use an "
+                              f"algorithm that does not roll steps back with this component.")
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}>"

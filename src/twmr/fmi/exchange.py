@@ -128,6 +128,15 @@ class Integrator:
             CVodeSVtolerances(solver.cvode_mem, self.rtol, solver.abstol)
         return solver
 
+    def saved(self) -> tuple[float, float | None]:
+        """What restoring the FMU's state needs from here: the time [s] and the next time event."""
+        return self.t, self.next_event
+
+    def restore(self, saved: tuple[float, float | None]) -> None:
+        """Back to `saved` (the FMU's own state set just before); the solver restarts there."""
+        self.t, self.next_event = saved
+        self._restart(self.t)
+
     def restart(self) -> None:
         """Inputs changed (held piecewise constant): the solver restarts from the present."""
         self._restart(self.t)

@@ -21,11 +21,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
-from twmr.core.errors import FmuError
+from twmr.core.errors import ComponentError, FmuError
+from twmr.fmi import guard
 from twmr.fmi.description import FmuPort, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import runnable
+from twmr.fmi.states import KEEP, FmuStates, StateGone
 
 if TYPE_CHECKING:
     from twmr.core.kernel import Kernel
@@ -74,6 +76,8 @@ class FmuComponent(Component):
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout")
+    #: beside the ports, a saved state holds the time and whether the inputs are already set
+    state_attributes = ("_t", "_inputs_set")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
@@ -105,6 +109,13 @@ class FmuComponent(Component):
         self.atol = None if atol is None else float(atol)
         self.solver_step = float(solver_step)
         self.fmi3 = self.md.fmiVersion.startswith("3.")
+        iface = self.md.modelExchange if self.me else self.md.coSimulation
+        self.can_get_and_set_state = bool(iface.canGetAndSetFMUstate)
+        self._serializes = bool(iface.canSerializeFMUstate)
+        self._states: FmuStates | None = None
+        self._inputs_set = False
+        self._guarded = False  # between guard.enter() in setup and guard.leave() in terminate
+        self.run_folder: Path | None = None  # where the run keeps its rows (for guard messages)
         try:
             self.ports, self._variables = ports_of(self.md, parameters)
         except ValueError as err:
@@ -186,6 +197,7 @@ class FmuComponent(Component):
         return getattr(self._fmu, f"get{suffix}"), getattr(self._fmu, f"set{suffix}")
 
     def prepare(self, run: Any) -> None:
+        self.run_folder = run.folder
         self._wired = run.wired_inputs(self.name)
         self._read = run.read_outputs(self.name)
 
@@ -194,6 +206,9 @@ class FmuComponent(Component):
         from fmpy import extract
 
         self._t = start
+        if not self._guarded:
+            guard.enter()
+            self._guarded = True
         self._unzipped = self._call("extract", extract, str(self.path),
                                     tempfile.mkdtemp(prefix="twmr-fmu-"))
         iface = self.md.modelExchange if self.me else self.md.coSimulation
@@ -216,6 +231,8 @@ class FmuComponent(Component):
             self._call(what, lambda: fmu.instantiate(callbacks=callbacks,
                                                     loggingOn=not self._pythonfmu))
         self._fmu = fmu  # instantiated: from here on terminate() frees it
+        if self.can_get_and_set_state:
+            self._states = FmuStates(fmu, self.fmi3, self._serializes, self._call)
         if not self.fmi3:
             self._call("fmi2SetupExperiment", fmu.setupExperiment,
                        self.rtol if self.me else None, start)
@@ -242,7 +259,7 @@ class FmuComponent(Component):
                   (self._wired is None or p.name in self._wired)]
         outputs = [p for p in self.ports if p.kind in ("output", "state")]
         read = [p for p in outputs if self._read is None or p.name in self._read]
-        feedthrough = {p.name for p in read if self.variables[p.name].depends_on}
+        feedthrough = {p.name for p in read if getattr(self.variables[p.name], "depends_on", ())}
         if self.me:
             self._integrator = Integrator(f, self.md, self.fmi3, self.solver, self.rtol,
                                           self.atol, self.max_step, self.solver_step, self._call)
@@ -479,21 +496,67 @@ class FmuComponent(Component):
         return Kernel(params=params, fmu=FmuCalls(ins, ft, st, error))
 
     def get_state(self) -> Any:
-        iface = self.md.modelExchange if self.me else self.md.coSimulation
-        if self.me or not getattr(iface, "canGetAndSetFMUstate", False):
-            raise FmuError(self.name, self._t, f"FMU '{self.path.name}' cannot save its state "
-                           f"(canGetAndSetFMUstate is false, or model exchange).")
-        get = getattr(self._fmu, "getFMUState", None) or self._fmu.getFMUstate
-        return self._call("getFMUstate", get), dict(self.__dict__)
+        """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,
+        time and step flag; for model exchange the integrator's time, next event time and last
+        inputs): plain values that pickle. For model exchange with CVODE a restore restarts the
+        solver, so a continuation agrees to the solver's tolerance, not bit for bit."""
+        if not self.can_get_and_set_state:
+            raise self.no_state("save")
+        if self._states is None:
+            raise FmuError(self.name, None, f"FMU '{self.path.name}': its state can be saved "
+                           f"only between setup() and terminate().")
+        return self._states.save(), super().get_state(), self._integrator_state()
+
+    def _integrator_state(self) -> tuple[Any, ...]:
+        integ = self._integrator
+        if integ is None:
+            return ()
+        return (integ.saved(), tuple(map(tuple, self._last_cont)),
+                tuple(map(tuple, self._last_disc)))
 
     def set_state(self, state: Any) -> None:
-        fmu_state, values = state
-        set_ = getattr(self._fmu, "setFMUState", None) or self._fmu.setFMUstate
-        self._call("setFMUstate", set_, fmu_state)
-        self.__dict__.update(values)
+        if not self.can_get_and_set_state:
+            raise self.no_state("restore")
+        if self._states is None:
+            raise FmuError(self.name, None, f"FMU '{self.path.name}': its state can be "
+                           f"restored only between setup() and terminate().")
+        try:
+            saved, values, integrator = state
+        except (TypeError, ValueError):
+            raise ComponentError(self.name, None, "the state given to set_state was not saved "
+                                 "by an FMU component. Fix: restore only states that this "
+                                 "component's get_state returned.") from None
+        try:
+            self._states.restore(saved)
+        except StateGone:
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': state {saved} was "
+                           f"released (a component holds at most the last "
+                           f"{KEEP} unreleased states of an FMU that cannot serialise them). "
+                           f"Fix: release states no longer needed, or restore a newer one.",
+                           ) from None
+        super().set_state(values)
+        if self._integrator is not None:
+            at, cont, disc = integrator
+            self._last_cont, self._last_disc = list(map(list, cont)), list(map(list, disc))
+            self._integrator.restore(at)
+
+    def release_state(self, state: Any) -> None:
+        if self._states is not None:
+            self._states.release(state[0])
+
+    def no_state(self, what: str) -> ComponentError:
+        iface = "model exchange" if self.me else "co-simulation"
+        attribute = "canGetAndSetFMUState" if self.fmi3 else "canGetAndSetFMUstate"
+        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
+                        f"its modelDescription.xml does not declare {attribute}=\"true\" for "
+                        f"{iface}. Fix: use an algorithm that does not roll steps back with "
+                        f"this FMU, or an FMU exported with state support.")
 
     def terminate(self) -> None:
         """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""
+        if self._states is not None:
+            self._states.close()
+            self._states = None
         if self._fmu is not None:
             fmu, self._fmu = self._fmu, None
             try:
@@ -508,3 +571,6 @@ class FmuComponent(Component):
         if self._unzipped:
             shutil.rmtree(self._unzipped, ignore_errors=True)
             self._unzipped = None
+        if self._guarded:
+            self._guarded = False
+            guard.leave()

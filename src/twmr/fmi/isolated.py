@@ -12,6 +12,8 @@ over as a file descriptor).
 """
 from __future__ import annotations
 
+import contextlib
+import math
 import os
 import pickle
 import select
@@ -28,7 +30,7 @@ from typing import Any
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
 from twmr.fmi.fmu import FmuComponent
-from twmr.fmi.worker import wait
+from twmr.fmi.worker import receive
 
 #: the longest the worker may take to start: an interpreter, fmpy, reading the FMU [s]
 START_TIMEOUT = 60.0
@@ -38,7 +40,7 @@ TERMINATE_TIMEOUT = 5.0
 _CALLS = {"create": "loading", "prepare": "prepare", "setup": "instantiation",
           "initialize": "initialization", "evaluate": "evaluate (get/set of inputs and outputs)",
           "do_step": "doStep", "get_state": "getFMUstate", "set_state": "setFMUstate",
-          "terminate": "terminate"}
+          "release_state": "freeFMUstate", "terminate": "terminate"}
 _FIX = ("check the FMU's inputs and parameters at this time (the results up to it are saved), "
         "or report it to the FMU's vendor; anything the FMU printed is on standard error.")
 
@@ -48,6 +50,7 @@ class IsolatedFmu(Component):
 
     kind = "fmu"
     generic_units = FmuComponent.generic_units
+    state_attributes = ("_t",)
 
     def __init__(self, name: str = "", path: str | Path = "", timeout: float = 10.0,
                  **kwargs: Any):
@@ -56,11 +59,16 @@ class IsolatedFmu(Component):
         super().__init__(name)
         self._desc = FmuComponent(self.name, path, **kwargs)
         self.path = Path(path)
-        self._timeout = float(timeout)
+        try:
+            self._timeout = float(timeout)
+        except (TypeError, ValueError):
+            self._timeout = math.nan
         if not self._timeout > 0:
-            raise FmuError(self.name, None, f"timeout {timeout} is not positive. Fix: give the "
-                           f"longest one FMU call may take in seconds, e.g. timeout: 10")
+            raise FmuError(self.name, None, f"timeout {timeout!r} is not positive. Fix: give "
+                           f"the longest one FMU call may take in seconds, e.g. timeout: 10 "
+                           f"(.inf: no limit)")
         self._kwargs = kwargs
+        self.can_get_and_set_state = self._desc.can_get_and_set_state
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
         self.variables = dict(self._desc.variables)
         self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})
@@ -106,7 +114,7 @@ class IsolatedFmu(Component):
             self._proc = subprocess.Popen(
                 [sys.executable, "-u", "-m", "twmr.fmi.worker", str(theirs.fileno()),
                  self._tmp, str(self.path)], pass_fds=(theirs.fileno(),), stdin=subprocess.PIPE,
-                stdout=2, env=env)
+                stdout=2, env=env, start_new_session=True)
         except OSError as exc:
             ours.close()
             self._end_worker(0.0)
@@ -128,20 +136,30 @@ class IsolatedFmu(Component):
             raise FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} cannot run: "
                            f"its process is not running ({self._ended}).")
         request = pickle.dumps((method, args), pickle.HIGHEST_PROTOCOL)
+        limit = self._timeout if limit is None else limit
         try:
             conn.send_bytes(request)
             self._pending = True
-            limit = self._timeout if limit is None else limit
-            if not wait(self._poll, limit):
+            reply = receive(conn, self._poll, limit)
+            if reply is None:
                 self._ended = f"it did not return within {limit:g} s"
                 self._end_worker(0.0)
                 raise FmuError(self.name, self._t, f"FMU '{self.path.name}' did not return "
                                f"within {limit:g} s from {what}; its process was killed. Fix: "
                                f"if the FMU is only slow, raise `timeout:` under the "
                                f"component's parameters; else {_FIX}")
-            status, value = pickle.loads(conn.recv_bytes())
+            status, value = pickle.loads(reply)
         except (EOFError, OSError):
             raise self._died(what) from None
+        except FmuError:
+            raise
+        except Exception:  # noqa: BLE001 - a frame or pickle the worker did not write
+            self._ended = "it sent a reply that is not one"
+            self._end_worker(0.0)
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': its process sent "
+                           f"something that is not a reply during {what} (the FMU wrote to "
+                           f"the worker's socket?); the process was killed. Fix: {_FIX}"
+                           ) from None
         self._pending = False
         if status == 0:
             return value
@@ -182,6 +200,8 @@ class IsolatedFmu(Component):
             except subprocess.TimeoutExpired:
                 proc.kill()
                 code = proc.wait()
+            with contextlib.suppress(OSError):  # what the FMU started, in the worker's group
+                os.killpg(proc.pid, signal.SIGKILL)
         if self._tmp is not None:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._tmp = None
@@ -220,13 +240,22 @@ class IsolatedFmu(Component):
         d.update(zip(self._outputs, values, strict=False))
 
     def get_state(self) -> Any:
-        """The worker keeps the FMU state; this holds its index and the port values."""
-        return self._call("get_state"), {n: self.__dict__[n] for n in self.variables}
+        """(the worker's `FmuComponent` state, these ports and time): the FMU's own state
+        crosses the socket as bytes when it serialises, else as a token the worker holds."""
+        if not self.can_get_and_set_state:
+            raise self._desc.no_state("save")
+        return self._call("get_state"), super().get_state()
 
     def set_state(self, state: Any) -> None:
-        index, values = state
-        self._call("set_state", (index,))
-        self.__dict__.update(values)
+        if not self.can_get_and_set_state:
+            raise self._desc.no_state("restore")
+        worker, values = state
+        self._call("set_state", (worker,))
+        super().set_state(values)
+
+    def release_state(self, state: Any) -> None:
+        if self._conn is not None:
+            self._call("release_state", (state[0],))
 
     def report(self) -> dict[str, Any]:
         return self._report
@@ -238,10 +267,9 @@ class IsolatedFmu(Component):
             return
         grace = min(self._timeout, TERMINATE_TIMEOUT)
         try:
-            if self._pending and self._poll.poll(grace * 1e3):
-                assert self._conn is not None
-                self._conn.recv_bytes()  # the answer to the call cut short
-                self._pending = False
+            if self._pending and self._conn is not None and \
+                    receive(self._conn, self._poll, grace) is not None:
+                self._pending = False  # the answer to the call cut short, read
             if not self._pending:
                 self._report = self._call("terminate", (), grace)
         except BaseException:  # noqa: BLE001 - terminating after a failure must not mask it

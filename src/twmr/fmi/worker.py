@@ -17,12 +17,14 @@ of file, that is when the parent has gone, even in the middle of an FMU call.
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import pickle
 import select
 import shutil
 import signal
+import struct
 import sys
 import threading
 import time
@@ -30,6 +32,7 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.fmi import guard
 from twmr.fmi.fmu import FmuComponent
 from twmr.master.execution import RunContext
 
@@ -47,7 +50,6 @@ class _Server:
         self.values: dict[str, Any] = {}
         self.inputs: tuple[str, ...] = ()
         self.outputs: tuple[str, ...] = ()
-        self.saved: list[Any] = []
 
     def create(self, name: str, path: str, kwargs: dict[str, Any],
                values: dict[str, Any]) -> None:
@@ -87,13 +89,15 @@ class _Server:
         self.fmu.do_step(t, h)
         return [d[n] for n in self.outputs]
 
-    def get_state(self) -> int:
-        """The FMU state stays here; the parent gets its index."""
-        self.saved.append(self.fmu.get_state())
-        return len(self.saved) - 1
+    def get_state(self) -> Any:
+        """The FMU's state as plain values (bytes, or a token for a state held by the FMU)."""
+        return self.fmu.get_state()
 
-    def set_state(self, index: int) -> None:
-        self.fmu.set_state(self.saved[index])
+    def set_state(self, state: Any) -> None:
+        self.fmu.set_state(state)
+
+    def release_state(self, state: Any) -> None:
+        self.fmu.release_state(state)
 
     def terminate(self) -> dict[str, Any]:
         """The FMU's `report()`, taken before it is terminated."""
@@ -104,13 +108,50 @@ class _Server:
 
 def wait(poller: select.poll, timeout: float | None) -> bool:
     """Whether the socket registered with `poller` became readable (a message, or closed) within
-    `timeout` [s] (None: no limit); polls for `SPIN` s first, then blocks."""
+    `timeout` [s] (None or beyond `poll`'s range: no limit); polls for `SPIN` s first, then
+    blocks."""
     end = time.perf_counter() + SPIN
     while not poller.poll(0):
         os.sched_yield()  # the other side may be waiting for this CPU
         if time.perf_counter() > end:
-            return bool(poller.poll(None if timeout is None else timeout * 1e3))
+            return bool(poller.poll(_milliseconds(timeout)))
     return True
+
+
+def _milliseconds(timeout: float | None) -> int | None:
+    return None if timeout is None or not timeout * 1e3 < 2**31 - 1 else int(timeout * 1e3)
+
+
+def receive(conn: Connection, poller: select.poll, timeout: float | None) -> bytes | None:
+    """One whole message on `conn` (multiprocessing.connection framing: a 4-byte big-endian
+    length, or -1 and an 8-byte one), or None if it is not all there within `timeout` [s] (None:
+    no limit). EOFError if the other side closed the socket, ValueError for a bad frame."""
+    deadline = None if _milliseconds(timeout) is None else time.monotonic() + float(timeout or 0)
+    fd = conn.fileno()
+    data = bytearray()
+
+    def fill(n: int) -> bool:
+        while len(data) < n:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not (wait(poller, left) if not data else poller.poll(_milliseconds(left))):
+                return False
+            chunk = os.read(fd, n - len(data))
+            if not chunk:
+                raise EOFError
+            data.extend(chunk)
+        return True
+
+    if not fill(4):
+        return None
+    (size,) = struct.unpack("!i", data[:4])
+    start = 4
+    if size == -1:
+        if not fill(12):
+            return None
+        (size,), start = struct.unpack("!Q", data[4:12]), 12
+    elif size < 0:
+        raise ValueError(f"a message length of {size}")
+    return bytes(data[start:]) if fill(start + size) else None
 
 
 def _exit_with_parent(tmp: str) -> None:
@@ -120,6 +161,8 @@ def _exit_with_parent(tmp: str) -> None:
         pass
     if not _ending.is_set():
         shutil.rmtree(tmp, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            os.killpg(0, signal.SIGKILL)  # this process and any the FMU started
         os._exit(1)
 
 
@@ -172,6 +215,7 @@ def main(argv: list[str] | None = None) -> None:
     """Serve one FMU; `argv` is FD TMP PATH (see the module's docstring)."""
     args = sys.argv[1:] if argv is None else argv
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    guard.enabled = False  # the parent reports what the FMU does to this process
     _log_to_stderr()
     threading.Thread(target=_exit_with_parent, args=(args[1],), name="twmr-lifeline",
                      daemon=True).start()

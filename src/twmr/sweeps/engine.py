@@ -183,9 +183,12 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
     """Run the sweep `spec` into folder `out` (see the module's docstring). Raises SweepError
     (or the scenario's ScenarioError) before anything runs when the sweep is ill-formed."""
     from twmr.api import load
+    from twmr.fmi.guard import isolation_advice
 
     table = spec.samples_table()
     scenario = load(spec.scenario, list(spec.fixed))
+    for advice in isolation_advice(scenario.system.components):
+        log.warning("warning: %s", advice)
     _check_names(scenario, spec.vary)
     bases = _bases(scenario, spec.vary)
     folder = Path(out).resolve()  # absolute: workers on a shared file system write there

@@ -1,8 +1,12 @@
 /* A co-simulation FMU (FMI 2.0) that misbehaves on demand, for testing how importers survive a bad FMU.
  * Written for twmr-cosim's tests; built at test time against the FMI headers fmpy ships.
  * y counts the completed doStep calls, y2 = 2 u. Once the count reaches fail_after, doStep does what
- * mode says: 0 nothing, 1 segfault, 2 exit(0), 3 hang forever, 4 return fmi2Error, 5 set y to NaN. */
-#define _POSIX_C_SOURCE 199309L
+ * mode says: 0 nothing, 1 segfault, 2 exit(0), 3 hang forever, 4 return fmi2Error, 5 set y to NaN,
+ * 6 end the simulation, 7 fork a child that sleeps for ever (the step then completes), 8 write a
+ * 4-byte length header to every socket it holds, then hang.
+ * Its state can be saved, restored and serialised; a saved state carries STATE_BALLAST bytes beside
+ * the model's values, as a real model's solver data would, so a leak of states shows in memory. */
+#define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,14 +14,18 @@
 #ifdef _WIN32
 #include <windows.h>
 #else
+#include <sys/socket.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 #endif
 #include "fmi2Functions.h"
 
 #define NR 3 /* Real: y, y2, u */
 #define NI 2 /* Integer: fail_after, mode */
 typedef struct { double r[NR]; int i[NI]; long count; double time; fmi2CallbackFunctions cb; fmi2String name; int terminated; } Inst;
-typedef struct { double r[NR]; int i[NI]; long count; double time; } State;
+#define STATE_BALLAST 16384
+typedef struct { double r[NR]; int i[NI]; long count; double time; int terminated; char ballast[STATE_BALLAST]; } State;
 
 static void log_msg(Inst *c, fmi2Status s, const char *cat, const char *msg) {
     if (c->cb.logger) c->cb.logger(c->cb.componentEnvironment, c->name, s, cat, msg);
@@ -92,12 +100,38 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]) { return n ? fmi2Error : fmi2OK; }
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) { return n ? fmi2Error : fmi2OK; }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) { return fmi2Error; }
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) { return fmi2Error; }
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) { return fmi2Error; }
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) { return fmi2Error; }
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) { return fmi2Error; }
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s) { return fmi2Error; }
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
+    Inst *i = (Inst *)c;
+    State *st = (State *)(*s ? *s : calloc(1, sizeof(State))); /* a state given back is reused */
+    if (!st) return fmi2Error;
+    memcpy(st->r, i->r, sizeof(i->r)); memcpy(st->i, i->i, sizeof(i->i));
+    st->count = i->count; st->time = i->time; st->terminated = i->terminated;
+    memset(st->ballast, (int)(i->count & 0x7f), sizeof(st->ballast)); /* touched: resident */
+    *s = st;
+    return fmi2OK;
+}
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
+    Inst *i = (Inst *)c; State *st = (State *)s;
+    if (!st) return fmi2Error;
+    memcpy(i->r, st->r, sizeof(i->r)); memcpy(i->i, st->i, sizeof(i->i));
+    i->count = st->count; i->time = st->time; i->terminated = st->terminated;
+    return fmi2OK;
+}
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) { free(*s); *s = NULL; return fmi2OK; }
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) { *n = sizeof(State); return fmi2OK; }
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
+    if (!s || n != sizeof(State)) return fmi2Error;
+    memcpy(b, s, sizeof(State));
+    return fmi2OK;
+}
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s) {
+    if (n != sizeof(State)) return fmi2Error;
+    State *st = (State *)(*s ? *s : malloc(sizeof(State)));
+    if (!st) return fmi2Error;
+    memcpy(st, b, sizeof(State));
+    *s = st;
+    return fmi2OK;
+}
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference a[], size_t na,
     const fmi2ValueReference b[], size_t nb, const fmi2Real dv[], fmi2Real df[]) { return fmi2Error; }
 
@@ -115,7 +149,9 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
         switch (i->i[1]) {
         case 1: { volatile int *volatile p = NULL; *p = 1; break; } /* segmentation fault */
         case 2: exit(0);
-        case 3: for (;;) sleep_10ms(); /* hang forever */
+        case 3: /* hang forever */
+            log_msg(i, fmi2OK, "logAll", "faulty: hanging in doStep");
+            for (;;) sleep_10ms();
         case 4: {
             char msg[128];
             snprintf(msg, sizeof(msg), "faulty: doStep failed on purpose at step %ld", i->count);
@@ -124,6 +160,19 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSet
         }
         case 5: i->r[0] = NAN; break;
         case 6: i->terminated = 1; return fmi2Discard; /* the model ends the simulation */
+#ifndef _WIN32
+        case 7: /* once: a child that outlives the step */
+            if (i->count == i->i[0] && fork() == 0) for (;;) sleep_10ms();
+            break;
+        case 8: { /* a length header on every socket, never followed by its message */
+            const unsigned char header[4] = {0, 0, 0, 16};
+            for (int fd = 3; fd < 256; fd++) {
+                struct stat sb;
+                if (fstat(fd, &sb) == 0 && S_ISSOCK(sb.st_mode)) (void)!write(fd, header, 4);
+            }
+            for (;;) sleep_10ms();
+        }
+#endif
         default: break;
         }
     }

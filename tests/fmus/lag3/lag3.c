@@ -1,7 +1,9 @@
 /* The lag2 model as an FMI 3.0 co-simulation FMU (the functions fmpy calls for co-simulation).
+ * Its state can be saved, restored and serialised (the instance's values and time, as bytes).
  * Written for twmr-cosim's tests; built at test time against the FMI 3.0 headers fmpy ships. */
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 #include "fmi3Functions.h"
 
 #define NV 6
@@ -51,4 +53,26 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     i->time = t + h;
     *eventNeeded = fmi3False; *terminate = fmi3False; *early = fmi3False; *last = t + h;
     return fmi3OK;
+}
+
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
+    Inst *st = (Inst *)(*s ? *s : malloc(sizeof(Inst))); /* a state given back is reused */
+    if (!st) return fmi3Error;
+    memcpy(st, c, sizeof(Inst)); *s = st; return fmi3OK;
+}
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) {
+    if (!s) return fmi3Error;
+    memcpy(c, s, sizeof(Inst)); return fmi3OK;
+}
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) { free(*s); *s = NULL; return fmi3OK; }
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState s, size_t *n) { *n = sizeof(Inst); return fmi3OK; }
+fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState s, fmi3Byte b[], size_t n) {
+    if (!s || n != sizeof(Inst)) return fmi3Error;
+    memcpy(b, s, sizeof(Inst)); return fmi3OK;
+}
+fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte b[], size_t n, fmi3FMUState *s) {
+    if (n != sizeof(Inst)) return fmi3Error;
+    Inst *st = (Inst *)(*s ? *s : malloc(sizeof(Inst)));
+    if (!st) return fmi3Error;
+    memcpy(st, b, sizeof(Inst)); *s = st; return fmi3OK;
 }
