@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import math
 import operator
 import shutil
 import tempfile
@@ -25,7 +26,7 @@ from twmr.core.errors import FmuError
 from twmr.fmi.description import FmuPort, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
-from twmr.fmi.sources import runnable
+from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
 
 __all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
 
@@ -55,7 +56,7 @@ class FmuComponent(Component):
     #: a port without unit here means the FMU declares none (wiring it to a unit is warned about)
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
-                               "solver_step", "isolate", "timeout")
+                               "solver_step", "isolate", "timeout", "compile", "compile_timeout")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
@@ -130,12 +131,30 @@ class FmuComponent(Component):
         if not isinstance(isolate, bool):
             raise FmuError(name, None, f"isolate: {isolate!r} is not true or false. Fix: write "
                            f"isolate: true to run the FMU in a worker process of its own.")
+        full = cls._built(name, full, rest.pop("compile", False),
+                          rest.pop("compile_timeout", DEFAULT_TIMEOUT))
         if isolate:
             from twmr.fmi.isolated import IsolatedFmu
 
             return IsolatedFmu(name, full, **rest)
         rest.pop("timeout", None)
         return cls(name, full, **rest)
+
+    @staticmethod
+    def _built(name: str, path: Path, compile: Any, timeout: Any) -> Path:
+        """`path`, or with `compile: true` the FMU built from its sources when it has no binary
+        for this platform (the same file name, in a scratch folder of this process)."""
+        if not isinstance(compile, bool):
+            raise FmuError(name, None, f"compile: {compile!r} is not true or false. Fix: write "
+                           f"compile: true to build a source-only FMU when it is loaded.")
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
+                not 0 < timeout < math.inf:
+            raise FmuError(name, None, f"compile_timeout: {timeout!r} is not a positive number "
+                           f"of seconds. Fix: give the longest the build may take, e.g. "
+                           f"compile_timeout: {DEFAULT_TIMEOUT:g}")
+        if not compile:
+            return path
+        return runnable(path, read_description(path, name), name, True, float(timeout))
 
     def set_parameter(self, name: str, value: Any) -> None:
         super().set_parameter(name, value)
