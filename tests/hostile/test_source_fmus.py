@@ -87,9 +87,9 @@ def test_cmake_injection_runs_nothing_at_check_run_compile_or_build(tmp_path, ma
                  "run compile": ["run", opted, "--out", "r2"], "fmu build": ["fmu", "build", fmu]}
     for command in commands:
         o = run_cli(arguments[command], tmp_path)
+        assert not marker.exists(), f"the injected command ran\n{o.describe()}"
         assert_clean_error(o, mentions=[fmu.name, "CMAKE_C_COMPILER_LAUNCHER"])
         assert "not a plain C or C++ file name" in o.stderr
-        assert not marker.exists(), f"the injected command ran\n{o.describe()}"
     assert not (tmp_path / "evil2.linux64.fmu").exists()
 
 
