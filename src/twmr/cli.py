@@ -197,6 +197,9 @@ def cmd_fmu_build(args: argparse.Namespace) -> int:
 
     timeout = DEFAULT_TIMEOUT if args.timeout is None else args.timeout
     path = Path(args.fmu)
+    if not path.is_file():
+        raise CosimError(f"'{path}' is not an FMU file (it does not exist, or is a folder). Fix: give the source-only FMU to build, "
+                         f"e.g. twmr fmu build fmus/vendor.fmu")
     md = read_description(path, path.stem)
     platform = binary_folders(md)[0]
     if has_binary(path, md):
@@ -278,7 +281,13 @@ def _parse_set(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep:
         raise CosimError(f"--set {text!r}: expected name=value. Fix: e.g. --set k=2.0")
-    return key.strip(), yaml.safe_load(value)
+    try:
+        return key.strip(), yaml.safe_load(value)
+    except yaml.YAMLError as err:
+        problem = getattr(err, "problem", None) or "it does not parse"
+        raise CosimError(f"--set {text!r}: the value {value!r} is not a YAML value ({problem}). "
+                         f"Fix: close the bracket or quote, e.g. --set k=[1, 2] or "
+                         f"--set 'name=\"text\"'.") from None
 
 
 def _common() -> argparse.ArgumentParser:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import operator
+import os
 import shutil
 import tempfile
 from collections.abc import Callable
@@ -206,13 +207,13 @@ class FmuComponent(Component):
         if self.fmi3:
             from fmpy.fmi3 import FMU3Model, FMU3Slave
 
-            fmu = (FMU3Model if self.me else FMU3Slave)(**args)
+            fmu = self._load(FMU3Model if self.me else FMU3Slave, args)
             self._call(what, lambda: fmu.instantiate(loggingOn=True,
                                                     logMessage=self.log.fmi3_logger()))
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
 
-            fmu = (FMU2Model if self.me else FMU2Slave)(**args)
+            fmu = self._load(FMU2Model if self.me else FMU2Slave, args)
             callbacks = None if self._pythonfmu else self.log.fmi2_callbacks()
             self._call(what, lambda: fmu.instantiate(callbacks=callbacks,
                                                     loggingOn=not self._pythonfmu))
@@ -220,6 +221,24 @@ class FmuComponent(Component):
         if not self.fmi3:
             self._call("fmi2SetupExperiment", fmu.setupExperiment,
                        self.rtol if self.me else None, start)
+
+    def _load(self, cls: Any, args: dict[str, Any]) -> Any:
+        """fmpy's FMU object (its shared library loaded); the working directory kept, which
+        fmpy leaves in the library's folder when loading fails."""
+        cwd = os.getcwd()
+        try:
+            return cls(**args)
+        except Exception as exc:  # noqa: BLE001 - fmpy raises Exception or AttributeError
+            text = str(exc).strip().rstrip(".")
+            reason = (f"it lacks the FMI function {text.rsplit(': ', 1)[-1]}"
+                      if "undefined symbol" in text else text.rsplit(": ", 1)[-1])
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': its shared library for "
+                           f"this platform cannot be loaded ({reason}). Fix: get a build of the "
+                           f"FMU for this platform from its vendor (this binary is damaged, "
+                           f"built for another system, or lacks the FMI functions).") from None
+        finally:
+            if os.getcwd() != cwd:
+                os.chdir(cwd)
 
     def initialize(self) -> None:
         f = self._fmu
@@ -423,9 +442,16 @@ class FmuComponent(Component):
             return False
 
     def _error(self, what: str, exc: BaseException) -> FmuError:
-        return FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
-                        f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
-                        f"inputs and parameters at this time.", self.log.tail())
+        from fmpy.fmi1 import FMICallException
+
+        if isinstance(exc, FMICallException):  # "fmi2DoStep failed with status 3 (error)."
+            said = str(exc).rstrip(".")
+            cause = said if exc.function in what else f"{what}: {said}"
+        else:
+            cause = f"{what} failed ({type(exc).__name__}: {exc})"
+        return FmuError(self.name, self._t, f"FMU '{self.path.name}': {cause}. Fix: see the "
+                        f"FMU's log; check its inputs and parameters at this time.",
+                        self.log.tail())
 
     def report(self) -> dict[str, Any]:
         if self._integrator is None:
