@@ -198,8 +198,9 @@ def cmd_fmu_build(args: argparse.Namespace) -> int:
     timeout = DEFAULT_TIMEOUT if args.timeout is None else args.timeout
     path = Path(args.fmu)
     if not path.is_file():
-        raise CosimError(f"'{path}' is not an FMU file (it does not exist, or is a folder). Fix: give the source-only FMU to build, "
-                         f"e.g. twmr fmu build fmus/vendor.fmu")
+        raise CosimError(f"'{path}' is not an FMU file (it does not exist, or is a folder). "
+                         f"Fix: give the source-only FMU to build, e.g. twmr fmu build "
+                         f"fmus/vendor.fmu")
     md = read_description(path, path.stem)
     platform = binary_folders(md)[0]
     if has_binary(path, md):
@@ -406,7 +407,8 @@ def parser() -> argparse.ArgumentParser:
 
     for name in commands():
         try:
-            command(name)(sub, common)
+            register: Any = command(name)  # register(subparsers, common options)
+            register(sub, common)
         except ImportError as err:
             sp = sub.add_parser(name, parents=[common], help=f"(unavailable: {err})")
             sp.set_defaults(fn=_unavailable(name, err))

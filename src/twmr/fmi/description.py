@@ -79,9 +79,9 @@ def _unreadable(path: Path, exc: Exception) -> str:
     try:
         read_model_description(str(path), validate=True)
     except Exception as invalid:  # noqa: BLE001 - fmpy reports schema errors as Exception
-        lines = [line.strip() for line in str(invalid).splitlines()[1:] if line.strip()]
+        lines = [line.strip(" -.") for line in str(invalid).splitlines()[1:] if line.strip()]
         if lines:
-            return f"its model description does not follow the FMI schema ({lines[0].lstrip('- ').rstrip('.')})"
+            return f"its model description does not follow the FMI schema ({lines[0]})"
     if type(exc) is Exception:  # fmpy's own message, e.g. "Unsupported FMI version: 9"
         return f"fmpy cannot read its model description ({exc})"
     return "fmpy cannot read its model description (an element or attribute it needs is " \

@@ -262,7 +262,7 @@ class FmuComponent(Component):
                   (self._wired is None or p.name in self._wired)]
         outputs = [p for p in self.ports if p.kind in ("output", "state")]
         read = [p for p in outputs if self._read is None or p.name in self._read]
-        feedthrough = {p.name for p in read if self.variables[p.name].depends_on}
+        feedthrough = {p.name for p in read if getattr(self.variables[p.name], "depends_on", ())}
         if self.me:
             self._integrator = Integrator(f, self.md, self.fmi3, self.solver, self.rtol,
                                           self.atol, self.max_step, self.solver_step, self._call)
