@@ -9,19 +9,30 @@ Heavy libraries are imported inside the commands that use them, so `twmr` starts
 """
 from __future__ import annotations
 
-import argparse
-import contextlib
-import json
-import logging
-import os
 import sys
-import time
-from collections.abc import Sequence
-from pathlib import Path
-from typing import Any
 
-from twmr import __version__
-from twmr.core.errors import CosimError
+
+def _interrupted_at_start() -> int:
+    """Ctrl-C before the command began (while modules were still being imported)."""
+    sys.stderr.write("interrupted (Ctrl-C) while twmr was starting; nothing was done.\n")
+    return 130
+
+
+try:
+    import argparse
+    import contextlib
+    import json
+    import logging
+    import os
+    import time
+    from collections.abc import Sequence
+    from pathlib import Path
+    from typing import Any
+
+    from twmr import __version__
+    from twmr.core.errors import CosimError
+except KeyboardInterrupt:
+    raise SystemExit(_interrupted_at_start()) from None
 
 log = logging.getLogger("twmr")
 
@@ -183,6 +194,32 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_fmu_build(args: argparse.Namespace) -> int:
+    """A copy of a source-only FMU with a binary for this platform built from its sources."""
+    import math
+
+    from twmr.fmi.description import read_description
+    from twmr.fmi.sources import DEFAULT_TIMEOUT, binary_folders, build, has_binary
+
+    timeout = DEFAULT_TIMEOUT if args.timeout is None else args.timeout
+    path = Path(args.fmu)
+    if not path.is_file():
+        raise CosimError(f"'{path}' is not an FMU file (it does not exist, or is a folder). "
+                         f"Fix: give the source-only FMU to build, e.g. twmr fmu build "
+                         f"fmus/vendor.fmu")
+    md = read_description(path, path.stem)
+    platform = binary_folders(md)[0]
+    if has_binary(path, md):
+        raise CosimError(f"'{path}' has a binary for this platform ({platform}) already: there "
+                         f"is nothing to build. Fix: use the FMU as it is.")
+    if not 0 < timeout < math.inf:
+        raise CosimError(f"--timeout {timeout:g} is not a positive number of seconds. Fix: "
+                         f"give the longest the build may take, e.g. --timeout 120.")
+    out = Path(args.out) if args.out else path.with_name(f"{path.stem}.{platform}.fmu")
+    print(build(path, md, out, path.stem, timeout))
+    return 0
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     from twmr.sweeps import SweepError, SweepSpec, parse_vary, read_sweep_file, sweep
 
@@ -251,7 +288,13 @@ def _parse_set(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep:
         raise CosimError(f"--set {text!r}: expected name=value. Fix: e.g. --set k=2.0")
-    return key.strip(), yaml.safe_load(value)
+    try:
+        return key.strip(), yaml.safe_load(value)
+    except yaml.YAMLError as err:
+        problem = getattr(err, "problem", None) or "it does not parse"
+        raise CosimError(f"--set {text!r}: the value {value!r} is not a YAML value ({problem}). "
+                         f"Fix: close the bracket or quote, e.g. --set k=[1, 2] or "
+                         f"--set 'name=\"text\"'.") from None
 
 
 def _common() -> argparse.ArgumentParser:
@@ -358,11 +401,22 @@ def parser() -> argparse.ArgumentParser:
                         "twmr-cosim where it runs): for kinds without a C kernel")
     with_set(e)
     e.set_defaults(fn=cmd_export)
+    fm = sub.add_parser("fmu", parents=[common], help="work on an FMU file (build)")
+    fmu_sub = fm.add_subparsers(dest="fmu_command", required=True)
+    fb = fmu_sub.add_parser("build", parents=[common],
+                            help="build a source-only FMU for this platform (this runs the "
+                                 "FMU's code: its sources are compiled here)")
+    fb.add_argument("fmu")
+    fb.add_argument("--out", help="the built FMU (default <name>.<platform>.fmu beside it)")
+    fb.add_argument("--timeout", type=float, metavar="SECONDS",
+                    help="the longest the build may take (default 120)")
+    fb.set_defaults(fn=cmd_fmu_build)
     from twmr.registry import command, commands
 
     for name in commands():
         try:
-            command(name)(sub, common)
+            register: Any = command(name)  # register(subparsers, common options)
+            register(sub, common)
         except ImportError as err:
             sp = sub.add_parser(name, parents=[common], help=f"(unavailable: {err})")
             sp.set_defaults(fn=_unavailable(name, err))
@@ -390,7 +444,10 @@ def _configure_logging(args: argparse.Namespace) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    try:
+        args = parser().parse_args(argv)
+    except KeyboardInterrupt:
+        return _interrupted_at_start()
     args.quiet = getattr(args, "quiet", False)
     args.debug = getattr(args, "debug", False)
     _configure_logging(args)

@@ -127,22 +127,22 @@ def test_fmu_state_save_restore_and_serialize_replays_exactly(tmp_path) -> None:
         fmu.freeInstance()
 
 
-def test_fmu_without_binary_compiles_from_its_sources(tmp_path, monkeypatch) -> None:
-    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
+def test_fmu_without_binary_compiles_from_its_sources(tmp_path) -> None:
     full = export_c_fmu("integrator", tmp_path / "full.fmu", {"k": 2.0, "x0": 1.0}, fmi=3)
     bare = tmp_path / "bare.fmu"
     with zipfile.ZipFile(full) as src, zipfile.ZipFile(bare, "w") as dst:
         for name in src.namelist():
             if not name.startswith("binaries/"):
                 dst.writestr(name, src.read(name))
-    with Harness("fmu", parameters={"path": str(bare)}) as h:
+    with Harness("fmu", parameters={"path": str(bare), "compile": True}) as h:
         h.set(u=0.5)
         h.initialize()
         for _ in range(10):
             h.step()
         assert h["y"] == pytest.approx(1.0 + 2.0 * 0.5 * 10 * 1e-3, abs=1e-12)
-    built = list((tmp_path / "cache").rglob("*.fmu"))  # compiled here from sources/
-    assert built and any(n.startswith("binaries/") for n in zipfile.ZipFile(built[0]).namelist())
+        built = h.component.path  # compiled here from sources/ (FMI 3 buildDescription.xml)
+    assert built != bare
+    assert any(n.startswith("binaries/") for n in zipfile.ZipFile(built).namelist())
 
 
 def _logged_slave(path: Path, fmi: int, tmp: Path, stop: float | None):

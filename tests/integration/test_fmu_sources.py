@@ -1,5 +1,6 @@
-"""Source-only FMUs: compiled when loaded (fmpy's CMake project and the system C compiler), cached
-by the FMU's hash, or refused clearly at `twmr check` when this machine cannot compile them."""
+"""Source-only FMUs: built only when asked (`compile: true` on the component, or
+`twmr fmu build`), with the system C compiler called directly, once per process; refused
+clearly at `twmr check` when this machine cannot compile them or the build fails."""
 from __future__ import annotations
 
 import json
@@ -18,8 +19,7 @@ from tests.fmu_build import SOURCES
 from twmr.core import CosimError
 from twmr.fmi import fmu_interface
 
-pytestmark = pytest.mark.skipif(not (shutil.which("cmake") and shutil.which("cc")),
-                                reason="needs cmake and a C compiler")
+pytestmark = pytest.mark.skipif(not shutil.which("cc"), reason="needs a C compiler")
 
 
 def source_only_lag2(out: Path) -> Path:
@@ -51,26 +51,28 @@ experiment: {start: 0.0, stop: 1.0, step: 0.01}
 """
 
 
-def test_compiled_when_loaded_then_taken_from_the_cache(tmp_path, monkeypatch) -> None:
-    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
+def test_compile_true_builds_it_once_per_process(tmp_path) -> None:
     fmu = source_only_lag2(tmp_path)
     info = fmu_interface(fmu)
-    assert info["runs_here"] == "after compiling its C sources"
-    result = twmr.simulate(twmr.load(SCENARIO % fmu), tmp_path / "out")
+    assert info["runs_here"] == "once built from its C sources (compile: true, or twmr fmu build)"
+    opted = (SCENARIO % fmu).replace("T: 0.25", "T: 0.25, compile: true")
+    scenario = twmr.load(opted)
+    result = twmr.simulate(scenario, tmp_path / "out")
     expected = 2.0 * 1.5 * (1.0 - np.exp(-result["time"] / 0.25))
     np.testing.assert_allclose(result["lag.y[1]"], expected, atol=1e-12)
-    cached = list((tmp_path / "cache" / "fmus").glob("*.fmu"))
-    assert len(cached) == 1
-    stamp = cached[0].stat().st_mtime_ns
-    twmr.load(SCENARIO % fmu)  # loaded again: not compiled again
-    assert cached[0].stat().st_mtime_ns == stamp
+    built = scenario.system.components["lag"].path
+    assert built != fmu and built.name == fmu.name
+    assert "binaries/linux64/lag2.so" in zipfile.ZipFile(built).namelist()
+    stamp = built.stat().st_mtime_ns
+    assert twmr.load(opted).system.components["lag"].path == built  # not built again
+    assert built.stat().st_mtime_ns == stamp
 
 
 def test_without_a_compiler_check_refuses_it_clearly(tmp_path) -> None:
     fmu = source_only_lag2(tmp_path)
     scenario = tmp_path / "s.yaml"
-    scenario.write_text(SCENARIO % fmu)
-    env = dict(os.environ, TWMR_CACHE_DIR=str(tmp_path / "cache"), CC="no-such-compiler")
+    scenario.write_text((SCENARIO % fmu).replace("T: 0.25", "T: 0.25, compile: true"))
+    env = dict(os.environ, CC="no-such-compiler")
     done = subprocess.run([sys.executable, "-m", "twmr.cli", "check", str(scenario)],
                           capture_output=True, text=True, env=env)
     assert done.returncode != 0 and "Traceback" not in done.stderr
@@ -89,12 +91,12 @@ def test_inspect_json_lists_the_ports(tmp_path) -> None:
     assert ports["T"]["kind"] == "parameter" and ports["T"]["type"] == "Real"
 
 
-def test_a_broken_source_fails_with_the_compiler_message(tmp_path, monkeypatch) -> None:
-    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
+def test_a_broken_source_fails_with_the_compiler_message(tmp_path) -> None:
     good = source_only_lag2(tmp_path)
     bad = tmp_path / "broken.fmu"
     with zipfile.ZipFile(good) as zin, zipfile.ZipFile(bad, "w") as zout:
         zout.writestr("modelDescription.xml", zin.read("modelDescription.xml"))
         zout.writestr("sources/lag2.c", "this is not C;\n")
-    with pytest.raises(CosimError, match="compiling them failed"):
-        twmr.load(SCENARIO % bad)
+    with pytest.raises(CosimError, match=r"building it failed: cc exited with status 1\. Its "
+                       r"last output: .*lag2\.c:1:.*error"):
+        twmr.load((SCENARIO % bad).replace("T: 0.25", "T: 0.25, compile: true"))

@@ -10,20 +10,20 @@ from twmr.fmi.export import export_component
 
 def fmu_interface(path: str | Path) -> dict[str, Any]:
     """An FMU's interface as a scenario sees it, as plain data: FMI version, interfaces, platforms,
-    whether it runs here (or is compiled from its sources first), and the ports (name, kind,
+    whether it runs here (or once built from its sources), and the ports (name, kind,
     causality, FMI type, port type, unit, size, start, depends_on)."""
     import fmpy
 
     from twmr.core.errors import FmuError
     from twmr.fmi.description import ports_of, read_description
-    from twmr.fmi.sources import has_binary
+    from twmr.fmi.sources import has_binary, has_sources
 
     path = Path(path)
     md = read_description(path, path.stem)
     platforms = fmpy.supported_platforms(str(path))
-    sources = bool(md.buildConfigurations and md.buildConfigurations[0].sourceFileSets)
-    runs = "yes" if has_binary(path, md) else ("after compiling its C sources" if sources
-                                               else "no")
+    runs = "yes" if has_binary(path, md) else (
+        "once built from its C sources (compile: true, or twmr fmu build)" if has_sources(md)
+        else "no")
     try:
         ports, variables = ports_of(md)
     except ValueError as err:

@@ -58,6 +58,36 @@ class FmuPort:
     discrete: bool
 
 
+def _unreadable(path: Path, exc: Exception) -> str:
+    """What is wrong with an FMU fmpy could not read, in words (fmpy's own failures, such as an
+    UnboundLocalError for an unknown element, say nothing useful; its schema check does)."""
+    import zipfile
+
+    from fmpy import read_model_description
+    from lxml import etree
+
+    if path.is_dir():
+        return "it is a folder, not an FMU file"
+    if not zipfile.is_zipfile(path):
+        return "it is not a zip archive" + (" (the file is empty)" if not path.stat().st_size
+                                            else "")
+    with zipfile.ZipFile(path) as z:
+        if "modelDescription.xml" not in z.namelist():
+            return "it has no modelDescription.xml at its top"
+    if isinstance(exc, etree.XMLSyntaxError):
+        return f"its modelDescription.xml is not well-formed XML ({exc.msg})"
+    try:
+        read_model_description(str(path), validate=True)
+    except Exception as invalid:  # noqa: BLE001 - fmpy reports schema errors as Exception
+        lines = [line.strip(" -.") for line in str(invalid).splitlines()[1:] if line.strip()]
+        if lines:
+            return f"its model description does not follow the FMI schema ({lines[0]})"
+    if type(exc) is Exception:  # fmpy's own message, e.g. "Unsupported FMI version: 9"
+        return f"fmpy cannot read its model description ({exc})"
+    return "fmpy cannot read its model description (an element or attribute it needs is " \
+           "missing or malformed)"
+
+
 def read_description(path: Path, instance: str = "fmu") -> Any:
     """fmpy's ModelDescription of `path`, with every failure as an FmuError; FMUs this importer
     cannot run correctly (FMI 1.0, clocks, scheduled execution only) are refused here."""
@@ -69,9 +99,9 @@ def read_description(path: Path, instance: str = "fmu") -> Any:
     try:
         md = read_model_description(str(path), validate=False)
     except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds (zip, XML, schema)
-        raise FmuError(instance, None, f"'{path}' is not a readable FMU ({type(exc).__name__}: "
-                       f"{exc}). Fix: check the file is an FMU (a zip with modelDescription.xml)."
-                       ) from None
+        raise FmuError(instance, None, f"'{path}' is not a readable FMU: {_unreadable(path, exc)}."
+                       f" Fix: give an FMU file (a zip with a valid modelDescription.xml at its "
+                       f"top), or ask its vendor for a correct one.") from None
     if md.fmiVersion.startswith("1."):
         raise FmuError(instance, None, f"'{path}' is an FMI 1.0 FMU, which is not supported. Fix: "
                        f"export it as FMI 2.0 or 3.0 co-simulation or model exchange.")

@@ -75,8 +75,18 @@ def _user_class(spec: str | type) -> type:
                 mod = importlib.import_module(module)
             cls = getattr(mod, name)
         except (ImportError, OSError, AttributeError, SyntaxError) as err:
-            raise CosimError(f"export {spec}: cannot load the class ({type(err).__name__}: "
-                             f"{err}). Fix: give 'module:Class' for an importable module or "
+            if isinstance(err, FileNotFoundError):
+                why = f"there is no file {Path(module).resolve()}"
+            elif isinstance(err, ModuleNotFoundError):
+                why = f"no module '{err.name}' can be imported here"
+            elif isinstance(err, AttributeError):
+                why = f"'{module}' has no '{name}'"
+            elif isinstance(err, SyntaxError):
+                why = f"{err.filename}, line {err.lineno}: {err.msg}"
+            else:
+                why = str(err)
+            raise CosimError(f"export {spec}: cannot load the class ({why}). Fix: give "
+                             f"'module:Class' for an importable module or "
                              f"'path/to/file.py:Class'.") from None
     if not (isinstance(cls, type) and issubclass(cls, Component)):
         raise CosimError(f"export {spec!r}: {cls!r} is not a twmr Component class. Fix: export "

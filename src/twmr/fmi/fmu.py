@@ -13,7 +13,9 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import math
 import operator
+import os
 import shutil
 import tempfile
 from collections.abc import Callable
@@ -26,7 +28,7 @@ from twmr.fmi import guard
 from twmr.fmi.description import FmuPort, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
-from twmr.fmi.sources import runnable
+from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
 from twmr.fmi.states import KEEP, FmuStates, StateGone
 
 if TYPE_CHECKING:
@@ -75,7 +77,7 @@ class FmuComponent(Component):
     #: a port without unit here means the FMU declares none (wiring it to a unit is warned about)
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
-                               "solver_step", "isolate", "timeout")
+                               "solver_step", "isolate", "timeout", "compile", "compile_timeout")
     #: beside the ports, a saved state holds the time and whether the inputs are already set
     state_attributes = ("_t", "_inputs_set")
 
@@ -159,12 +161,30 @@ class FmuComponent(Component):
         if not isinstance(isolate, bool):
             raise FmuError(name, None, f"isolate: {isolate!r} is not true or false. Fix: write "
                            f"isolate: true to run the FMU in a worker process of its own.")
+        full = cls._built(name, full, rest.pop("compile", False),
+                          rest.pop("compile_timeout", DEFAULT_TIMEOUT))
         if isolate:
             from twmr.fmi.isolated import IsolatedFmu
 
             return IsolatedFmu(name, full, **rest)
         rest.pop("timeout", None)
         return cls(name, full, **rest)
+
+    @staticmethod
+    def _built(name: str, path: Path, compile: Any, timeout: Any) -> Path:
+        """`path`, or with `compile: true` the FMU built from its sources when it has no binary
+        for this platform (the same file name, in a scratch folder of this process)."""
+        if not isinstance(compile, bool):
+            raise FmuError(name, None, f"compile: {compile!r} is not true or false. Fix: write "
+                           f"compile: true to build a source-only FMU when it is loaded.")
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or \
+                not 0 < timeout < math.inf:
+            raise FmuError(name, None, f"compile_timeout: {timeout!r} is not a positive number "
+                           f"of seconds. Fix: give the longest the build may take, e.g. "
+                           f"compile_timeout: {DEFAULT_TIMEOUT:g}")
+        if not compile:
+            return path
+        return runnable(path, read_description(path, name), name, True, float(timeout))
 
     def set_parameter(self, name: str, value: Any) -> None:
         super().set_parameter(name, value)
@@ -220,13 +240,13 @@ class FmuComponent(Component):
         if self.fmi3:
             from fmpy.fmi3 import FMU3Model, FMU3Slave
 
-            fmu = (FMU3Model if self.me else FMU3Slave)(**args)
+            fmu = self._load(FMU3Model if self.me else FMU3Slave, args)
             self._call(what, lambda: fmu.instantiate(loggingOn=True,
                                                     logMessage=self.log.fmi3_logger()))
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
 
-            fmu = (FMU2Model if self.me else FMU2Slave)(**args)
+            fmu = self._load(FMU2Model if self.me else FMU2Slave, args)
             callbacks = None if self._pythonfmu else self.log.fmi2_callbacks()
             self._call(what, lambda: fmu.instantiate(callbacks=callbacks,
                                                     loggingOn=not self._pythonfmu))
@@ -236,6 +256,24 @@ class FmuComponent(Component):
         if not self.fmi3:
             self._call("fmi2SetupExperiment", fmu.setupExperiment,
                        self.rtol if self.me else None, start)
+
+    def _load(self, cls: Any, args: dict[str, Any]) -> Any:
+        """fmpy's FMU object (its shared library loaded); the working directory kept, which
+        fmpy leaves in the library's folder when loading fails."""
+        cwd = os.getcwd()
+        try:
+            return cls(**args)
+        except Exception as exc:  # noqa: BLE001 - fmpy raises Exception or AttributeError
+            text = str(exc).strip().rstrip(".")
+            reason = (f"it lacks the FMI function {text.rsplit(': ', 1)[-1]}"
+                      if "undefined symbol" in text else text.rsplit(": ", 1)[-1])
+            raise FmuError(self.name, self._t, f"FMU '{self.path.name}': its shared library for "
+                           f"this platform cannot be loaded ({reason}). Fix: get a build of the "
+                           f"FMU for this platform from its vendor (this binary is damaged, "
+                           f"built for another system, or lacks the FMI functions).") from None
+        finally:
+            if os.getcwd() != cwd:
+                os.chdir(cwd)
 
     def initialize(self) -> None:
         f = self._fmu
@@ -439,9 +477,16 @@ class FmuComponent(Component):
             return False
 
     def _error(self, what: str, exc: BaseException) -> FmuError:
-        return FmuError(self.name, self._t, f"FMU '{self.path.name}': {what} failed "
-                        f"({type(exc).__name__}: {exc}). Fix: see the FMU's log; check its "
-                        f"inputs and parameters at this time.", self.log.tail())
+        from fmpy.fmi1 import FMICallException
+
+        if isinstance(exc, FMICallException):  # "fmi2DoStep failed with status 3 (error)."
+            said = str(exc).rstrip(".")
+            cause = said if exc.function in what else f"{what}: {said}"
+        else:
+            cause = f"{what} failed ({type(exc).__name__}: {exc})"
+        return FmuError(self.name, self._t, f"FMU '{self.path.name}': {cause}. Fix: see the "
+                        f"FMU's log; check its inputs and parameters at this time.",
+                        self.log.tail())
 
     def report(self) -> dict[str, Any]:
         if self._integrator is None:
