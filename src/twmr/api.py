@@ -251,10 +251,12 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
           method: str = "random", seed: int = 0, out: str | Path | None = None,
           workers: int | None = None, scheduler: str | None = None,
           metrics: Sequence[str] = (), overrides: Sequence[str] = (),
-          keep_signals: bool = False, progress: bool = False) -> Any:
+          keep_signals: bool = False, dashboard: bool = False, progress: bool = False) -> Any:
     """Run `scenario` once per sample of `vary` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC
     uniform:LO:HI, normal:MU:SIGMA, values:A,B,C or grid:LO:HI:N) on Dask: `workers` local
-    worker processes (default: the cores) or the cluster at `scheduler`. Rows go to
+    worker processes on 127.0.0.1 (default: the cores; `dashboard`: with Dask's dashboard on
+    127.0.0.1) or the cluster at `scheduler` (a cluster you trust: it runs code in this
+    process; see docs/security.md). Rows go to
     `out/runs.parquet` (default sweeps/<scenario name>); runs already there are skipped.
     Returns a `twmr.sweeps.SweepOutcome` (`.frame()` is the table as a DataFrame).
 
@@ -269,4 +271,4 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
     folder = Path(out) if out is not None else Path("sweeps") / (Path(str(scenario)).stem or
                                                                    "scenario")
     return run_sweep(spec, folder, workers=workers, scheduler=scheduler,
-                     keep_signals=keep_signals, progress=progress)
+                     keep_signals=keep_signals, dashboard=dashboard, progress=progress)

@@ -150,7 +150,7 @@ class SweepFolder:
             described = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
             described = None
-        if not isinstance(described, dict):
+        if not isinstance(described, dict) or not isinstance(described.get(IDENTITY), str):
             if self._has_rows():
                 return None  # the rows say which sweep this is; sweep.json is rewritten
             raise SweepError(f"{path} is not a description written by `twmr sweep`. Fix: give "
