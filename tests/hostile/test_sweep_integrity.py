@@ -5,7 +5,6 @@ runs, or runs without losing or mixing a row; nothing listens beyond 127.0.0.1."
 from __future__ import annotations
 
 import json
-import os
 import socket
 import subprocess
 import sys
