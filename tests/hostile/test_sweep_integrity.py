@@ -5,6 +5,7 @@ runs, or runs without losing or mixing a row; nothing listens beyond 127.0.0.1."
 from __future__ import annotations
 
 import json
+import os
 import socket
 import subprocess
 import sys
@@ -239,3 +240,40 @@ def test_out_pointing_at_a_foreign_folder_leaves_it_as_it_was(cwd: Path) -> None
     o = sweep_cli(cwd, "mc.yaml", "--out", "alone")
     assert_clean_error(o, mentions=["sweep.json is not a description written by `twmr sweep`"])
     assert (alone / "sweep.json").read_text() == '{"owner": "another tool"}\n'
+
+
+# -- Ctrl-C ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("when", ["cluster-starting", "runs-under-way"])
+def test_ctrl_c_of_a_sweep_is_one_line_and_keeps_every_finished_row(cwd: Path,
+                                                                    when: str) -> None:
+    """Ctrl-C as a terminal sends it: to the whole process group, Dask workers included."""
+    import signal
+
+    proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "sweep", GOOD, "--vary",
+                             "ctrl.k=uniform:1:3", "--samples", "400", "--workers", "2",
+                             "--set", "experiment.stop=2", "--out", "s", "-q"], cwd=cwd,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    folder = cwd / "s"
+    ready = (folder / ".lock") if when == "cluster-starting" else (folder / "runs.jsonl")
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (ready.exists() and ready.read_text().strip()):
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=90)
+    o = Outcome(["sweep", "..."], cwd, proc.returncode, "", err, 0.0, proc.pid, 0)
+    para = assert_clean_error(o, fix=False, mentions=["interrupted (Ctrl-C)"])
+    assert proc.returncode == 130 and len(para) == 1, o.describe()
+    assert (folder / ".lock").read_text() == ""
+    table = pd.read_parquet(folder / "runs.parquet") if (folder / "runs.parquet").exists() \
+        else pd.DataFrame()  # stopped before any run was handed out
+    assert len(table) < 400
+    if when == "runs-under-way":
+        assert len(table) >= 1 and (table["status"] == "ok").all()
+    deadline = time.monotonic() + 20  # no worker left behind
+    while time.monotonic() < deadline:
+        alive = subprocess.run(["pgrep", "-g", str(proc.pid)], capture_output=True, text=True)
+        if not alive.stdout.strip():
+            break
+        time.sleep(0.2)
+    assert alive.stdout.strip() == ""

@@ -119,9 +119,12 @@ def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
     dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
     from dask.distributed import Client, LocalCluster
 
-    for name in ("distributed", "distributed.nanny", "distributed.scheduler",
-                 "distributed.worker", "distributed.core", "distributed.http.proxy"):
-        logging.getLogger(name).setLevel(logging.CRITICAL)  # failures are the rows' business
+    # failures are the rows' business, and what Dask says while it is torn down after Ctrl-C
+    # (tracebacks of its event loop) is not the user's: Dask's loggers and those it uses
+    families = ("distributed", "tornado", "asyncio")
+    for name in [*families, *(n for n in logging.root.manager.loggerDict
+                              if n.split(".")[0] in families)]:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
     if scheduler:
         try:
             return Client(scheduler, timeout="10s"), None
@@ -144,7 +147,7 @@ def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                    host="127.0.0.1",
                                    dashboard_address="127.0.0.1:0" if dashboard else None,
-                                   silence_logs=logging.ERROR)
+                                   silence_logs=logging.CRITICAL)
     finally:
         if ignore:
             signal.signal(signal.SIGINT, previous)
