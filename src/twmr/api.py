@@ -6,10 +6,11 @@
     result = twmr.simulate(scenario, out="results/k20")      # or out=None: kept in memory
     df = result.to_pandas()
 
-A run with a folder writes into a new folder beside it (`<out>.partial-<pid>`) and only replaces
-`out` when it completes, so a failed or killed re-run never destroys the previous result: a failed
-run's partial results go to `<out>.incomplete`, a killed run's stay in `<out>.partial-<pid>`, and
-`read_result` reads either.
+A run with a folder writes into a new folder beside it (`<out>.partial-<pid>-<random>`, a name no
+other run uses) and only replaces `out` when it completes, so a failed or killed re-run never
+destroys the previous result: a failed run's partial results go to `<out>.incomplete`, a killed
+run's stay in `<out>.partial-<pid>-<random>` (never removed by a later run), and `read_result`
+reads either.
 """
 from __future__ import annotations
 
@@ -170,9 +171,7 @@ def _stage(final: Path) -> Path:
                                  f"{', '.join(e.name for e in entries[:3])}...), which a run "
                                  f"would replace. Fix: give an empty or a new folder.")
         final.parent.mkdir(parents=True, exist_ok=True)
-        stage = final.with_name(f"{final.name}.partial-{os.getpid()}")
-        if stage.exists():
-            shutil.rmtree(stage)
+        stage = _unique(final, "partial")
         stage.mkdir()
     except CosimError:
         raise
@@ -183,12 +182,20 @@ def _stage(final: Path) -> Path:
     return stage
 
 
+def _unique(final: Path, what: str) -> Path:
+    """`<final>.<what>-<pid>-<random>`: a sibling no other run names, even one with this
+    process id (ids are reused, inside containers at once), so none is ever overwritten."""
+    import secrets
+
+    return final.with_name(f"{final.name}.{what}-{os.getpid()}-{secrets.token_hex(4)}")
+
+
 def _settle(stage: Path, final: Path, completed: bool) -> Path:
     """Completed: `stage` replaces `final`. Otherwise it becomes `<final>.incomplete`. If the
     rename fails, the results stay in `stage`, which is returned."""
     final = final.absolute()
     target = final if completed else final.with_name(f"{final.name}.incomplete")
-    old = target.with_name(f"{target.name}.old-{os.getpid()}")
+    old = _unique(target, "old")
     try:
         if target.is_symlink() or target.is_file():
             target.unlink()
@@ -251,10 +258,12 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
           method: str = "random", seed: int = 0, out: str | Path | None = None,
           workers: int | None = None, scheduler: str | None = None,
           metrics: Sequence[str] = (), overrides: Sequence[str] = (),
-          keep_signals: bool = False, progress: bool = False) -> Any:
+          keep_signals: bool = False, dashboard: bool = False, progress: bool = False) -> Any:
     """Run `scenario` once per sample of `vary` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC
     uniform:LO:HI, normal:MU:SIGMA, values:A,B,C or grid:LO:HI:N) on Dask: `workers` local
-    worker processes (default: the cores) or the cluster at `scheduler`. Rows go to
+    worker processes on 127.0.0.1 (default: the cores; `dashboard`: with Dask's dashboard on
+    127.0.0.1) or the cluster at `scheduler` (a cluster you trust: it runs code in this
+    process; see docs/security.md). Rows go to
     `out/runs.parquet` (default sweeps/<scenario name>); runs already there are skipped.
     Returns a `twmr.sweeps.SweepOutcome` (`.frame()` is the table as a DataFrame).
 
@@ -269,4 +278,4 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
     folder = Path(out) if out is not None else Path("sweeps") / (Path(str(scenario)).stem or
                                                                    "scenario")
     return run_sweep(spec, folder, workers=workers, scheduler=scheduler,
-                     keep_signals=keep_signals, progress=progress)
+                     keep_signals=keep_signals, dashboard=dashboard, progress=progress)

@@ -245,10 +245,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                      method=option("method", "random"), seed=option("seed", 0),
                      metrics=metrics, fixed=[*(file.get("set") or []), *args.set])
     out = Path(option("out", None) or Path("sweeps") / Path(scenario).stem)
-    outcome = sweep(spec, out, workers=option("workers", None),
-                    scheduler=option("scheduler", None),
-                    keep_signals=args.keep_signals or bool(file.get("keep_signals")),
-                    progress=not getattr(args, "quiet", False))
+    outcome = sweep(spec, out, workers=option("workers", None), scheduler=args.scheduler,
+                    keep_signals=args.keep_signals or file.get("keep_signals") is True,
+                    dashboard=args.dashboard, progress=not getattr(args, "quiet", False))
     log.info("sweep: %d run(s) done now (%d failed), %d already done; %s", outcome.ran,
              outcome.failed, outcome.skipped, out / "runs.parquet")
     if outcome.ran and outcome.failed == outcome.ran:
@@ -372,7 +371,11 @@ def parser() -> argparse.ArgumentParser:
     where.add_argument("--workers", type=int,
                        help="local Dask worker processes (default: the cores)")
     where.add_argument("--scheduler", metavar="ADDRESS",
-                       help="an existing Dask cluster, e.g. tcp://host:8786")
+                       help="an existing Dask cluster you trust (it runs code here), e.g. "
+                            "tls://host:8786; never read from a sweep file")
+    sw.add_argument("--dashboard", action="store_true",
+                    help="serve the local cluster's Dask dashboard on 127.0.0.1 (its address "
+                         "is logged)")
     sw.add_argument("--out", help="folder of runs.parquet (default sweeps/<scenario name>)")
     sw.add_argument("--metrics", action="append", default=[], metavar="NAME",
                     help="registered metric sets per run (e.g. tracking); repeatable")

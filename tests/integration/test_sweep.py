@@ -14,6 +14,7 @@ import pytest
 
 import twmr
 from twmr.sweeps import SweepError, SweepSpec, parse_vary, run_id
+from twmr.sweeps.folder import identity
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
@@ -24,8 +25,8 @@ SHORT = ["experiment.stop=1.0"]
 def cluster():
     from dask.distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=":0") as c:
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as c:
         yield c.scheduler_address
 
 
@@ -86,7 +87,9 @@ def test_a_journal_left_by_a_killed_sweep_counts_as_done(cluster, tmp_path) -> N
     folder = tmp_path / "k"
     folder.mkdir()
     spec_values = {"plant.scale": 1.0}
-    row = {"run_id": run_id(spec_values, SHORT), "sample": 0, **spec_values, "status": "ok",
+    sweep_id = identity(SweepSpec(str(PAPER), [], fixed=SHORT), PAPER.read_text())["sweep_id"]
+    row = {"run_id": run_id(spec_values, SHORT), "sweep_id": sweep_id, "sample": 0,
+           **spec_values, "status": "ok",
            "error": "", "wall_time_s": 1.0, "step_time_s": 1.0, "worker": "w"}
     (folder / "runs.jsonl").write_text(json.dumps(row) + "\n{\"run_id\": \"cut sho")
     outcome = twmr.sweep(PAPER, ["plant.scale=values:1.0,1.1"], method="grid", out=folder,

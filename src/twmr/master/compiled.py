@@ -36,8 +36,6 @@ first step and makes a missing kernel an error; `off` always runs the Python sch
 """
 from __future__ import annotations
 
-import hashlib
-import importlib.util
 import logging
 import os
 import sys
@@ -501,11 +499,14 @@ def _importable(fn: Any) -> bool:
 
 
 def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
-    """(run, finish) from `source`: as a module file in the cache folder, so numba's cache
-    holds across processes, when every kernel is importable; else exec'd, compiled per process."""
+    """(run, finish) from `source`: as a module file in the cache folder, verified, so numba's
+    cache holds across processes (`twmr.master.schedule_cache`), when every kernel is
+    importable; else exec'd, compiled per process."""
     if all(_importable(fn) for fn in names.values()):
+        from twmr.master import schedule_cache
+
         try:
-            return _load_cached(source, names)
+            return schedule_cache.load(source, names, cache_dir())
         except OSError as exc:  # a cache folder we cannot write: compile in this process
             log.debug("schedule cache not usable (%s); compiling without it", exc)
     env: dict[str, Any] = dict(names)
@@ -514,34 +515,3 @@ def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
     exec(compile(body.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
                  "<twmr compiled schedule>", "exec"), env)
     return env["run"], env["finish"]
-
-
-def _load_cached(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
-    """(run, finish) from `source` written as a module in the cache folder."""
-    import numba
-
-    digest = hashlib.sha256(source.encode())
-    digest.update(numba.__version__.encode())
-    # the kernels' modules and their sibling modules (helpers they call)
-    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
-                                        for fn in names.values()) if f}
-    for file in sorted(f for folder in folders for f in folder.glob("*.py")):
-        digest.update(file.read_bytes())
-    key = digest.hexdigest()[:20]
-    folder = cache_dir()
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"schedule_{key}.py"
-    if not path.exists():
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(source)
-        os.replace(tmp, path)
-    modname = f"twmr_schedule_{key}"
-    module = sys.modules.get(modname)
-    if module is None:
-        spec = importlib.util.spec_from_file_location(modname, path)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        sys.modules[modname] = module
-    return module.run, module.finish
-

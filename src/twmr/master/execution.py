@@ -351,7 +351,10 @@ class Execution:
         except NonFinite as nf:
             self._n = self._step_of(nf.t)
             raise self._nonfinite_error(nf.t) from None
-        except (CosimError, KeyboardInterrupt):
+        except CosimError as exc:
+            self._n = self._completed(exc)
+            raise
+        except KeyboardInterrupt:
             raise
         except Exception as exc:  # noqa: BLE001
             name, call, t = self.algorithm.locate(exc)
@@ -361,6 +364,19 @@ class Execution:
                 name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
                 f"inputs and parameters at that time (the results up to it are saved)."
             ) from exc
+
+    def _completed(self, error: CosimError) -> int:
+        """The base steps completed when `error` stopped a chunk: up to the time it was raised
+        at (in the step loop, or the time the error names), else up to the last row recorded
+        (those rows are kept, so the count agrees with them)."""
+        _name, _call, t = self.algorithm.locate(error)
+        if not math.isfinite(t):
+            named = getattr(error, "time", None)
+            t = float(named) if isinstance(named, int | float) else math.nan
+        if not math.isfinite(t) and self._rows:
+            last = self._rows[-1]
+            t = float(last[-1, 0] if isinstance(last, np.ndarray) else last[0])
+        return max(self._n, self._step_of(t)) if math.isfinite(t) else self._n
 
     # -- the end -------------------------------------------------------------------------------
     def _conclude(self, error: BaseException | None, wall: float) -> BaseException | None:

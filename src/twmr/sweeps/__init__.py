@@ -2,7 +2,8 @@
 report (`twmr sweep-report`)."""
 from __future__ import annotations
 
-from twmr.sweeps.engine import SweepOutcome, spec_from, sweep, write_table
+from twmr.sweeps.engine import SweepOutcome, spec_from, sweep
+from twmr.sweeps.folder import write_table
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, parse_vary, read_sweep_file, run_id
 
 __all__ = ["SweepError", "SweepOutcome", "SweepSpec", "Vary", "parse_vary", "read_sweep_file",

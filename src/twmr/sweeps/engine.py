@@ -1,9 +1,14 @@
 """`sweep`: the runs of a `SweepSpec` on a Dask cluster — a local one of worker processes, or an
 existing one by its scheduler address — with the rows collected into `DIR/runs.parquet`.
 
+- The folder is locked while the sweep runs and holds the rows of one sweep only
+  (`twmr.sweeps.folder`).
 - Each finished run's row is appended at once to `DIR/runs.jsonl` (flushed), so a sweep that is
   killed loses no finished run; `runs.parquet` is written from all rows at the end, also after
   Ctrl-C.
+- A local cluster listens on 127.0.0.1 only, its dashboard off unless asked for. A scheduler
+  address comes from the caller (`--scheduler`, `scheduler=`), never from a file: a Dask cluster
+  runs code in this process (results are unpickled) and is trusted.
 - A run's id is a hash of its overrides: a second invocation on the same folder skips every run
   already done (ok or failed) and runs only the new ones.
 - A run that fails is a row with its error; a worker that dies (e.g. a crash inside an FMU) makes
@@ -23,11 +28,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from twmr.sweeps.folder import IDENTITY, JOURNAL, SweepFolder, append_row, write_table
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
 
 log = logging.getLogger("twmr.sweep")
-JOURNAL, TABLE = "runs.jsonl", "runs.parquet"
 
 
 @dataclass
@@ -108,48 +113,18 @@ def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
     return bases
 
 
-def _read_rows(folder: Path) -> list[dict[str, Any]]:
-    """Rows already in the folder: runs.parquet, then any journal a killed sweep left."""
-    rows: dict[str, dict[str, Any]] = {}
-    table = folder / TABLE
-    if table.exists():
-        import pyarrow.parquet as pq
-
-        for row in pq.read_table(table).to_pylist():
-            rows[row["run_id"]] = row
-    journal = folder / JOURNAL
-    if journal.exists():
-        for line in journal.read_text().splitlines():
-            try:
-                row = json.loads(line)
-            except ValueError:
-                continue  # a line cut short when the sweep was killed
-            rows[row["run_id"]] = row
-    return list(rows.values())
-
-
-def write_table(rows: list[dict[str, Any]], folder: Path) -> Path:
-    """runs.parquet from `rows` (written whole, then renamed); the journal is then removed."""
-    import pandas as pd
-
-    frame = pd.DataFrame(rows)
-    if "sample" in frame:
-        frame = frame.sort_values("sample", kind="stable").reset_index(drop=True)
-    target = folder / TABLE
-    partial = folder / f".{TABLE}.{os.getpid()}.part"
-    frame.to_parquet(partial, index=False)
-    os.replace(partial, target)
-    (folder / JOURNAL).unlink(missing_ok=True)
-    return target
-
-
-def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
-    """(client, cluster or None): a LocalCluster of worker processes, or the given scheduler."""
+def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
+            ) -> tuple[Any, Any]:
+    """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
+    dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
     from dask.distributed import Client, LocalCluster
 
-    for name in ("distributed", "distributed.nanny", "distributed.scheduler",
-                 "distributed.worker", "distributed.core", "distributed.http.proxy"):
-        logging.getLogger(name).setLevel(logging.CRITICAL)  # failures are the rows' business
+    # failures are the rows' business, and what Dask says while it is torn down after Ctrl-C
+    # (tracebacks of its event loop) is not the user's: Dask's loggers and those it uses
+    families = ("distributed", "tornado", "asyncio")
+    for name in [*families, *(n for n in logging.root.manager.loggerDict
+                              if n.split(".")[0] in families)]:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
     if scheduler:
         try:
             return Client(scheduler, timeout="10s"), None
@@ -157,9 +132,10 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             raise SweepError(f"--scheduler {scheduler}: no Dask scheduler answers there "
                              f"({err}). Fix: start one with `dask scheduler` and workers with "
                              f"`dask worker {scheduler}`, or leave --scheduler out.") from None
-    if workers is not None and workers < 1:
-        raise SweepError(f"--workers {workers}: give at least 1 (or leave it out: one per "
-                         f"core).")
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
+                                or workers < 1):
+        raise SweepError(f"--workers {workers!r}: give a whole number of at least 1 (or leave "
+                         f"it out: one per core).")
     n = workers or os.cpu_count() or 1
     # the workers start with Ctrl-C ignored (a terminal sends it to the whole process group):
     # this process stops them, after saving the rows
@@ -169,15 +145,19 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         with warnings.catch_warnings():  # e.g. "port 8787 is already in use"
             warnings.simplefilter("ignore")
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
+                                   host="127.0.0.1",
+                                   dashboard_address="127.0.0.1:0" if dashboard else None,
+                                   silence_logs=logging.CRITICAL)
     finally:
         if ignore:
             signal.signal(signal.SIGINT, previous)
+    if dashboard:
+        log.info("sweep: the Dask dashboard is at %s", cluster.dashboard_link)
     return Client(cluster), cluster
 
 
 def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
-          scheduler: str | None = None, keep_signals: bool = False,
+          scheduler: str | None = None, keep_signals: bool = False, dashboard: bool = False,
           progress: bool = False, on_row: Callable[[dict[str, Any]], None] | None = None
           ) -> SweepOutcome:
     """Run the sweep `spec` into folder `out` (see the module's docstring). Raises SweepError
@@ -194,34 +174,52 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
     folder = Path(out).resolve()  # absolute: workers on a shared file system write there
     content = scenario.content if isinstance(scenario.content, str) else \
         json.dumps(scenario.content, sort_keys=True)
-    _same_sweep(spec, content, folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    _write_description(spec, content, folder)
-    done = _read_rows(folder)
-    done_ids = {r["run_id"] for r in done}
+    with SweepFolder(folder, spec, content) as place:
+        tasks = _tasks(spec, scenario, content, bases, table, place, keep_signals)
+        outcome = SweepOutcome(place.rows, 0, 0, len(table) - len(tasks), folder)
+        if tasks:
+            _collect(tasks, place, outcome, workers=workers, scheduler=scheduler,
+                     dashboard=dashboard, progress=progress, on_row=on_row)
+        else:
+            write_table(outcome.rows, folder)
+    return outcome
+
+
+def _tasks(spec: SweepSpec, scenario: Any, content: str, bases: dict[str, Any],
+           table: list[dict[str, Any]], place: SweepFolder, keep_signals: bool
+           ) -> list[RunTask]:
+    """The runs of `table` the folder does not hold yet."""
+    done_ids = {r["run_id"] for r in place.rows}
     tasks: list[RunTask] = []
     for i, values in enumerate(table):
         rid = run_id(values, spec.fixed)
         if rid in done_ids:
             continue  # done before, or the same overrides drawn twice: the same run
         done_ids.add(rid)
-        keep = str(folder / "runs" / rid) if keep_signals else None
+        keep = str(place.path / "runs" / rid) if keep_signals else None
         tasks.append(RunTask(rid, i, values, [*spec.fixed, *_overrides(values, spec.vary, bases)],
                              scenario.source, content, str(scenario.base_dir),
                              list(spec.metrics), keep))
-    skipped = len(table) - len(tasks)
-    outcome = SweepOutcome(done, 0, 0, skipped, folder)
-    if not tasks:
-        write_table(done, folder)
-        return outcome
-    client, cluster = _client(workers, scheduler)
-    bar = None
-    if progress:
-        from tqdm import tqdm
+    return tasks
 
-        bar = tqdm(total=len(tasks), unit="run", dynamic_ncols=True, desc="sweep")
-    journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
+
+def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
+             workers: int | None, scheduler: str | None, dashboard: bool, progress: bool,
+             on_row: Callable[[dict[str, Any]], None] | None) -> None:
+    """Run `tasks` on Dask; each row into the journal and `outcome` as it comes; runs.parquet
+    from every row at the end, also after Ctrl-C."""
+    from twmr.master.execution import held_signals
+
+    folder = place.path
+    futures: list[Any] = []
+    client = cluster = bar = journal = None
     try:
+        client, cluster = _client(workers, scheduler, dashboard)
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(tasks), unit="run", dynamic_ncols=True, desc="sweep")
+        journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
         from dask.distributed import as_completed
 
         futures = client.map(execute, tasks, pure=False, key=[f"run-{t.run_id}" for t in tasks])
@@ -234,9 +232,9 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
                 row = {"run_id": task.run_id, "sample": task.sample, **task.values,
                        "status": "failed", "error": _lost(future.exception()),
                        "wall_time_s": math.nan, "step_time_s": math.nan, "worker": ""}
-            journal.write(json.dumps(row, default=_plain) + "\n")
-            journal.flush()
-            outcome.rows.append(row)
+            row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
+            outcome.rows.append(row)  # first: the table at the end is written from these
+            append_row(journal, row)
             outcome.ran += 1
             outcome.failed += row["status"] != "ok"
             if on_row is not None:
@@ -246,21 +244,30 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
                 bar.update(1)
     except KeyboardInterrupt as stop:
         outcome.interrupted = True
-        client.cancel(futures)
-        stop.partial_results = folder  # type: ignore[attr-defined] - shown by the CLI
+        stop.partial_results = folder  # type: ignore[attr-defined]  # shown by the CLI
         raise
     finally:
-        if bar is not None:
-            bar.close()
-        journal.close()
-        try:
+        with held_signals():  # a second Ctrl-C must not cut the saving short
+            if bar is not None:
+                bar.close()
+            if journal is not None:
+                journal.close()
+            _close(client, cluster, futures)
+            write_table(outcome.rows, folder)
+
+
+def _close(client: Any, cluster: Any, futures: list[Any]) -> None:
+    """Stop the runs left, then the client and the local cluster, without a word (what Dask
+    says while it is torn down after Ctrl-C is not the user's business)."""
+    try:
+        if client is not None:
+            if futures:
+                client.cancel(futures)
             client.close(timeout=10)
-            if cluster is not None:
-                cluster.close(timeout=10)
-        except Exception:  # noqa: BLE001 - closing after Ctrl-C must not hide the rows
-            log.debug("closing the Dask cluster failed", exc_info=True)
-        write_table(outcome.rows, folder)
-    return outcome
+        if cluster is not None:
+            cluster.close(timeout=10)
+    except BaseException:  # noqa: BLE001 - closing after Ctrl-C must not hide the rows
+        log.debug("closing the Dask cluster failed", exc_info=True)
 
 
 def _lost(exc: BaseException | None) -> str:
@@ -270,52 +277,6 @@ def _lost(exc: BaseException | None) -> str:
                 "native code, e.g. an FMU, or the memory limit). Fix: run this case alone with "
                 "`twmr run` (with `isolate: true` on its FMUs) to see what happens.")
     return f"the run was lost by Dask: {type(exc).__name__}: {exc}"
-
-
-def _digest(text: str) -> str:
-    import hashlib
-
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _same_sweep(spec: SweepSpec, content: str, folder: Path) -> None:
-    """A folder holds the runs of one scenario (its text), one set of `--set` overrides and one
-    metric selection; the varied parameters and the sampling may grow from call to call."""
-    described = folder / "sweep.json"
-    if not described.exists():
-        return
-    try:
-        before = json.loads(described.read_text())
-    except ValueError:
-        return
-    now = {"scenario_sha256": _digest(content), "set": list(spec.fixed),
-           "metrics": list(spec.metrics)}
-    what = {"scenario_sha256": "another scenario (or another version of its file)",
-            "set": "other --set overrides", "metrics": "other --metrics"}
-    for key, value in now.items():
-        if key in before and before[key] != value:
-            raise SweepError(f"{folder} holds a sweep of {what[key]} ({key}: {before[key]!r}, "
-                             f"now {value!r}); its runs would be mixed with these. Fix: give "
-                             f"another --out, or the same {key.split('_')[0]} as before.")
-
-
-def _write_description(spec: SweepSpec, content: str, folder: Path) -> None:
-    """sweep.json: what the folder's runs vary and how they were drawn (for the report and the
-    next invocation)."""
-    described = {"scenario": spec.scenario, "scenario_sha256": _digest(content),
-                 "vary": {v.name: v.text for v in spec.vary}, "samples": spec.samples,
-                 "method": spec.method, "seed": spec.seed, "metrics": list(spec.metrics),
-                 "set": list(spec.fixed)}
-    (folder / "sweep.json").write_text(json.dumps(described, indent=2) + "\n")
-
-
-def _plain(value: Any) -> Any:
-    """JSON for numpy scalars and tuples in rows."""
-    if hasattr(value, "item"):
-        return value.item()
-    if isinstance(value, tuple):
-        return list(value)
-    return str(value)
 
 
 def spec_from(scenario: str, vary: Sequence[str | Vary], **options: Any) -> SweepSpec:

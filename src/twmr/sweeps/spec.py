@@ -30,6 +30,8 @@ import numpy as np
 from twmr.core.errors import CosimError
 
 METHODS = ("random", "lhs", "grid")
+#: the most runs one sweep makes (and the longest grid axis): its table is built in memory
+MAX_RUNS = 100_000
 _NAME = re.compile(r"^([A-Za-z_][\w-]*)\.([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 
 
@@ -117,6 +119,9 @@ def parse_vary(text: str, where: str = "--vary") -> Vary:
             n = numbers[2]
             if n != int(n) or n < 1:
                 raise ValueError(f"N = {parts[2]} is not a positive whole number")
+            if n > MAX_RUNS:
+                raise ValueError(f"N = {parts[2]} is more than the {MAX_RUNS:,} runs a sweep "
+                                 f"makes at most")
             return Vary(name, kind, (numbers[0], numbers[1], int(n)))
     except ValueError as err:
         raise SweepError(f"{where} {text!r}: {err}. Fix: {hint}.") from None
@@ -147,11 +152,16 @@ class SweepSpec:
     fixed: list[str] = field(default_factory=list)  # overrides applied to every run
 
     def check(self) -> None:
+        """SweepError when the sweep is ill-formed or would make more than MAX_RUNS runs."""
         if self.method not in METHODS:
             raise SweepError(f"--method {self.method!r} is unknown. Fix: use one of "
                              f"{', '.join(METHODS)}.")
-        if not isinstance(self.samples, int) or self.samples < 1:
-            raise SweepError(f"--samples {self.samples!r} must be a positive whole number.")
+        if not _whole(self.samples) or self.samples < 1:
+            raise SweepError(f"--samples {self.samples!r} is not a positive whole number. Fix: "
+                             f"give the number of runs, e.g. --samples 20.")
+        if not _whole(self.seed) or self.seed < 0:
+            raise SweepError(f"--seed {self.seed!r} is not a whole number from 0 up. Fix: give "
+                             f"e.g. --seed 1.")
         names = [v.name for v in self.vary]
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
@@ -161,13 +171,23 @@ class SweepSpec:
         if self.method == "grid" and any(v.kind == "normal" for v in self.vary):
             raise SweepError("a grid cannot hold a normal distribution. Fix: use --method "
                              "random or lhs, or give values:/grid: for that parameter.")
+        runs = self.samples
+        if self.method == "grid":
+            runs = math.prod(len(v.args) if v.kind == "values" else
+                             v.args[2] if v.kind == "grid" else self.samples for v in self.vary)
+        if runs > MAX_RUNS:
+            raise SweepError(f"the sweep would make {runs:,} runs, more than the {MAX_RUNS:,} "
+                             f"one sweep makes at most. Fix: give fewer --samples (or shorter "
+                             f"grids); a larger study is several sweeps (other seeds, other "
+                             f"--out folders).")
 
     def samples_table(self) -> list[dict[str, Any]]:
         """One {NAME: value} per run, in run order; the same for the same seed."""
         self.check()
         if self.method == "grid":
             axes = [v.choices if v.choices is not None else
-                    [float(x) for x in np.linspace(*v.args, self.samples)] for v in self.vary]
+                    [float(x) for x in np.linspace(v.args[0], v.args[1], self.samples)]
+                    for v in self.vary]
             grid = np.array(np.meshgrid(*[np.arange(len(a)) for a in axes], indexing="ij"))
             idx = grid.reshape(len(axes), -1).T
             return [{v.name: axes[k][i]
@@ -185,6 +205,11 @@ class SweepSpec:
                 for i in range(self.samples)]
 
 
+def _whole(value: Any) -> bool:
+    """An int that is no bool (YAML reads `true` as one)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
 def run_id(values: dict[str, Any], fixed: Sequence[str] = ()) -> str:
     """The id of the run with these overrides: a hash of them (12 hex digits), so a resumed
     sweep recognises the runs it has done."""
@@ -193,31 +218,58 @@ def run_id(values: dict[str, Any], fixed: Sequence[str] = ()) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
+#: what a sweep file may hold: key -> (what its value is, the test of it)
+_FILE_KEYS: dict[str, tuple[str, Any]] = {
+    "scenario": ("the path of the scenario file", lambda v: isinstance(v, str) and v),
+    "vary": ("a mapping of NAME to SPEC, e.g. 'plant.scale: uniform:0.9:1.1'",
+             lambda v: isinstance(v, dict) and all(isinstance(x, str | int | float) and
+                                                    not isinstance(x, bool) for x in v.values())),
+    "samples": ("a positive whole number", lambda v: _whole(v) and v >= 1),
+    "method": (f"one of {', '.join(METHODS)}", lambda v: v in METHODS),
+    "seed": ("a whole number from 0 up", lambda v: _whole(v) and v >= 0),
+    "metrics": ("a list of metric set names, e.g. [tracking]",
+                lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)),
+    "set": ("a list of overrides, e.g. ['experiment.stop=1.0']",
+            lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)),
+    "workers": ("a positive whole number of local worker processes",
+                lambda v: _whole(v) and v >= 1),
+    "out": ("the path of the sweep's folder", lambda v: isinstance(v, str) and v),
+    "keep_signals": ("true or false", lambda v: isinstance(v, bool)),
+}
+
+
 def read_sweep_file(path: Path) -> dict[str, Any]:
-    """A sweep file (YAML): scenario, vary {NAME: SPEC}, samples, method, seed, metrics, set."""
-    import yaml
+    """A sweep file (YAML): scenario, vary {NAME: SPEC}, samples, method, seed, metrics, set,
+    workers, out, keep_signals, each checked before anything is drawn or allocated. A scheduler
+    address is never read from a file (see docs/sweeps.md)."""
+    from twmr.scenario.yamlread import read, read_file
 
-    from twmr.scenario.yamlread import read_file
-
-    try:
-        data = yaml.safe_load(read_file(path))
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        line = f":{mark.line + 1}" if mark is not None else ""
-        raise SweepError(f"{path}{line}: not valid YAML ({getattr(err, 'problem', err)}). "
-                         f"Fix: correct the sweep file.") from None
-    known = {"scenario", "vary", "samples", "method", "seed", "metrics", "set", "workers",
-             "scheduler", "out", "keep_signals"}
+    data, lines = read(read_file(path), str(path))
     if not isinstance(data, dict):
         raise SweepError(f"{path}: a sweep file is a mapping (scenario:, vary:, samples:, ...). "
                          f"Fix: see docs/sweeps.md.")
-    unknown = sorted(set(map(str, data)) - known)
+    if "scheduler" in data:
+        raise SweepError(f"{lines.at('scheduler')}: a sweep file cannot name a Dask scheduler: "
+                         f"a cluster runs code in twmr and is trusted, so only the person "
+                         f"running the sweep chooses one. Fix: remove 'scheduler:' from the "
+                         f"file and give `--scheduler ADDRESS` on the command line (or "
+                         f"scheduler= to twmr.sweep) for a cluster you trust.")
+    unknown = sorted(set(data) - set(_FILE_KEYS))
     if unknown:
-        raise SweepError(f"{path}: unknown key(s) {', '.join(unknown)}. Fix: use "
-                         f"{', '.join(sorted(known))}.")
-    vary = data.get("vary") or {}
-    if not isinstance(vary, dict):
-        raise SweepError(f"{path}: 'vary' maps each NAME to its SPEC, e.g. "
-                         f"'plant.scale: uniform:0.9:1.1'.")
-    data["vary"] = [parse_vary(f"{k}={v}", f"{path} (vary)") for k, v in vary.items()]
+        raise SweepError(f"{lines.at(unknown[0])}: unknown key(s) {', '.join(unknown)}. Fix: "
+                         f"use {', '.join(sorted(_FILE_KEYS))}.")
+    for key, value in data.items():
+        what, valid = _FILE_KEYS[key]
+        if not valid(value):
+            raise SweepError(f"{lines.at(key)}: {key} is {_shown(value)}, not {what}. Fix: "
+                             f"write {key}: as {what}.")
+    data["vary"] = [parse_vary(f"{k}={v}", f"{lines.at('vary', k)}")
+                    for k, v in (data.get("vary") or {}).items()]
     return data
+
+
+def _shown(value: Any) -> str:
+    """A value as a message shows it: short, with its YAML type."""
+    text = repr(value)
+    text = text if len(text) <= 40 else text[:37] + "..."
+    return f"{text} (a {type(value).__name__})"

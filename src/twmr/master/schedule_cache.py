@@ -1,0 +1,161 @@
+"""The compiled loop's cache: each generated step loop as a module file, and numba's machine code
+of it, both used only when their content is what was written.
+
+- `schedule_<key>.py` (<key>: a hash of the generated source, the source files of the kernels'
+  packages and numba's version). Before anything is imported, the file's text is compared with the
+  source generated now; a file that differs (edited, truncated, a line prepended) is rewritten,
+  with a log line. The module is executed from the generated source, never from the file: the
+  file is there for numba, whose cache is keyed by it.
+- numba's cache of it (`<module>.*.nbi` / `.nbc` in numba's cache folder: pickles, i.e. code).
+  The SHA-256 of each of these files is recorded in `schedule_<key>.manifest.json` (written whole,
+  then renamed) right after numba writes them; before numba reads them they are checked against
+  it. A file that differs or is not recorded, or one numba cannot read, makes all of them go
+  (logged) and numba compiles afresh. A lock file serialises the recording and the checking
+  between processes (sweep workers compile at once).
+"""
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import logging
+import os
+import sys
+import types
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("twmr.run")
+_NUMBA_SUFFIXES = (".nbi", ".nbc")
+
+
+def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
+    """(run, finish) of the generated `source` (which imports the kernels in `names`), as the
+    module `schedule_<key>.py` in `folder`, with numba's cache of it verified. OSError when the
+    folder cannot be written."""
+    import numba
+
+    digest = hashlib.sha256(source.encode())
+    digest.update(numba.__version__.encode())
+    # the kernels' modules and their sibling modules (helpers they call)
+    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
+                                        for fn in names.values()) if f}
+    for file in sorted(f for folder_ in folders for f in folder_.glob("*.py")):
+        digest.update(file.read_bytes())
+    key = digest.hexdigest()[:20]
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"schedule_{key}.py"
+    _ensure_text(path, source)
+    modname = f"twmr_schedule_{key}"
+    module = sys.modules.get(modname)
+    if module is None:
+        module = types.ModuleType(modname)
+        module.__file__ = str(path)
+        exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - generated here
+        sys.modules[modname] = module
+        verified = _VerifiedCache(path, [module.run, module.finish])
+        for fn in (module.run, module.finish):
+            verified.wrap(fn._cache)
+    return module.run, module.finish
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _ensure_text(path: Path, source: str) -> None:
+    """`path` holds exactly `source` (written whole, then renamed, when it does not)."""
+    expected = source.encode()
+    try:
+        found = path.read_bytes()
+    except FileNotFoundError:
+        found = None
+    if found == expected:
+        return
+    if found is not None:
+        log.warning("the cached compiled loop %s differs from the loop generated now "
+                    "(SHA-256 %s, expected %s); rewriting it and compiling again", path,
+                    _digest(found)[:12], _digest(expected)[:12])
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(expected)
+    os.replace(tmp, path)
+
+
+class _VerifiedCache:
+    """numba's cache files of one generated module, checked against the manifest before numba
+    reads them and recorded in it after numba writes them."""
+
+    def __init__(self, path: Path, dispatchers: list[Any]):
+        self.path = path
+        self.manifest = path.with_name(f"{path.stem}.manifest.json")
+        self.lock = path.with_name(f".{path.stem}.lock")
+        self.folders = {Path(d._cache.cache_path) for d in dispatchers
+                        if getattr(d._cache, "cache_path", None)}
+
+    def wrap(self, cache: Any) -> None:
+        """Make `cache` (a dispatcher's numba cache) load and save through here."""
+        load, save = cache.load_overload, cache.save_overload
+
+        def load_overload(sig: Any, target_context: Any) -> Any:
+            with self._locked(fcntl.LOCK_SH):
+                bad = self._mismatch()
+            if bad:
+                self._purge(bad)
+                return None
+            try:
+                return load(sig, target_context)
+            except Exception as exc:  # noqa: BLE001 - an unreadable cache is compiled anew
+                self._purge(f"numba could not read it ({type(exc).__name__}: {exc})")
+                return None
+
+        def save_overload(sig: Any, data: Any) -> None:
+            with self._locked(fcntl.LOCK_EX):
+                save(sig, data)
+                self._record()
+
+        cache.load_overload, cache.save_overload = load_overload, save_overload
+
+    def _files(self) -> list[Path]:
+        return sorted(f for folder in self.folders if folder.is_dir()
+                      for f in folder.glob(f"{self.path.stem}.*") if f.suffix in _NUMBA_SUFFIXES)
+
+    def _recorded(self) -> dict[str, str]:
+        try:
+            data = json.loads(self.manifest.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return {}
+        files = data.get("files") if isinstance(data, dict) else None
+        return files if isinstance(files, dict) else {}
+
+    def _mismatch(self) -> str:
+        """'' when every numba cache file is recorded with its hash, else what is wrong."""
+        recorded = self._recorded()
+        for file in self._files():
+            digest = recorded.get(str(file))
+            if digest is None:
+                return f"{file.name} is not recorded in {self.manifest.name}"
+            if digest != _digest(file.read_bytes()):
+                return f"{file.name} differs from what was recorded when numba wrote it"
+        return ""
+
+    def _record(self) -> None:
+        files = {str(f): _digest(f.read_bytes()) for f in self._files()}
+        tmp = self.manifest.with_name(f".{self.manifest.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps({"module": self.path.name, "files": files}, indent=1) + "\n")
+        os.replace(tmp, self.manifest)
+
+    def _purge(self, why: str) -> None:
+        with self._locked(fcntl.LOCK_EX):
+            log.warning("numba's cache of %s is not used: %s; compiling it again", self.path,
+                        why)
+            for file in self._files():
+                file.unlink(missing_ok=True)
+            self.manifest.unlink(missing_ok=True)
+
+    @contextlib.contextmanager
+    def _locked(self, how: int) -> Iterator[None]:
+        with open(self.lock, "a") as f:
+            fcntl.flock(f.fileno(), how)
+            yield
