@@ -24,6 +24,7 @@ from typing import Any
 from twmr.core.errors import CosimError
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
+from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import System
 
 __all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep"]
@@ -40,6 +41,16 @@ class Scenario:
     base_dir: Path
     overrides: tuple[str, ...] = ()
     _system: System | None = field(default=None, repr=False)
+    _spec: ScenarioSpec | None = field(default=None, repr=False)
+
+    @property
+    def spec(self) -> ScenarioSpec:
+        """The scenario's structure (`twmr.scenario.structure`), with the overrides applied."""
+        if self._spec is None:
+            from twmr.scenario.build import spec_of
+
+            self._spec = spec_of(self.content, self.source, self.base_dir, self.overrides)
+        return self._spec
 
     @property
     def system(self) -> System:
@@ -55,9 +66,9 @@ class Scenario:
         return system
 
     def _build(self) -> System:
-        from twmr.scenario.build import loads
+        from twmr.scenario.build import build
 
-        return loads(self.content, self.source, self.base_dir, self.overrides)
+        return build(self.spec)
 
     @property
     def name(self) -> str:
