@@ -75,11 +75,12 @@ class Variable:
 
     def _units_problem(self, where: str) -> str:
         n, cls, units = len(self.unit), type(self).__name__, self.unit
+        article = "an" if cls[0] in "AEIOU" else "a"
         if self.size is None:
             return (f"{where}: {n} units {units!r} are given for a scalar {cls} (no size). "
                     f"Fix: declare it as a vector, {cls}(size={n}, unit={units!r}), or give one "
                     f"unit string for all its elements, unit={units[0]!r}.")
-        return (f"{where}: {n} units {units!r} are given for a {cls} of size {self.size}. "
+        return (f"{where}: {n} units {units!r} are given for {article} {cls} of size {self.size}. "
                 f"Fix: give one unit per element ({self.size}), or one unit string for all, "
                 f"unit={units[0]!r}.")
 

@@ -29,7 +29,7 @@ from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import kinds, lookup, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
-from twmr.scenario.kinds import KindError, import_failure
+from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, schema, structure
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
@@ -41,6 +41,7 @@ __all__ = ["MAX_STEPS", "build", "load", "loads", "schema", "spec_of"]
 MAX_STEPS = 1e9
 _NOUNS = {"Real": ("a number", "numbers"), "Integer": ("an integer", "integers"),
           "Boolean": ("true or false", "booleans")}
+_NAMED = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)")  # the port a wire's end names
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
 
 
@@ -144,8 +145,7 @@ class _Builder:
                                              f"created: {err}.", "check its parameters."))
                 continue
             except Exception as err:  # noqa: BLE001 - a user block's own code
-                failure = import_failure(err, f"the class {cls.__qualname__}",
-                                         _file_of(cls))
+                failure = code_failure(err, f"creating {cls.__qualname__}", _file_of(cls))
                 self.problems.append(Problem(spec.where, f"component '{name}' ({kind}) cannot "
                                              f"be created: {failure.message}", failure.fix))
                 continue
@@ -249,6 +249,9 @@ class _Builder:
                                              "write 'component.output -> component.input', "
                                              "an element selection 1-based within the port's "
                                              "size: 'plant.pose[1:2] -> ctrl.xy'."))
+                named = _NAMED.match(right)
+                if named:  # reported; its input is not reported again as unconnected
+                    self.miswired.add((named.group(1), named.group(2)))
                 continue
             made = wire(comps, src, dst, loc, self.problems)
             if not made:  # reported; its input is not reported again as unconnected

@@ -97,12 +97,12 @@ def _import_file(kind: str, target: str, base: Path) -> ModuleType:
         path = (base / Path(target).expanduser()).resolve()
         found = path.is_file()
     except (OSError, RuntimeError) as err:  # a symbolic-link loop, a name too long
-        raise KindError(f"the file '{target}' of kind '{kind}' cannot be read ({err}).",
+        raise KindError(f"the file '{target}' cannot be read ({err}).",
                         "give the path of the block's Python file.") from None
     if not found:
         nearby = sorted(p.name for p in path.parent.glob("*.py")) if path.parent.is_dir() \
             else []
-        raise KindError(f"the file '{path}' of kind '{kind}' does not exist"
+        raise KindError(f"the file '{path}' does not exist"
                         f"{suggest(path.name, nearby)}.",
                         f"give the block's Python file relative to the scenario's folder "
                         f"({base}) or as an absolute path, e.g. 'my_block.py:"
@@ -113,7 +113,7 @@ def _import_file(kind: str, target: str, base: Path) -> ModuleType:
         return module
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
-        raise KindError(f"the file '{path}' of kind '{kind}' cannot be imported as Python.",
+        raise KindError(f"the file '{path}' cannot be imported as Python.",
                         "give a Python source file ending in .py.")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module  # the file's own dataclasses and kernels find their module
@@ -121,7 +121,7 @@ def _import_file(kind: str, target: str, base: Path) -> ModuleType:
         spec.loader.exec_module(module)
     except Exception as err:  # noqa: BLE001 - the user's code: reported with its own file:line
         del sys.modules[name]
-        raise import_failure(err, f"the file '{path}'", path) from None
+        raise code_failure(err, f"importing the file '{path}'", path) from None
     return module
 
 
@@ -130,16 +130,17 @@ def _import_module(kind: str, target: str, name: str, base: Path) -> ModuleType:
         return importlib.import_module(target)
     except ModuleNotFoundError as err:
         if not err.name or not (target == err.name or target.startswith(f"{err.name}.")):
-            raise import_failure(err, f"the module '{target}'", _origin(target)) from None
+            raise code_failure(err, f"importing the module '{target}'", _origin(target)) \
+                from None
         local = base / f"{target.replace('.', '/')}.py"
         hint = f" (did you mean the file '{target.replace('.', '/')}.py:{name}'?)" \
             if local.is_file() else ""
-        raise KindError(f"no module '{target}' can be imported for the kind '{kind}'{hint}.",
+        raise KindError(f"no module '{target}' can be imported{hint}.",
                         f"install the package that provides it (an installed package may "
                         f"register its kinds by name, {_DOCS}), or name a file: "
                         f"'path/to/file.py:{name}' relative to the scenario's folder.") from None
     except Exception as err:  # noqa: BLE001 - the module's code: reported with its file:line
-        raise import_failure(err, f"the module '{target}'", _origin(target)) from None
+        raise code_failure(err, f"importing the module '{target}'", _origin(target)) from None
 
 
 def _origin(target: str) -> Path | None:
@@ -151,29 +152,28 @@ def _origin(target: str) -> Path | None:
     return Path(spec.origin) if spec is not None and spec.origin else None
 
 
-def import_failure(err: BaseException, what: str, path: Path | None) -> KindError:
-    """A KindError for code that raised while `what` was imported, naming the file and line of
-    the user's code at fault (in `path` when given, else the innermost frame)."""
+def code_failure(err: BaseException, doing: str, path: Path | None) -> KindError:
+    """A KindError for user code that raised while `doing` (e.g. "importing the file 'x.py'"),
+    naming the file and line at fault (the last frame in `path` when given, else the
+    innermost)."""
     line = _line_of(err, path)
     cause = err.__cause__
     if isinstance(err, RuntimeError) and isinstance(cause, CosimError):
         err = cause  # Python 3.11 wraps the errors of a port's `__set_name__`
     if isinstance(err, CosimError):
         message, _, fix = str(err).partition(" Fix: ")
-        return KindError(f"importing {what} failed{line}: {message}",
-                         fix or "correct the code there.")
+        return KindError(f"{doing} failed{line}: {message}", fix or "correct the code there.")
     if isinstance(err, SyntaxError):
         at = f"{err.filename}:{err.lineno}" if err.lineno else str(err.filename)
-        return KindError(f"importing {what} failed: a syntax error at {at}: {err.msg}.",
+        return KindError(f"{doing} failed: a syntax error at {at}: {err.msg}.",
                          f"correct line {err.lineno} of {err.filename}.")
     if isinstance(err, ModuleNotFoundError) and err.name:
-        return KindError(f"importing {what} failed{line}: no module named '{err.name}'.",
+        return KindError(f"{doing} failed{line}: no module named '{err.name}'.",
                          f"install the package that provides '{err.name}' "
                          f"(`python -m pip install ...` in the environment twmr runs in), or "
                          f"correct the import.")
-    return KindError(f"importing {what} failed{line}: {type(err).__name__}: {err}.",
-                     "correct the code there; importing the file should only define its "
-                     "blocks.")
+    return KindError(f"{doing} failed{line}: {type(err).__name__}: {err}.",
+                     "correct the code there.")
 
 
 def _line_of(err: BaseException, path: Path | None) -> str:

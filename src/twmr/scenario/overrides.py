@@ -33,17 +33,20 @@ def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
     return spec
 
 
-def _parse(text: str, value: str, loc: Location, problems: list[Problem]) -> tuple[bool, Any]:
+def _parse(text: str, key: str, value: str, loc: Location, problems: list[Problem]
+           ) -> tuple[bool, Any]:
     """(read, the value) of the text after '='."""
     try:
         return True, yaml.safe_load(value)
     except yaml.YAMLError as err:
-        what = getattr(err, "problem", None) or str(err).splitlines()[0]
+        what = str(getattr(err, "problem", None) or str(err).splitlines()[0])
+        what = what.replace("'<stream end>'", "the end")
         problems.append(Problem(loc, f"cannot read the value '{value}' of '{text}': it is not "
                                 f"a YAML value ({what}).",
-                                "give a number (ctrl.k=2.5), a number with a unit (30 cm), "
-                                "true or false, a list in brackets ([1, 2]) or text in quotes "
-                                "('fast'); quote the whole --set argument in the shell."))
+                                f"give a number ({key}=2.5), a number with a unit "
+                                f"({key}='30 cm'), true or false, a list in brackets "
+                                f"({key}=[1, 2]) or text in quotes ({key}=\"'fast'\"); quote "
+                                f"the whole --set argument in the shell."))
         return False, None
 
 
@@ -54,7 +57,7 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
     if not sep or not dot or not name:
         problems.append(Problem(loc, f"cannot read the override '{text}'.", _FORM))
         return spec
-    ok, parsed = _parse(text, value, loc, problems)
+    ok, parsed = _parse(text, key.strip(), value, loc, problems)
     if not ok:
         return spec
     if comp == "experiment":
