@@ -10,8 +10,8 @@ from typing import Any
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 
-_LAZY = {"load": "build", "loads": "build", "build": "build", "spec_of": "build",
-         "schema": "loaders", "load_structure": "loaders", "structure": "loaders",
+_LAZY = {"load": "build", "loads": "build", "build_system": "build", "scenario_spec": "build",
+         "schema": "loaders", "load_structure": "loaders", "read_structure": "loaders",
          "describe": "listing", "kinds_table": "listing"}
 __all__ = [
     "ComponentSpec",
@@ -21,15 +21,15 @@ __all__ = [
     "RecordSpec",
     "ScenarioSpec",
     "System",
-    "build",
+    "build_system",
     "describe",
     "kinds_table",
     "load",
     "load_structure",
     "loads",
+    "read_structure",
+    "scenario_spec",
     "schema",
-    "spec_of",
-    "structure",
 ]
 
 

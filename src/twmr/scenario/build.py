@@ -30,12 +30,12 @@ from twmr.core.units import conversion, known_unit
 from twmr.registry import kinds, lookup, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
 from twmr.scenario.kinds import KindError, code_failure
-from twmr.scenario.loaders import load_structure, schema, structure
+from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 
-__all__ = ["MAX_STEPS", "build", "load", "loads", "schema", "spec_of"]
+__all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schema"]
 
 #: the most base steps one run may take (1e9 steps: ~1.5 h at 5 us a step)
 MAX_STEPS = 1e9
@@ -47,25 +47,30 @@ _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Z
 
 def load(path: str | Path, overrides: Sequence[str] = ()) -> System:
     """Build the System of the scenario file at `path` (with `--set` overrides)."""
-    return build(_guarded(str(path), lambda: apply_overrides(load_structure(path), overrides)))
+    return build_system(_guarded(str(path), lambda: apply_overrides(load_structure(path),
+                                                                    overrides)))
 
 
 def loads(text: str | dict[str, Any], source: str = "<string>",
           base_dir: str | Path | None = None, overrides: Sequence[str] = ()) -> System:
     """Build the System of a scenario given as YAML text, or as a dict of the same shape.
     Raises a `CosimError` subclass."""
-    return build(spec_of(text, source, base_dir, overrides))
+    return build_system(scenario_spec(text, source, base_dir, overrides))
 
 
-def spec_of(text: str | dict[str, Any], source: str = "<string>",
-            base_dir: str | Path | None = None, overrides: Sequence[str] = ()) -> ScenarioSpec:
-    """The structure of a scenario given as YAML text or a dict, with `--set` overrides
-    applied. Raises a `CosimError` subclass."""
-    return _guarded(source, lambda: apply_overrides(structure(text, source, base_dir),
+def scenario_spec(text: str | dict[str, Any] | ScenarioSpec, source: str = "<string>",
+                        base_dir: str | Path | None = None, overrides: Sequence[str] = ()
+                  ) -> ScenarioSpec:
+    """The structure of a scenario given as YAML text, a dict or a structure already, with
+    `--set` overrides applied. Raises a `CosimError` subclass."""
+    if isinstance(text, ScenarioSpec):
+        spec = text
+        return _guarded(spec.source, lambda: apply_overrides(spec, overrides))
+    return _guarded(source, lambda: apply_overrides(read_structure(text, source, base_dir),
                                                     overrides))
 
 
-def build(spec: ScenarioSpec) -> System:
+def build_system(spec: ScenarioSpec) -> System:
     """The System of a scenario's structure: components created and configured, wires checked,
     order found. Raises a `CosimError` subclass listing every problem."""
     return _guarded(spec.source, _Builder(spec).build)

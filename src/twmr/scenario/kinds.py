@@ -40,11 +40,6 @@ class KindError(CosimError):
         return (type(self), (self.message, self.fix))
 
 
-def is_user_kind(kind: str) -> bool:
-    """True for 'file.py:Class' and 'module:Class' (registered names have no ':')."""
-    return ":" in kind
-
-
 def load_kind(kind: str, base_dir: Path | None = None) -> type[Component]:
     """The Component subclass `kind` names; a relative file path starts at `base_dir` (default:
     the working folder). KindError otherwise."""

@@ -1,8 +1,8 @@
 """Loaders: a scenario file, YAML text or a dict -> `ScenarioSpec`, checked against the JSON Schema.
 
-`load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `structure(source)` reads
-YAML text or a dict of the same shape. A YAML value's location is its file, line and key path; a
-dict's is its key path.
+`load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `read_structure(source)`
+reads YAML text or a dict of the same shape. A YAML value's location is its file, line and key
+path; a dict's is its key path. Another format (SSP) adds its loader to `LOADERS`.
 """
 from __future__ import annotations
 
@@ -111,8 +111,8 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         {key: at(key) for key in data})
 
 
-def structure(source: str | dict[str, Any], name: str = "<string>",
-              base_dir: str | Path | None = None) -> ScenarioSpec:
+def read_structure(source: str | dict[str, Any], name: str = "<string>",
+                   base_dir: str | Path | None = None) -> ScenarioSpec:
     """The structure of a scenario given as YAML text, or as a dict of the same shape (located
     by key paths). `base_dir` (default: the working folder) is where relative paths start."""
     folder = Path(base_dir or Path.cwd())
@@ -123,7 +123,7 @@ def structure(source: str | dict[str, Any], name: str = "<string>",
 
 def load_yaml(path: Path) -> ScenarioSpec:
     """The structure of a YAML scenario file (relative paths start at its folder)."""
-    return structure(read_file(path), str(path), path.resolve().parent)
+    return read_structure(read_file(path), str(path), path.resolve().parent)
 
 
 #: a loader by file suffix: path -> ScenarioSpec
