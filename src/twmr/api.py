@@ -25,6 +25,7 @@ from typing import Any
 from twmr.core.errors import CosimError
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
+from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import System
 
 __all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep"]
@@ -37,10 +38,20 @@ class Scenario:
     freshly built system, so simulating the same scenario twice gives identical results."""
 
     source: str
-    content: str | dict[str, Any]
+    content: str | dict[str, Any] | ScenarioSpec
     base_dir: Path
     overrides: tuple[str, ...] = ()
     _system: System | None = field(default=None, repr=False)
+    _spec: ScenarioSpec | None = field(default=None, repr=False)
+
+    @property
+    def spec(self) -> ScenarioSpec:
+        """The scenario's structure (`twmr.scenario.structure`), with the overrides applied."""
+        if self._spec is None:
+            from twmr.scenario.build import scenario_spec
+
+            self._spec = scenario_spec(self.content, self.source, self.base_dir, self.overrides)
+        return self._spec
 
     @property
     def system(self) -> System:
@@ -56,9 +67,9 @@ class Scenario:
         return system
 
     def _build(self) -> System:
-        from twmr.scenario.build import loads
+        from twmr.scenario.build import build_system
 
-        return loads(self.content, self.source, self.base_dir, self.overrides)
+        return build_system(self.spec)
 
     @property
     def name(self) -> str:
@@ -67,11 +78,15 @@ class Scenario:
         return stem or "scenario"
 
 
-def load(source: str | Path | dict[str, Any], overrides: Sequence[str] = ()) -> Scenario:
-    """A scenario from a YAML file path, a YAML string or a dict, with `comp.name=value`
-    overrides (also `experiment.stop|step|start|algorithm|realtime=...` and
-    `comp.step_multiple=m`). Raises `ScenarioError` listing every problem found."""
-    if isinstance(source, dict):
+def load(source: str | Path | dict[str, Any] | ScenarioSpec,
+         overrides: Sequence[str] = ()) -> Scenario:
+    """A scenario from a YAML file path, a YAML string, a dict or a `ScenarioSpec` (the typed
+    structure, `twmr.scenario.structure`), with `comp.name=value` overrides (also
+    `experiment.stop|step|start|algorithm|realtime=...` and `comp.step_multiple=m`). Raises
+    `ScenarioError` listing every problem found."""
+    if isinstance(source, ScenarioSpec):
+        scenario = Scenario(source.source, source, source.base_dir, tuple(overrides))
+    elif isinstance(source, dict):
         scenario = Scenario("<dict>", source, Path.cwd(), tuple(overrides))
     elif isinstance(source, Path) or ("\n" not in source and (
             Path(source).suffix.lower() in (".yaml", ".yml") or Path(source).exists())):

@@ -144,7 +144,7 @@ def cmd_components(args: argparse.Namespace) -> int:
     from twmr.registry import kinds, suggest
     from twmr.scenario.listing import kinds_table
 
-    unknown = [k for k in args.kinds if k not in kinds()]
+    unknown = [k for k in args.kinds if k not in kinds() and ":" not in k]
     if unknown:
         raise CosimError(f"unknown component kind '{unknown[0]}'{suggest(unknown[0], kinds())}. "
                          f"Fix: `twmr components` lists them all.")

@@ -2,7 +2,8 @@
 
 Like python-can's interface registry: names map to ``module:attr`` strings and a module is
 imported only when its entry is used, so robot analysis and hardware libraries load only when a
-scenario or command needs them. Groups: ``twmr.components`` (a `Component` subclass),
+scenario or command needs them. A kind may also name a class directly ('my_block.py:MyBlock',
+'package.module:MyBlock', see `lookup`). Groups: ``twmr.components`` (a `Component` subclass),
 ``twmr.metrics`` (a function `Result -> dict[str, float]`), ``twmr.commands`` (a function
 `register(subparsers)` adding one or more subcommands), ``twmr.formats`` (result writers),
 ``twmr.algorithms`` (master algorithms), ``twmr.can_protocols`` (CAN drive links) and
@@ -16,6 +17,7 @@ import importlib
 from collections.abc import Callable
 from functools import cache
 from importlib.metadata import entry_points
+from pathlib import Path
 from typing import Any
 
 GROUP = "twmr.components"
@@ -76,9 +78,16 @@ def _resolve(target: str) -> Any:
     return getattr(importlib.import_module(module), attr)
 
 
-def lookup(kind: str) -> Any:
-    """The Component class registered as `kind`; KeyError with a suggestion when unknown."""
+def lookup(kind: str, base_dir: Path | None = None) -> Any:
+    """The Component class of `kind`: a registered name, 'path/to/file.py:Class' (relative to
+    `base_dir`, default the working folder) or 'package.module:Class'. KeyError with a
+    suggestion for an unknown name; `twmr.scenario.kinds.KindError` for a file, module or class
+    that cannot be used."""
     target = kinds().get(kind)
+    if target is None and ":" in kind:
+        from twmr.scenario.kinds import load_kind
+
+        return load_kind(kind, base_dir)
     if target is None:
         raise KeyError(
             f"unknown component kind '{kind}'{suggest(kind, kinds())}; "

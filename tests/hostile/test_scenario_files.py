@@ -390,8 +390,14 @@ CASES: dict[str, Case] = {
     "kind-unknown-typo": Case(sub("kind: gain", "kind: gian"), mentions=(f"{F}:6", "gian")),
     "kind-python-path": Case(sub("kind: gain", "kind: 'os:system'"), mentions=(f"{F}:6",
                                                                              "os:system")),
-    "kind-python-class-path": Case(sub("kind: gain", "kind: 'twmr.blocks:Gain'"),
-                                   mentions=(f"{F}:6",)),
+    # a class path is a kind of its own (docs/components.md): a Component class works...
+    "kind-python-class-path": Case(sub("kind: gain", "kind: 'twmr.blocks:Gain'"), expect="ok",
+                                   run="ok"),
+    # ...a file that is not there, or a module that is not a block's, is a located error
+    "kind-python-file-missing": Case(sub("kind: gain", "kind: 'nope.py:Gain'"),
+                                     mentions=(f"{F}:6", "nope.py", "ctrl")),
+    "kind-python-module-not-a-class": Case(sub("kind: gain", "kind: 'math:pi'"),
+                                           mentions=(f"{F}:6", "'pi'", "ctrl")),
     "kind-empty-string": Case(sub("kind: gain", "kind: ''"), mentions=(f"{F}:6", "ctrl")),
     # record and open
     "record-matches-nothing": Case(sub('"plant.*"', '"nothing.*"'),

@@ -7,8 +7,12 @@ floats, which the master can share between components without copying.
 """
 from __future__ import annotations
 
+import builtins
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
+
+from twmr.core.errors import CosimError
 
 REAL, INTEGER, BOOLEAN, STRING, BINARY = "Real", "Integer", "Boolean", "String", "Binary"
 TYPES = (REAL, INTEGER, BOOLEAN, STRING, BINARY)
@@ -28,7 +32,12 @@ def _binary(value: Any = b"") -> bytes:
     raise TypeError(f"expected bytes (hexadecimal text such as '0a0b'), got {value!r}")
 
 
-_CAST = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str, BINARY: _binary}
+class DeclarationError(CosimError, ValueError):
+    """A port declared inconsistently in a block's class (units that do not match its size)."""
+
+
+_CAST: dict[str, Callable[..., Any]] = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str,
+                                        BINARY: _binary}
 
 
 @dataclass
@@ -54,17 +63,28 @@ class Variable:
     def __post_init__(self) -> None:
         if self.type not in TYPES:
             raise ValueError(f"type must be one of {TYPES}, not {self.type!r}")
-        if isinstance(self.unit, tuple) and len(self.unit) != (self.size or 1):
-            raise ValueError(f"{len(self.unit)} units given for size {self.size}")
         self.start = self.coerce(self._default_start() if self.start is None else self.start)
 
     def _default_start(self) -> Any:
         return _CAST[self.type]()
 
-    def __set_name__(self, owner: type, name: str) -> None:
+    def __set_name__(self, owner: builtins.type, name: str) -> None:
         self.name = name
+        if isinstance(self.unit, tuple) and len(self.unit) != self.width:
+            raise DeclarationError(self._units_problem(f"{owner.__qualname__}.{name}"))
 
-    def __get__(self, obj: Any, objtype: type | None = None) -> Any:
+    def _units_problem(self, where: str) -> str:
+        n, cls, units = len(self.unit), type(self).__name__, self.unit
+        article = "an" if cls[0] in "AEIOU" else "a"
+        if self.size is None:
+            return (f"{where}: {n} units {units!r} are given for a scalar {cls} (no size). "
+                    f"Fix: declare it as a vector, {cls}(size={n}, unit={units!r}), or give one "
+                    f"unit string for all its elements, unit={units[0]!r}.")
+        return (f"{where}: {n} units {units!r} are given for {article} {cls} of size {self.size}. "
+                f"Fix: give one unit per element ({self.size}), or one unit string for all, "
+                f"unit={units[0]!r}.")
+
+    def __get__(self, obj: Any, objtype: builtins.type | None = None) -> Any:
         if obj is None:
             return self
         return obj.__dict__.setdefault(self.name, self.start)

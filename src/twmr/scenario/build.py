@@ -1,23 +1,19 @@
-"""Scenario file -> `System`: read, validate against the JSON Schema, create and configure the
-components, wire and check the graph. Every problem found is collected and reported together, each
-with file:line, the component and port at fault, and a fix."""
+"""`ScenarioSpec` -> `System`: create and configure the components, wire and check the graph.
+
+The loaders (`twmr.scenario.loaders`: YAML, a dict) make the spec and `--set` overrides
+(`twmr.scenario.overrides`) change it; the builder only reads it. Every problem found is
+collected and reported together, each with where it was given (file:line, or the `--set` text),
+the component and port at fault, and a fix."""
 from __future__ import annotations
 
-import contextlib
-import copy
 import fnmatch
 import itertools
-import json
 import math
 import re
+import sys
 from collections.abc import Sequence
-from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
-
-import jsonschema
-import yaml
 
 from twmr.core.component import Component
 from twmr.core.errors import (
@@ -33,33 +29,57 @@ from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import kinds, lookup, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
+from twmr.scenario.kinds import KindError, code_failure
+from twmr.scenario.loaders import load_structure, read_structure, schema
+from twmr.scenario.overrides import apply_overrides
+from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
-from twmr.scenario.yamlread import Lines, read, read_file
+
+__all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schema"]
 
 #: the most base steps one run may take (1e9 steps: ~1.5 h at 5 us a step)
 MAX_STEPS = 1e9
+_NOUNS = {"Real": ("a number", "numbers"), "Integer": ("an integer", "integers"),
+          "Boolean": ("true or false", "booleans")}
+_NAMED = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)")  # the port a wire's end names
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
-
-
-@lru_cache(maxsize=1)
-def schema() -> dict[str, Any]:
-    """The JSON Schema of scenario files (src/twmr/scenario/scenario.schema.json)."""
-    text = resources.files("twmr.scenario").joinpath("scenario.schema.json").read_text()
-    return json.loads(text)
 
 
 def load(path: str | Path, overrides: Sequence[str] = ()) -> System:
     """Build the System of the scenario file at `path` (with `--set` overrides)."""
-    path = Path(path)
-    return loads(read_file(path), str(path), path.resolve().parent, overrides)
+    return build_system(_guarded(str(path), lambda: apply_overrides(load_structure(path),
+                                                                    overrides)))
 
 
 def loads(text: str | dict[str, Any], source: str = "<string>",
           base_dir: str | Path | None = None, overrides: Sequence[str] = ()) -> System:
     """Build the System of a scenario given as YAML text, or as a dict of the same shape.
     Raises a `CosimError` subclass."""
+    return build_system(scenario_spec(text, source, base_dir, overrides))
+
+
+def scenario_spec(text: str | dict[str, Any] | ScenarioSpec, source: str = "<string>",
+                        base_dir: str | Path | None = None, overrides: Sequence[str] = ()
+                  ) -> ScenarioSpec:
+    """The structure of a scenario given as YAML text, a dict or a structure already, with
+    `--set` overrides applied. Raises a `CosimError` subclass."""
+    if isinstance(text, ScenarioSpec):
+        spec = text
+        return _guarded(spec.source, lambda: apply_overrides(spec, overrides))
+    return _guarded(source, lambda: apply_overrides(read_structure(text, source, base_dir),
+                                                    overrides))
+
+
+def build_system(spec: ScenarioSpec) -> System:
+    """The System of a scenario's structure: components created and configured, wires checked,
+    order found. Raises a `CosimError` subclass listing every problem."""
+    return _guarded(spec.source, _Builder(spec).build)
+
+
+def _guarded(source: str, make: Any) -> Any:
+    """`make()`, with any failure that is not a CosimError reported as a ScenarioError."""
     try:
-        return _Builder(text, source, Path(base_dir or Path.cwd()), overrides).build()
+        return make()
     except CosimError:
         raise
     except RecursionError:
@@ -73,24 +93,10 @@ def loads(text: str | dict[str, Any], source: str = "<string>",
 
 
 class _Builder:
-    def __init__(self, text: str | dict[str, Any], source: str, base_dir: Path,
-                 overrides: Sequence[str]):
-        self.source = source
-        self.base_dir = base_dir
-        self.overrides = list(overrides)
-        if isinstance(text, dict):
-            self.data, self.lines = copy.deepcopy(text), Lines(source)
-        else:
-            self.data, self.lines = read(text, source)
+    def __init__(self, spec: ScenarioSpec):
+        self.spec = spec
         self.problems: list[Problem] = []
-        self.overridden: dict[tuple[Any, ...], str] = {}
         self.miswired: set[tuple[str, str]] = set()  # inputs of wires refused
-
-    def at(self, *path: Any) -> Location:
-        for n in range(len(path), 0, -1):
-            if path[:n] in self.overridden:
-                return Location("--set", 0, self.overridden[path[:n]])
-        return self.lines.at(*path)
 
     def fail_if_problems(self, kind: type[ScenarioError] = ScenarioError) -> None:
         if self.problems:
@@ -98,12 +104,6 @@ class _Builder:
 
     # -- the steps -----------------------------------------------------------------------------
     def build(self) -> System:
-        if not isinstance(self.data, dict):
-            raise ScenarioError(Problem(Location(self.source, 1), "a scenario must be a mapping "
-                                        "with 'components:' and 'experiment:'.",
-                                        "see docs/contracts.md for the format."))
-        self.apply_overrides()
-        self.validate()
         comps = self.components()
         experiment = self.experiment()
         self.fail_if_problems()
@@ -115,7 +115,7 @@ class _Builder:
             wires = set(itertools.pairwise(cycle))
             loc = next((c.location for c in conns
                         if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
-                       self.at("connections"))
+                       self.spec.at("connections"))
             raise AlgebraicLoopError(Problem(
                 loc, f"algebraic loop: {describe_cycle(cycle)} — each output in this cycle "
                 f"depends directly ('=>', declared by its block's `depends_on`) on the input "
@@ -126,129 +126,72 @@ class _Builder:
                 "'=>' output really reads that input at the same instant."))
         record = self.record(comps)
         self.fail_if_problems()
-        multiples = {n: int(s.get("step_multiple", 1))
-                     for n, s in self.data["components"].items()}
-        return System(comps, conns, exec_order, experiment, record, multiples, self.source)
-
-    def validate(self) -> None:
-        validator = jsonschema.Draft202012Validator(schema())
-        for err in sorted(validator.iter_errors(self.data), key=lambda e: list(e.absolute_path)):
-            path = tuple(err.absolute_path)
-            if err.validator == "additionalProperties":
-                allowed = list(err.schema.get("properties", {}))
-                extra = [k for k in err.instance if k not in allowed]
-                for key in extra:
-                    self.problems.append(Problem(
-                        self.at(*path, key), f"unknown key '{key}'{suggest(str(key), allowed)}.",
-                        f"allowed here: {', '.join(allowed)}."))
-            elif err.validator == "required":
-                self.problems.append(Problem(self.at(*path), f"{err.message}.",
-                                             "add the missing key."))
-            else:
-                what = "/".join(str(p) for p in path) or "the file"
-                self.problems.append(Problem(self.at(*path), f"{what}: {err.message}.",
-                                             _schema_hint(err)))
-        self.fail_if_problems()
-
-    def apply_overrides(self) -> None:
-        """`comp.name=value` sets a parameter (or an input/state's initial value) or the
-        component's `step_multiple`; `experiment.name=value` an experiment setting."""
-        comps = self.data.get("components")
-        if not isinstance(comps, dict):
-            return  # the schema check reports it
-        for text in self.overrides:
-            loc = Location("--set", 0, text)
-            key, sep, value = str(text).partition("=")
-            comp, dot, name = key.strip().partition(".")
-            if not sep or not dot or not name:
-                self.problems.append(Problem(loc, f"cannot read the override '{text}'.",
-                                             "write component.parameter=value or "
-                                             "experiment.stop=value."))
-                continue
-            try:
-                parsed = yaml.safe_load(value)
-            except yaml.YAMLError:
-                parsed = value
-            if comp == "experiment":
-                if isinstance(parsed, str):
-                    with contextlib.suppress(ValueError):
-                        parsed = float(parsed)  # YAML 1.1 reads '1e-5' (no dot) as text
-                exp = self.data.setdefault("experiment", {})
-                if isinstance(exp, dict):
-                    exp[name] = parsed
-                    self.overridden[("experiment", name)] = text
-                continue
-            spec = comps.get(comp)
-            if not isinstance(spec, dict):
-                self.problems.append(Problem(loc, f"no component '{comp}'"
-                                             f"{suggest(comp, list(comps))}.",
-                                             "use a component name of the scenario, or "
-                                             "'experiment'."))
-                continue
-            if name == "step_multiple":
-                spec["step_multiple"] = parsed
-                self.overridden[("components", comp, "step_multiple")] = text
-                continue
-            section = "parameters"
-            try:
-                var = lookup(spec["kind"]).declared().get(name)
-                if var is not None and var.kind in ("state", "input"):
-                    section = "initial"
-            except Exception:  # noqa: BLE001 - unknown kinds are reported when components are built
-                pass
-            if not isinstance(spec.get(section), dict):
-                spec[section] = {}
-            spec[section][name] = parsed
-            self.overridden[("components", comp, section, name)] = text
+        multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
+        return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source)
 
     def components(self) -> dict[str, Component]:
         comps: dict[str, Component] = {}
-        for name, spec in self.data["components"].items():
-            kind = spec["kind"]
-            try:
-                cls = lookup(kind)
-            except KeyError:
-                self.problems.append(Problem(
-                    self.at("components", name, "kind"), f"component '{name}': unknown kind "
-                    f"'{kind}'{suggest(kind, list(kinds()))}.",
-                    f"use one of: {', '.join(sorted(kinds()))} (`twmr components` lists them)."))
+        for name, spec in self.spec.components.items():
+            cls = self.kind_class(spec)
+            if cls is None:
                 continue
-            except ImportError as err:
-                self.problems.append(Problem(self.at("components", name, "kind"),
-                                             f"component '{name}': kind '{kind}' cannot be "
-                                             f"loaded ({err}).", "install what it needs."))
-                continue
-            params = dict(spec.get("parameters") or {})
+            kind = spec.kind.value
+            params = dict(spec.parameters)
             construction = {k: params.pop(k) for k in cls.construction_parameters if k in params}
             try:
-                comp = cls.create(name, self.base_dir, **construction)
+                comp = cls.create(name, self.spec.base_dir,
+                                  **{k: v.value for k, v in construction.items()})
             except CosimError as err:
-                where = next((("components", name, "parameters", k) for k in construction),
-                             ("components", name))
-                self.problems.append(Problem(self.at(*where), str(err)))
+                where = next((v.where for v in construction.values()), spec.where)
+                self.problems.append(Problem(where, str(err)))
                 continue
             except (TypeError, ValueError, OSError) as err:
-                self.problems.append(Problem(self.at("components", name),
-                                             f"component '{name}' ({kind}) cannot be created: "
-                                             f"{err}.", "check its parameters."))
+                self.problems.append(Problem(spec.where, f"component '{name}' ({kind}) cannot be "
+                                             f"created: {err}.", "check its parameters."))
+                continue
+            except Exception as err:  # noqa: BLE001 - a user block's own code
+                failure = code_failure(err, f"creating {cls.__qualname__}", _file_of(cls))
+                self.problems.append(Problem(spec.where, f"component '{name}' ({kind}) cannot "
+                                             f"be created: {failure.message}", failure.fix))
                 continue
             self.configure(comp, name, params, "parameters", ("parameter",))
-            self.configure(comp, name, dict(spec.get("initial") or {}), "initial",
-                           ("state", "input"))
+            self.configure(comp, name, spec.initial, "initial", ("state", "input"))
             given = frozenset(params) | frozenset(construction)
             for key, message, fix in comp.check(given):
-                where = ("components", name, "parameters", key) if key in given else \
-                    ("components", name)
-                self.problems.append(Problem(self.at(*where), f"component '{name}' ({kind}): "
-                                             f"{message}", fix))
+                where = spec.parameters[key].where if key in given else spec.where
+                self.problems.append(Problem(where, f"component '{name}' ({kind}): {message}",
+                                             fix))
             comps[name] = comp
         return comps
 
-    def configure(self, comp: Component, name: str, values: dict[str, Any], section: str,
-                  allowed: tuple[str, ...]) -> None:
-        for key, value in sorted(values.items(), key=lambda kv: kv[0] not in
+    def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
+        """The class of a component's kind, or None after adding the problem."""
+        kind, name = spec.kind.value, spec.name
+        try:
+            cls: type[Component] = lookup(kind, self.spec.base_dir)
+        except KindError as err:
+            self.problems.append(Problem(spec.kind.where, f"component '{name}' (kind "
+                                         f"'{kind}'): {err.message}", err.fix))
+            return None
+        except KeyError:
+            self.problems.append(Problem(
+                spec.kind.where, f"component '{name}': unknown kind "
+                f"'{kind}'{suggest(kind, list(kinds()))}.",
+                f"use one of: {', '.join(sorted(kinds()))} (`twmr components` lists them), or "
+                f"a class of your own: 'my_block.py:MyBlock' (a file next to the scenario) or "
+                f"'package.module:MyBlock'."))
+            return None
+        except ImportError as err:
+            self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
+                                         f"cannot be loaded ({err}).", "install what it needs."))
+            return None
+        return cls
+
+    def configure(self, comp: Component, name: str, values: dict[str, Given[Any]],
+                  section: str, allowed: tuple[str, ...]) -> None:
+        for key, given in sorted(values.items(), key=lambda kv: kv[0] not in
                                  comp.sizing_parameters):
-            loc = self.at("components", name, section, key)
+            loc, value = given.where, given.value
             var = comp.variables.get(key)
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:
@@ -264,70 +207,56 @@ class _Builder:
                                              f"move it under '{other}:'."))
                 continue
             try:
-                comp.set_parameter(key, self.quantity(value, var, name, key))
+                comp.set_parameter(key, _value(value, var))
             except (ValueError, TypeError, UnitError) as err:
                 self.problems.append(Problem(
                     loc, f"component '{name}', {var.kind} '{key}' = {value!r}: {err}.",
                     f"give {_expected(var)}."))
 
-    def quantity(self, value: Any, var: Any, comp: str, key: str) -> Any:
-        """A number with a unit ('30 cm') converted to the variable's unit; other values as is."""
-        if var.type in TEXT_TYPES or not isinstance(value, str):
-            return value
-        try:
-            return float(value)  # YAML 1.1 reads '1e-4' (no dot) as text
-        except ValueError:
-            pass
-        m = _QUANTITY.match(value)
-        if not m:
-            raise ValueError(f"cannot read '{value}' as a number with a unit")
-        unit = known_unit(var.element_unit(0), var.unit_definitions)
-        if unit is None:
-            raise ValueError(f"its unit '{var.element_unit(0)}' is not one that can be converted "
-                             f"to; give a plain number")
-        gain, offset = conversion(m.group(2), unit)
-        return float(m.group(1)) * gain + offset
-
     def experiment(self) -> Experiment:
-        e = self.data["experiment"]
-        start, stop, step = float(e.get("start", 0.0)), float(e["stop"]), float(e["step"])
+        e = self.spec.experiment
+        times = {"start": e.start, "stop": e.stop, "step": e.step}
+        start, stop, step = (float(g.value) for g in times.values())
         bad = [k for k, v in (("start", start), ("stop", stop), ("step", step))
                if not math.isfinite(v)]
         if bad:
-            self.problems.append(Problem(self.at("experiment", bad[0]), f"{bad[0]} is "
-                                         f"{e.get(bad[0])}; times must be finite numbers.",
+            self.problems.append(Problem(times[bad[0]].where, f"{bad[0]} is "
+                                         f"{times[bad[0]].value}; times must be finite numbers.",
                                          "give start, stop and step in seconds."))
         elif not step > 0:
-            self.problems.append(Problem(self.at("experiment", "step"),
-                                         f"the step must be > 0, not {step}.",
+            self.problems.append(Problem(e.step.where, f"the step must be > 0, not {step}.",
                                          "give a positive base step in seconds, e.g. 1.0e-3."))
         elif not stop > start:
-            self.problems.append(Problem(self.at("experiment", "stop"), f"stop ({stop}) must be "
-                                         f"after start ({start}).", "make stop > start."))
+            self.problems.append(Problem(e.stop.where, f"stop ({stop}) must be after start "
+                                         f"({start}).", "make stop > start."))
         else:
             n = (stop - start) / step
             if n > MAX_STEPS:
-                self.problems.append(Problem(self.at("experiment", "stop"), f"(stop - start) / "
-                                             f"step = {n:.3g} steps, more than the limit of "
-                                             f"{MAX_STEPS:.0e}.", "shorten the run or take a "
-                                             "larger step (see docs/limits.md)."))
+                self.problems.append(Problem(e.stop.where, f"(stop - start) / step = {n:.3g} "
+                                             f"steps, more than the limit of {MAX_STEPS:.0e}.",
+                                             "shorten the run or take a larger step (see "
+                                             "docs/limits.md)."))
             elif not math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9):
-                self.problems.append(Problem(self.at("experiment", "step"), f"(stop - start) / "
-                                             f"step = {n:.6g} is not a whole number of steps.",
+                self.problems.append(Problem(e.step.where, f"(stop - start) / step = {n:.6g} is "
+                                             f"not a whole number of steps.",
                                              "choose a step that divides the duration."))
-        return Experiment(start, stop, step, e.get("algorithm", "gauss_seidel"),
-                          e.get("realtime"))
+        return Experiment(start, stop, step, e.algorithm.value, e.realtime.value)
 
     def connections(self, comps: dict[str, Component]) -> list[Connection]:
         conns: list[Connection] = []
-        for i, text in enumerate(self.data.get("connections") or []):
-            loc = self.at("connections", i)
+        for given in self.spec.connections:
+            loc, text = given.where, given.value
             left, _, right = text.partition("->")
             try:
                 src, dst = parse_end(left), parse_end(right)
             except ValueError as err:
                 self.problems.append(Problem(loc, f"cannot read the connection '{text}': {err}.",
-                                             "write 'component.output -> component.input'."))
+                                             "write 'component.output -> component.input', "
+                                             "an element selection 1-based within the port's "
+                                             "size: 'plant.pose[1:2] -> ctrl.xy'."))
+                named = _NAMED.match(right)
+                if named:  # reported; its input is not reported again as unconnected
+                    self.miswired.add((named.group(1), named.group(2)))
                 continue
             made = wire(comps, src, dst, loc, self.problems)
             if not made:  # reported; its input is not reported again as unconnected
@@ -349,17 +278,17 @@ class _Builder:
                         "keep one wire per input (add a `sum` block to combine signals)."))
                 driven[key] = c
         opened: set[tuple[str, str]] = set()
-        for i, text in enumerate(self.data.get("open") or []):
-            loc = self.at("open", i)
-            comp, _, port = str(text).partition(".")
-            var = comps[comp].variables.get(port) if comp in comps else None
+        for given in self.spec.open:
+            text = str(given.value)
+            owner, _, port = text.partition(".")
+            var = comps[owner].variables.get(port) if owner in comps else None
             if var is None or var.kind != "input":
-                inputs = [n for n, v in comps[comp].inputs.items()] if comp in comps else []
-                self.problems.append(Problem(loc, f"'{text}' in 'open:' is not an input"
+                inputs = list(comps[owner].inputs) if owner in comps else []
+                self.problems.append(Problem(given.where, f"'{text}' in 'open:' is not an input"
                                              f"{suggest(port, inputs)}.",
                                              "list inputs as component.input."))
                 continue
-            opened.add((comp, port))
+            opened.add((owner, port))
         for name, comp in comps.items():
             for port, var in comp.inputs.items():
                 missing = [j for j in range(var.width) if (name, port, j) not in driven]
@@ -367,43 +296,72 @@ class _Builder:
                     which = "" if len(missing) == var.width else \
                         f" (elements {', '.join(str(j + 1) for j in missing)})"
                     self.problems.append(Problem(
-                        self.at("components", name), f"input '{name}.{port}'{which} is not "
+                        self.spec.components[name].where, f"input '{name}.{port}'{which} is not "
                         f"connected.", f"wire an output to it ('x.y -> {name}.{port}'), or list "
                         f"'{name}.{port}' under 'open:' to keep its start value {var.start!r}."))
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
-        spec = self.data.get("record") or {}
+        spec = self.spec.record
         everything = [(n, p) for n, c in comps.items() for p, v in c.variables.items()
                       if v.kind != "parameter" and v.type not in TEXT_TYPES]
-        patterns = spec.get("signals")
-        if patterns is None:
+        if spec.signals is None:
             chosen = [(n, p) for n, c in comps.items() for p, v in c.outputs.items()
                       if v.type not in TEXT_TYPES]
         else:
             chosen = []
-            for i, pat in enumerate(patterns):
+            for given in spec.signals:
+                pat = given.value
                 hits = [s for s in everything if fnmatch.fnmatchcase(f"{s[0]}.{s[1]}", pat)]
                 if not hits:
                     known = [f"{n}.{p}" for n, p in everything]
-                    self.problems.append(Problem(self.at("record", "signals", i),
+                    self.problems.append(Problem(given.where,
                                                  f"'{pat}' matches no port{suggest(pat, known)}.",
                                                  "record component.port, wildcards allowed "
                                                  "('ctrl.*')."))
                 chosen += [h for h in hits if h not in chosen]
-        return RecordSpec(tuple(chosen), int(spec.get("decimation", 1)))
+        return RecordSpec(tuple(chosen), int(spec.decimation.value))
+
+
+def _value(value: Any, var: Any) -> Any:
+    """A number with a unit ('30 cm') converted to the variable's unit, also as the elements
+    of a list (each to its element's unit); other values as they are."""
+    if isinstance(value, list) and var.size is not None:
+        return [_quantity(v, var, i if var.size else 0) for i, v in enumerate(value)]
+    return _quantity(value, var, 0)
+
+
+def _quantity(value: Any, var: Any, index: int) -> Any:
+    """One value: text such as '30 cm' converted to the unit of element `index`."""
+    if var.type in TEXT_TYPES or not isinstance(value, str):
+        return value
+    try:
+        return float(value)  # YAML 1.1 reads '1e-4' (no dot) as text
+    except ValueError:
+        pass
+    m = _QUANTITY.match(value)
+    if not m:
+        raise ValueError(f"cannot read '{value}' as a number with a unit")
+    unit = known_unit(var.element_unit(index), var.unit_definitions)
+    if unit is None:
+        raise ValueError(f"its unit '{var.element_unit(index)}' is not one that can be "
+                         f"converted to; give a plain number")
+    gain, offset = conversion(m.group(2), unit)
+    return float(m.group(1)) * gain + offset
+
+
+def _file_of(cls: type) -> Path | None:
+    """The source file of a class's module, if it has one."""
+    file = getattr(sys.modules.get(cls.__module__), "__file__", None)
+    return Path(file) if file else None
 
 
 def _expected(var: Any) -> str:
-    size = "" if var.size is None else (" a list of values" if var.size == 0 else
-                                        f" a list of {var.size} values")
+    """What a value of `var` must be, e.g. 'a list of 3 numbers in (m, m, rad) within [0, inf]'."""
+    one, many = _NOUNS.get(var.type, (f"a {var.type}", f"{var.type} values"))
+    what = one if var.size is None else f"a list of {f'{var.size} ' if var.size else ''}{many}"
     rng = ""
     if var.min is not None or var.max is not None:
         rng = f" within [{var.min if var.min is not None else '-inf'}, " \
               f"{var.max if var.max is not None else 'inf'}]"
     unit = f" in {var.unit_text}" if var.unit_text not in ("1", "") else ""
-    return f"{var.type}{size}{unit}{rng}".replace("Real", "a number", 1)
-
-
-def _schema_hint(err: jsonschema.ValidationError) -> str:
-    desc = err.schema.get("description") if isinstance(err.schema, dict) else None
-    return desc or "see src/twmr/scenario/scenario.schema.json."
+    return f"{what}{unit}{rng}"

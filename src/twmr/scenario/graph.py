@@ -25,6 +25,8 @@ from twmr.scenario.system import Connection
 
 log = logging.getLogger("twmr")
 
+#: the most elements one end of a wire may select
+MAX_SELECTED = 1_000_000
 _END = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_][\w]*)\s*(\[\s*([0-9:,\s]+)\s*\])?\s*$")
 
 
@@ -44,18 +46,22 @@ def parse_end(text: str) -> End:
     if not m:
         raise ValueError(f"'{text.strip()}' is not of the form component.port or "
                          f"component.port[i] / [i:j] / [i,j]")
-    index = None
-    if m.group(4):
-        index = []
-        for part in m.group(4).split(","):
-            a, sep, b = part.strip().partition(":")
-            lo, hi = int(a), int(b) if sep else int(a)
-            if lo < 1 or hi < lo:
-                raise ValueError(f"element selection [{m.group(4)}] must be 1-based and "
-                                 f"increasing, e.g. [1:2]")
-            index.extend(range(lo - 1, hi))
-        index = tuple(index)
-    return End(m.group(1), m.group(2), index, text.strip())
+    if not m.group(4):
+        return End(m.group(1), m.group(2), None, text.strip())
+    index: list[int] = []
+    for part in m.group(4).split(","):
+        a, sep, b = part.strip().partition(":")
+        lo, hi = int(a), int(b) if sep else int(a)
+        if lo < 1 or hi < lo:
+            raise ValueError(f"element selection [{m.group(4)}] must be 1-based and "
+                             f"increasing, e.g. [1:2]")
+        if len(index) + hi - lo + 1 > MAX_SELECTED:
+            raise ValueError(f"element selection [{m.group(4).strip()}] names "
+                             f"{len(index) + hi - lo + 1:,} elements, more than the "
+                             f"{MAX_SELECTED:,} one wire may select (element {hi:,} is beyond "
+                             f"any port's size)")
+        index.extend(range(lo - 1, hi))
+    return End(m.group(1), m.group(2), tuple(index), text.strip())
 
 
 def find_port(comps: dict[str, Component], end: End, loc: Location,
@@ -224,11 +230,12 @@ def evaluation_plan(comps: dict[str, Component], conns: list[Connection]
     written: dict[str, set[str]] = {name: set() for name in comps}
     for name, port in ordered:
         var = comps[name].variables[port]
+        deps = getattr(var, "depends_on", ())
         if var.kind == "input":
             if (name, port) in driven:
                 plan.append(("write", name, port))
                 written[name].add(port)
-        elif var.depends_on and (name not in evaluated or written[name] & set(var.depends_on)):
+        elif deps and (name not in evaluated or written[name] & set(deps)):
             plan.append(("evaluate", name, ""))
             evaluated.add(name)
             written[name].clear()

@@ -1,8 +1,11 @@
 """Text for `twmr check` (a built System) and `twmr components` (the known kinds)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 from twmr.core.component import Component
 from twmr.registry import kinds, lookup
+from twmr.scenario.kinds import KindError
 from twmr.scenario.system import System
 
 
@@ -49,19 +52,24 @@ def _kind_text(name: str, cls: type[Component]) -> list[str]:
         rng = ""
         if var.min is not None or var.max is not None:
             rng = f" in [{var.min}, {var.max}]"
-        dep = f" depends_on {', '.join(var.depends_on)}" if getattr(var, "depends_on", ()) else ""
+        deps = getattr(var, "depends_on", ())
+        dep = f" depends_on {', '.join(deps)}" if deps else ""
         desc = f" — {var.description}" if var.description else ""
         out.append(f"    {var.kind:9s} {var.name}{size} [{var.unit_text}] {var.type} "
                    f"= {var.start!r}{rng}{dep}{desc}")
     return out
 
 
-def kinds_table(selected: list[str] | None = None) -> str:
-    """Every known kind (or the selected ones) with ports, parameters, states and units."""
+def kinds_table(selected: list[str] | None = None, base_dir: Path | None = None) -> str:
+    """Every known kind (or the selected ones, which may name classes: 'my_block.py:MyBlock',
+    relative to `base_dir`, and 'package.module:MyBlock') with ports, parameters, states and
+    units. A selected class that cannot be loaded raises its `KindError`."""
     lines: list[str] = []
     for name in sorted(selected or kinds()):
         try:
-            lines += _kind_text(name, lookup(name))
+            lines += _kind_text(name, lookup(name, base_dir))
+        except KindError:
+            raise
         except KeyError as err:
             lines.append(f"{name}: {err.args[0]}")
         except Exception as err:  # noqa: BLE001 - a kind that cannot load is listed, not fatal

@@ -66,8 +66,9 @@ def _convert(node: yaml.Node, path: Path_, lines: Lines, loader: yaml.SafeLoader
                 raise ScenarioError(Problem(
                     Location(lines.source, key_node.start_mark.line + 1, _dotted((*path, key))),
                     f"the key '{key}' appears twice.", "keep one of them."))
-            lines.lines[(*path, key)] = key_node.start_mark.line + 1
-            out[key] = _convert(value_node, (*path, key), lines, loader)
+            key_path = (*path, key)
+            lines.lines[key_path] = key_node.start_mark.line + 1
+            out[key] = _convert(value_node, key_path, lines, loader)
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_convert(item, (*path, i), lines, loader) for i, item in enumerate(node.value)]

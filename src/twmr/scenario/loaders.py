@@ -1,0 +1,137 @@
+"""Loaders: a scenario file, YAML text or a dict -> `ScenarioSpec`, checked against the JSON Schema.
+
+`load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `read_structure(source)`
+reads YAML text or a dict of the same shape. A YAML value's location is its file, line and key
+path; a dict's is its key path. Another format (SSP) adds its loader to `LOADERS`.
+"""
+from __future__ import annotations
+
+import copy
+import json
+from collections.abc import Callable
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jsonschema
+
+from twmr.core.errors import Location, Problem, ScenarioError
+from twmr.registry import suggest
+from twmr.scenario.structure import (
+    ComponentSpec,
+    ExperimentSpec,
+    Given,
+    RecordingSpec,
+    ScenarioSpec,
+)
+from twmr.scenario.yamlread import Lines, read, read_file
+
+#: where a key path (tuple of keys and 0-based list indices) was given
+At = Callable[..., Location]
+
+
+@lru_cache(maxsize=1)
+def schema() -> dict[str, Any]:
+    """The JSON Schema of scenario files (src/twmr/scenario/scenario.schema.json)."""
+    text = resources.files("twmr.scenario").joinpath("scenario.schema.json").read_text()
+    return json.loads(text)
+
+
+def schema_problems(instance: Any, at: At, prefix: tuple[Any, ...] = (),
+                    part: dict[str, Any] | None = None) -> list[Problem]:
+    """Every way `instance` breaks the schema (or the `part` of it found at key path `prefix`),
+    each located by `at(*key path)`."""
+    validator = jsonschema.Draft202012Validator(part if part is not None else schema())
+    problems: list[Problem] = []
+    for err in sorted(validator.iter_errors(instance), key=lambda e: list(e.absolute_path)):
+        path = (*prefix, *err.absolute_path)
+        if err.validator == "additionalProperties":
+            allowed = list(err.schema.get("properties", {}))
+            for key in (k for k in err.instance if k not in allowed):
+                problems.append(unknown_key(at(*path, key), str(key), allowed))
+        elif err.validator == "required":
+            problems.append(Problem(at(*path), f"{err.message}.", "add the missing key."))
+        else:
+            what = "/".join(str(p) for p in path) or "the file"
+            desc = err.schema.get("description") if isinstance(err.schema, dict) else None
+            problems.append(Problem(at(*path), f"{what}: {err.message}.",
+                                    desc or "see src/twmr/scenario/scenario.schema.json."))
+    return problems
+
+
+def unknown_key(where: Location, key: str, allowed: list[str]) -> Problem:
+    """The problem of a key the schema does not know here."""
+    return Problem(where, f"unknown key '{key}'{suggest(key, allowed)}.",
+                   f"allowed here: {', '.join(allowed)}.")
+
+
+def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
+    """The structure of YAML-shaped data whose locations `lines` knows; ScenarioError listing
+    every way it breaks the schema."""
+    source = lines.source
+    if not isinstance(data, dict):
+        raise ScenarioError(Problem(Location(source, 1), "a scenario must be a mapping with "
+                                    "'components:' and 'experiment:'.",
+                                    "see docs/contracts.md for the format."))
+    problems = schema_problems(data, lines.at)
+    if problems:
+        raise ScenarioError(problems)
+    at = lines.at
+
+    def given(*path: Any, default: Any = None) -> Given[Any]:
+        node: Any = data
+        for key in path:
+            node = node.get(key, default) if isinstance(node, dict) else node[key]
+        return Given(node, at(*path))
+
+    comps = {}
+    for name, spec in data["components"].items():
+        where = ("components", name)
+        comps[name] = ComponentSpec(
+            name, given(*where, "kind"),
+            {k: given(*where, "parameters", k) for k in spec.get("parameters") or {}},
+            {k: given(*where, "initial", k) for k in spec.get("initial") or {}},
+            given(*where, "step_multiple", default=1), at(*where),
+            spec.get("description", ""))
+    e = ("experiment",)
+    experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),
+                                given(*e, "step"), given(*e, "algorithm", default="gauss_seidel"),
+                                given(*e, "realtime"), at(*e))
+    rec = data.get("record") or {}
+    signals = None if rec.get("signals") is None else tuple(
+        given("record", "signals", i) for i in range(len(rec["signals"])))
+    record = RecordingSpec(signals, Given(rec.get("decimation", 1), at("record", "decimation")),
+                           at("record"))
+    return ScenarioSpec(
+        source, base_dir, comps,
+        tuple(given("connections", i) for i in range(len(data.get("connections") or []))),
+        tuple(given("open", i) for i in range(len(data.get("open") or []))),
+        experiment, record, data.get("description", ""),
+        {key: at(key) for key in data})
+
+
+def read_structure(source: str | dict[str, Any], name: str = "<string>",
+                   base_dir: str | Path | None = None) -> ScenarioSpec:
+    """The structure of a scenario given as YAML text, or as a dict of the same shape (located
+    by key paths). `base_dir` (default: the working folder) is where relative paths start."""
+    folder = Path(base_dir or Path.cwd())
+    if isinstance(source, dict):
+        return from_data(copy.deepcopy(source), Lines(name), folder)
+    return from_data(*read(source, name), folder)
+
+
+def load_yaml(path: Path) -> ScenarioSpec:
+    """The structure of a YAML scenario file (relative paths start at its folder)."""
+    return read_structure(read_file(path), str(path), path.resolve().parent)
+
+
+#: a loader by file suffix: path -> ScenarioSpec
+LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml}
+
+
+def load_structure(path: str | Path) -> ScenarioSpec:
+    """The structure of the scenario file at `path`, by the loader of its suffix (YAML for an
+    unknown one)."""
+    path = Path(path)
+    return LOADERS.get(path.suffix.lower(), load_yaml)(path)

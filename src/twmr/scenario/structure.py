@@ -1,0 +1,86 @@
+"""The typed system structure every loader produces and the builder reads: `ScenarioSpec`.
+
+Data only, nothing created or checked against a component. Every value is a `Given`: the value
+as written (a number, a list, a text such as '30 cm') and where it was given, a `Location` (the
+file and line and the key path; the `--set` text for an override; the key path alone for a
+dict). The YAML and dict loaders (`twmr.scenario.loaders`) make it, `--set` overrides
+(`twmr.scenario.overrides`) replace values in it, and `twmr.scenario.build` turns it into a
+`System`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Generic, TypeVar
+
+from twmr.core.errors import Location
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Given(Generic[T]):
+    """A value of the scenario and where it was given."""
+
+    value: T
+    where: Location
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """One instance: its name, its kind (a registered name, 'file.py:Class' relative to the
+    scenario's folder, or 'package.module:Class'), parameter and initial values by name, and its
+    step multiple (it steps every n base steps)."""
+
+    name: str
+    kind: Given[str]
+    parameters: dict[str, Given[Any]]
+    initial: dict[str, Given[Any]]
+    step_multiple: Given[int]
+    where: Location
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """Start, stop and base step [s] as given (numbers, or text the builder reads as numbers),
+    the algorithm's name, and pacing to the wall clock (None: decided by the components)."""
+
+    start: Given[Any]
+    stop: Given[Any]
+    step: Given[Any]
+    algorithm: Given[str]
+    realtime: Given[bool | None]
+    where: Location
+
+
+@dataclass(frozen=True)
+class RecordingSpec:
+    """Signal patterns to record (`comp.port`, wildcards allowed; None: every output) and the
+    decimation (every n-th base step)."""
+
+    signals: tuple[Given[str], ...] | None
+    decimation: Given[int]
+    where: Location
+
+
+@dataclass(frozen=True)
+class ScenarioSpec:
+    """A whole scenario as loaded: components in the order written, wires
+    ('src.output -> dst.input' texts), inputs left open, the experiment and what to record.
+    `base_dir` is the folder relative paths (FMUs, user block files) resolve against;
+    `sections` locates the top-level keys ('components', 'connections', ...)."""
+
+    source: str
+    base_dir: Path
+    components: dict[str, ComponentSpec]
+    connections: tuple[Given[str], ...]
+    open: tuple[Given[str], ...]
+    experiment: ExperimentSpec
+    record: RecordingSpec
+    description: str = ""
+    sections: dict[str, Location] = field(default_factory=dict)
+
+    def at(self, section: str) -> Location:
+        """Where a top-level section is (the file alone when it is not written)."""
+        return self.sections.get(section, Location(self.source, 0, section))
