@@ -50,7 +50,7 @@ class CanMotorDrive(Component):
 
     kind = "can_drive"
     needs_realtime: ClassVar[bool] = True
-    can_get_and_set_state: ClassVar[bool] = False  # hardware cannot be rolled back
+    can_get_and_set_state = False  # hardware cannot be rolled back
     construction_parameters = ("eds", "can_config", "endpoints")
 
     protocol = Parameter("odrive", type=STRING, description="a registered CAN protocol "

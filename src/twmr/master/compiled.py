@@ -494,8 +494,8 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
 
 def _importable(fn: Any) -> bool:
     mod = sys.modules.get(getattr(fn, "__module__", ""), None)
-    return mod is not None and getattr(mod, fn.__qualname__, None) is fn \
-        and "<" not in fn.__qualname__
+    name = getattr(fn, "__qualname__", "<none>")
+    return mod is not None and getattr(mod, name, None) is fn and "<" not in name
 
 
 def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:

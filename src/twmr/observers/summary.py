@@ -50,15 +50,16 @@ class SignalSummary(Observer):
     def signals(self) -> dict[str, dict[str, Any]]:
         """Per column (time excluded): unit, first, last, min, max, rms."""
         run = self._run
-        if run is None or self._first is None:
+        first, last = self._first, self._last
+        if run is None or first is None or last is None:
             return {}
         out = {}
         for j, (name, unit) in enumerate(zip(run.columns, run.units, strict=False)):
             if j == 0:
                 continue
             rms = math.sqrt(self._squares[j] / self._count[j]) if self._count[j] else math.nan
-            out[name] = {"unit": unit, "first": float(self._first[j]),
-                         "last": float(self._last[j]), "min": float(self._min[j]),
+            out[name] = {"unit": unit, "first": float(first[j]),
+                         "last": float(last[j]), "min": float(self._min[j]),
                          "max": float(self._max[j]), "rms": rms}
         return out
 
