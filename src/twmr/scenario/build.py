@@ -27,7 +27,7 @@ from twmr.core.errors import (
 )
 from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
-from twmr.registry import kinds, lookup, suggest
+from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.graph import describe_cycle, order, parse_end, wire
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
@@ -240,6 +240,13 @@ class _Builder:
                 self.problems.append(Problem(e.step.where, f"(stop - start) / step = {n:.6g} is "
                                              f"not a whole number of steps.",
                                              "choose a step that divides the duration."))
+        known = plugins(ALGORITHMS)
+        if e.algorithm.value not in known:
+            self.problems.append(Problem(e.algorithm.where, f"unknown master algorithm "
+                                         f"'{e.algorithm.value}'"
+                                         f"{suggest(str(e.algorithm.value), known)}.",
+                                         f"use one of: {', '.join(sorted(known))} (the "
+                                         f"'twmr.algorithms' entry points)."))
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value)
 
     def connections(self, comps: dict[str, Component]) -> list[Connection]:
