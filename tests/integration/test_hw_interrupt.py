@@ -44,4 +44,5 @@ def test_ctrl_c_zeroes_the_torque_disables_the_drives_and_keeps_the_results(tmp_
     summary = json.loads((out / "summary.json").read_text())
     assert summary["error"].startswith("interrupted (Ctrl-C)")
     data = read_result(out)
-    assert 0 < data["time"][-1] < 10.0 and summary["steps_done"] > 100
+    # how far it got depends on the machine's load; that it stepped, and kept those rows, does not
+    assert 0 < data["time"][-1] < 10.0 and summary["steps_done"] > 0

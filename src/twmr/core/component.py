@@ -46,7 +46,8 @@ def plain(value: Any) -> bool:
 def _frozen(value: Any) -> Any:
     """`value` with every numpy array in it copied, so a saved state does not change later."""
     if isinstance(value, tuple):
-        return tuple(_frozen(v) for v in value)
+        items = [_frozen(v) for v in value]
+        return type(value)(*items) if hasattr(value, "_fields") else tuple(items)
     return value.copy() if type(value).__name__ == "ndarray" else value
 
 
