@@ -1,5 +1,8 @@
-"""Build small `System`s by hand (without a scenario file) for engine tests."""
+"""Build small `System`s by hand (without a scenario file) for engine tests; process checks."""
 from __future__ import annotations
+
+import subprocess
+import time
 
 from twmr.core.component import Component
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
@@ -21,3 +24,14 @@ def system(components: list[Component], wires: list[str], stop: float, step: flo
     return System(comps, [wire(w) for w in wires], order or list(comps),
                   Experiment(0.0, stop, step, algorithm), RecordSpec(rec, decimation),
                   dict(multiples or {}))
+
+
+def process_group_left(pgid: int, within: float = 60.0) -> str:
+    """The processes (pgrep output) still in process group `pgid` after waiting up to `within`
+    [s] for them to exit (they may take a moment on a loaded machine); '' when none is left."""
+    deadline = time.monotonic() + within
+    while True:
+        alive = subprocess.run(["pgrep", "-g", str(pgid)], capture_output=True, text=True)
+        if not alive.stdout.strip() or time.monotonic() > deadline:
+            return alive.stdout.strip()
+        time.sleep(0.2)

@@ -16,6 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from tests.helpers import process_group_left
 from tests.hostile.runner import (
     GOOD_TEXT,
     Outcome,
@@ -270,10 +271,4 @@ def test_ctrl_c_of_a_sweep_is_one_line_and_keeps_every_finished_row(cwd: Path,
     assert len(table) < 400
     if when == "runs-under-way":
         assert len(table) >= 1 and (table["status"] == "ok").all()
-    deadline = time.monotonic() + 20  # no worker left behind
-    while time.monotonic() < deadline:
-        alive = subprocess.run(["pgrep", "-g", str(proc.pid)], capture_output=True, text=True)
-        if not alive.stdout.strip():
-            break
-        time.sleep(0.2)
-    assert alive.stdout.strip() == ""
+    assert process_group_left(proc.pid) == ""  # no worker left behind

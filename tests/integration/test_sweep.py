@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 import twmr
+from tests.helpers import process_group_left
 from twmr.sweeps import SweepError, SweepSpec, parse_vary, run_id
 from twmr.sweeps.folder import identity
 
@@ -172,13 +173,7 @@ def test_ctrl_c_stops_the_sweep_cleanly_and_keeps_the_finished_runs(tmp_path) ->
     assert "Traceback" not in err and "interrupted (Ctrl-C)" in err
     table = pd.read_parquet(out / "runs.parquet")
     assert 1 <= len(table) < 400 and (table["status"] == "ok").all()
-    deadline = time.monotonic() + 20  # no worker left behind (they may take a moment to exit)
-    while time.monotonic() < deadline:
-        alive = subprocess.run(["pgrep", "-g", str(proc.pid)], capture_output=True, text=True)
-        if not alive.stdout.strip():
-            break
-        time.sleep(0.2)
-    assert alive.stdout.strip() == ""
+    assert process_group_left(proc.pid) == ""  # no worker left behind
 
 
 def test_a_run_that_crashes_its_worker_is_a_row_and_the_others_finish(tmp_path) -> None:
