@@ -474,6 +474,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt as err:
         _ignore_stop_signals()  # a second Ctrl-C while the process ends changes nothing
+        _forget_interrupt_in_exec()
         how = getattr(err, "signal_name", "SIGINT")
         log.error("interrupted (%s) after %.1f s%s", "Ctrl-C" if how == "SIGINT" else how,
                   time.perf_counter() - t0, _where(err) or ".")
@@ -486,6 +487,14 @@ def _ignore_stop_signals() -> None:
     for name in ("SIGINT", "SIGTERM", "SIGHUP"):
         if hasattr(signal, name):
             signal.signal(getattr(signal, name), signal.SIG_IGN)
+
+
+def _forget_interrupt_in_exec() -> None:
+    """Exit with the status returned, not by SIGINT. CPython marks the process to end by SIGINT
+    when a KeyboardInterrupt leaves code run by `exec` of a text (dataclasses and namedtuples
+    make their methods so), even when it is caught later, and `python -m twmr.cli` obeys that
+    mark at exit; a text run without one clears it."""
+    exec("")  # noqa: S102 - an empty text
 
 
 def _quiet_stdout() -> None:

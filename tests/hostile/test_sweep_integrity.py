@@ -244,7 +244,14 @@ def test_out_pointing_at_a_foreign_folder_leaves_it_as_it_was(cwd: Path) -> None
 
 
 # -- Ctrl-C ------------------------------------------------------------------------------------
-@pytest.mark.parametrize("when", ["cluster-starting", "runs-under-way"])
+def _a_worker_process_started(pgid: int) -> bool:
+    """A Dask nanny or worker (a multiprocessing child) is running in process group `pgid`."""
+    found = subprocess.run(["pgrep", "-g", str(pgid), "-f", "spawn_main"], capture_output=True,
+                           text=True)
+    return bool(found.stdout.strip())
+
+
+@pytest.mark.parametrize("when", ["cluster-starting", "workers-starting", "runs-under-way"])
 def test_ctrl_c_of_a_sweep_is_one_line_and_keeps_every_finished_row(cwd: Path,
                                                                     when: str) -> None:
     """Ctrl-C as a terminal sends it: to the whole process group, Dask workers included."""
@@ -258,8 +265,12 @@ def test_ctrl_c_of_a_sweep_is_one_line_and_keeps_every_finished_row(cwd: Path,
     folder = cwd / "s"
     ready = (folder / ".lock") if when == "cluster-starting" else (folder / "runs.jsonl")
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not (ready.exists() and ready.read_text().strip()):
-        time.sleep(0.02)
+    if when == "workers-starting":  # the cluster is being built: Ctrl-C is held, not lost
+        while time.monotonic() < deadline and not _a_worker_process_started(proc.pid):
+            time.sleep(0.005)
+    else:
+        while time.monotonic() < deadline and not (ready.exists() and ready.read_text().strip()):
+            time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=90)
     o = Outcome(["sweep", "..."], cwd, proc.returncode, "", err, 0.0, proc.pid, 0)

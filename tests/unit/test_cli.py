@@ -115,3 +115,22 @@ def test_compare_is_registered_by_the_robot_package(tmp_path, capsys) -> None:
     table = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert set(table) == {"paper_trajectory1_asmc", "paper_trajectory1_smc"}
     assert (tmp_path / "xy.png").is_file()
+
+
+def test_ctrl_c_inside_generated_code_still_exits_with_status_130(tmp_path) -> None:
+    """A Ctrl-C that lands while a dataclass or namedtuple is being made (code run by `exec` of
+    a text, as during imports) ends `python -m ...` with status 130, not killed by SIGINT."""
+    import subprocess
+    import sys
+
+    (tmp_path / "interrupted_cli.py").write_text(
+        "import sys\n"
+        "from twmr import cli\n"
+        "def interrupted(args):\n"
+        "    exec('raise KeyboardInterrupt')\n"
+        "cli.cmd_components = interrupted\n"
+        "sys.exit(cli.main(['components']))\n")
+    done = subprocess.run([sys.executable, "-m", "interrupted_cli"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130, done
+    assert done.stderr.startswith("interrupted (Ctrl-C) after "), done.stderr

@@ -16,6 +16,7 @@ existing one by its scheduler address — with the rows collected into `DIR/runs
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
@@ -23,7 +24,7 @@ import os
 import signal
 import threading
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -137,23 +138,51 @@ def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
         raise SweepError(f"--workers {workers!r}: give a whole number of at least 1 (or leave "
                          f"it out: one per core).")
     n = workers or os.cpu_count() or 1
-    # the workers start with Ctrl-C ignored (a terminal sends it to the whole process group):
-    # this process stops them, after saving the rows
-    ignore = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if ignore else None
+    cluster = None
     try:
-        with warnings.catch_warnings():  # e.g. "port 8787 is already in use"
+        with _ctrl_c_deferred(), warnings.catch_warnings():  # e.g. "port 8787 is in use"
             warnings.simplefilter("ignore")
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                    host="127.0.0.1",
                                    dashboard_address="127.0.0.1:0" if dashboard else None,
                                    silence_logs=logging.CRITICAL)
+        if dashboard:
+            log.info("sweep: the Dask dashboard is at %s", cluster.dashboard_link)
+        return Client(cluster), cluster
+    except BaseException:
+        if cluster is not None:
+            from twmr.master.execution import held_signals
+
+            with held_signals():
+                _close(None, cluster, [])
+        raise
+
+
+@contextlib.contextmanager
+def _ctrl_c_deferred() -> Iterator[None]:
+    """Ctrl-C held back until the end of the block, where it is raised, and never seen by the
+    worker processes started inside: a terminal sends it to the whole process group, and this
+    process stops the workers after saving the rows. Main thread only; elsewhere nothing
+    changes."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from multiprocessing import resource_tracker
+
+    # blocked in this thread: inherited by the threads it starts and the processes those start
+    # (across exec, for good); a Ctrl-C that another thread of this process takes is noted.
+    # The resource tracker unblocks Ctrl-C in the thread that starts it: started here, first.
+    resource_tracker.ensure_running()
+    held: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: held.append(signum))
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
     finally:
-        if ignore:
-            signal.signal(signal.SIGINT, previous)
-    if dashboard:
-        log.info("sweep: the Dask dashboard is at %s", cluster.dashboard_link)
-    return Client(cluster), cluster
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        raise KeyboardInterrupt
 
 
 def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
