@@ -133,11 +133,16 @@ class Component:
     needs_realtime: ClassVar[bool] = False
     #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
     sizing_parameters: frozenset[str] = frozenset()
+    #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
+    #: scalar, n > 1: a vector of n, its start value repeated)
+    sized_by: ClassVar[dict[str, str]] = {}
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """A class that defines `kernel` gets `evaluate`/`do_step` that run it (unless it, or a
         base, has its own), and its `kernel(h)` carries the state the component holds."""
         super().__init_subclass__(**kwargs)
+        if cls.sized_by:
+            cls.sizing_parameters = cls.sizing_parameters | frozenset(cls.sized_by.values())
         make = vars(cls).get("kernel")
         if make is None or not callable(make):
             return
@@ -212,6 +217,25 @@ class Component:
         fit."""
         var = self.variables[name]
         self.__dict__[name] = var.coerce(value)
+        if name in self.sizing_parameters and self.sized_by:
+            self._size_from(name)
+
+    def _size_from(self, parameter: str) -> None:
+        """The variables `sized_by` `parameter` take its present value as their size."""
+        n = self.__dict__[parameter]
+        if isinstance(n, bool) or not isinstance(n, (int, float)) or n != int(n) or n < 1:
+            raise ValueError(f"a size must be a whole number of at least 1, not {n!r}")
+        size = None if n == 1 else int(n)
+        for key, by in self.sized_by.items():
+            var = self.variables[key]
+            if by != parameter or var.size == size:
+                continue
+            first = var.start[0] if isinstance(var.start, tuple) else var.start
+            resized = dataclasses.replace(var, size=size,
+                                          start=first if size is None else (first,) * size)
+            resized.name = key
+            self.variables[key] = resized
+            self.__dict__[key] = resized.start
 
     def get(self, name: str) -> Any:
         """Current value of any variable."""
