@@ -5,7 +5,6 @@ x and y tracking errors over time, wheel torques, and the adaptive estimate d_ha
 """
 from __future__ import annotations
 
-import json
 import re
 import sys
 from collections.abc import Sequence
@@ -15,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from twmr.components.metrics import DEFINITIONS, errors, tracking_metrics
+from twmr.core import jsonvalues
 from twmr.core.errors import CosimError
 from twmr.plots import pyplot
 
@@ -119,9 +119,9 @@ def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
                              f"Fix: record the trajectory's `position` and the plant's `pose`.")
         results[name] = m
     written = figures(runs, out)
-    (out / "table.json").write_text(json.dumps(results, indent=2) + "\n")
+    (out / "table.json").write_text(jsonvalues.dumps(results, indent=2) + "\n")
     if as_json:
-        print(json.dumps(results))
+        print(jsonvalues.dumps(results))
     else:
         print(table(results))
         print(f"\nfigures: {', '.join(str(p) for p in written)}")

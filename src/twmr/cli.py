@@ -21,7 +21,6 @@ def _interrupted_at_start() -> int:
 try:
     import argparse
     import contextlib
-    import json
     import logging
     import os
     import time
@@ -102,7 +101,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if pacing:
         log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):
-        print(json.dumps(s["metrics"]))
+        from twmr.core import jsonvalues
+
+        print(jsonvalues.dumps(s["metrics"]))
     return 0
 
 

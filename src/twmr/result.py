@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.core.jsonvalues import revive
 from twmr.observers.store import FILENAME as STORE
 from twmr.observers.store import read_store
 from twmr.observers.summary import FILENAME as SUMMARY
@@ -122,6 +123,6 @@ def _siblings(path: Path) -> str:
 
 def _summary(folder: Path) -> dict[str, Any]:
     try:
-        return json.loads((folder / SUMMARY).read_text())
+        return revive(json.loads((folder / SUMMARY).read_text()))
     except (OSError, ValueError):
         return {}

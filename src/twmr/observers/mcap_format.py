@@ -17,17 +17,16 @@ rerun and rosbag2 read.
 from __future__ import annotations
 
 import json
-import math
 import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from twmr.core.jsonvalues import NON_FINITE, number
 from twmr.observers.writers import ResultFormat
 
 _ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
-_NON_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 METADATA = "twmr.columns"
 
 
@@ -41,13 +40,11 @@ def _split(column: str) -> tuple[str, str, int | None]:
 
 
 def _number(v: float) -> float | str:
-    if math.isfinite(v):
-        return float(v)
-    return "NaN" if math.isnan(v) else ("Infinity" if v > 0 else "-Infinity")
+    return number(float(v))
 
 
 def _value(v: Any) -> float:
-    return _NON_FINITE[v] if isinstance(v, str) else float(v)
+    return NON_FINITE[v] if isinstance(v, str) else float(v)
 
 
 class Mcap(ResultFormat):
