@@ -112,7 +112,8 @@ def _plots(result: Any, title: str) -> None:
 
     folder = result.folder
     if len(result):
-        plot_result(result.data, result.units, folder / "plots", title=title)
+        plot_result(result.data, result.units, folder / "plots", title=title,
+                    ports=result.summary.get("ports"))
     lateness = folder / "lateness_us.npy"
     if lateness.is_file():
         import numpy as np
@@ -160,7 +161,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     path = Path(args.result)
     result = read_result(path)
     out = Path(args.out) if args.out else (path if path.is_dir() else path.parent) / "plots"
-    for p in plot_result(result.data, result.units, out, title=path.stem):
+    for p in plot_result(result.data, result.units, out, title=path.stem,
+                         ports=result.summary.get("ports")):
         print(p)
     return 0
 

@@ -89,8 +89,10 @@ def test_failed_rerun_keeps_the_previous_result(tmp_path) -> None:
 
 def test_plots_are_written(run) -> None:
     paths = plot_result(run.data, run.units, run.folder / "plots")
-    assert {p.name for p in paths} == {"plant_u.png", "plant_y.png", "ctrl_y.png"}
+    assert {p.name for p in paths} == {f"{n}{s}" for n in ("plant_u", "plant_y", "ctrl_y")
+                                       for s in (".png", ".svg")}
     assert all(p.stat().st_size > 1000 for p in paths)
+    assert (run.folder / "plots" / "ctrl_y.svg").read_text().lstrip().startswith("<?xml")
 
 
 def test_summary_json_is_standard_json_and_reads_back_its_infinities(tmp_path) -> None:

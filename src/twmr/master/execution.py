@@ -229,7 +229,7 @@ class Execution:
         self._wall0 = math.nan
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
-                             self.folder, self.system.source)
+                             self.folder, self.system.source, {"ports": self._recorded_ports()})
             for obs in self.observers:
                 self._write(obs.started, start)
             context = RunContext(
@@ -480,6 +480,18 @@ class Execution:
                     self.system.components[name].terminate()
                 except BaseException:  # noqa: BLE001 - terminate every component whatever fails
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
+
+    def _recorded_ports(self) -> dict[str, dict[str, str]]:
+        """Description and type of each recorded port ('plant.pose'), for plots and readers."""
+        ports: dict[str, dict[str, str]] = {}
+        for column in self.columns[1:]:
+            name = column.partition("[")[0]
+            owner, _, port = name.rpartition(".")
+            var = self.system.components[owner].variables.get(port) \
+                if owner in self.system.components else None
+            if var is not None and name not in ports:
+                ports[name] = {"description": var.description, "type": var.type}
+        return ports
 
     def _catch_stop_signals(self) -> dict[int, Any]:
         """Ctrl-C, SIGTERM and SIGHUP stop the run (main thread only); once it is stopping,

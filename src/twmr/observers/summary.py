@@ -71,6 +71,7 @@ class SignalSummary(Observer):
             "wall_time_s": round(outcome.wall_time, 4),
             "realtime_factor": round(outcome.realtime_factor, 2),
             "units": dict(zip(run.columns, run.units, strict=False)) if run else {},
+            "ports": run.metadata.get("ports", {}) if run else {},
             "signals": self.signals(), "pacing": outcome.extra,
         }
         if run is not None and run.folder is not None:
