@@ -21,8 +21,9 @@ from __future__ import annotations
 import dataclasses
 import functools
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, ClassVar
 
 from twmr.core.errors import ComponentError
@@ -133,6 +134,8 @@ class Component:
     needs_realtime: ClassVar[bool] = False
     #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
     sizing_parameters: frozenset[str] = frozenset()
+    #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
+    aliases: Mapping[str, str] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}

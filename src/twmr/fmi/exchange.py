@@ -128,8 +128,11 @@ class Integrator:
             CVodeSVtolerances(solver.cvode_mem, self.rtol, solver.abstol)
         return solver
 
-    def saved(self) -> tuple[float, float | None]:
-        """What restoring the FMU's state needs from here: the time [s] and the next time event."""
+    def save(self) -> tuple[float, float | None]:
+        """What restoring the FMU's state needs from here: the time [s] and the next time event.
+        The solver restarts here, as `restore` does, so the continuation after a save and after
+        a restore of it start from the FMU's state alone and agree bit for bit."""
+        self._restart(self.t)
         return self.t, self.next_event
 
     def restore(self, saved: tuple[float, float | None]) -> None:

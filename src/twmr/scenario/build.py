@@ -193,6 +193,14 @@ class _Builder:
                                  comp.sizing_parameters):
             loc, value = given.where, given.value
             var = comp.variables.get(key)
+            base = comp.aliases.get(key)
+            if base is not None:
+                also = f" ('{base}' is set as well)" if base in values else ""
+                self.problems.append(Problem(loc, f"component '{name}': '{key}' is an alias of "
+                                             f"'{base}'{also}: one variable of the FMU under "
+                                             f"two names, which is set only as '{base}'.",
+                                             f"set '{base}' only (and drop '{key}')."))
+                continue
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:
                 what = "parameter" if section == "parameters" else "state or input"
