@@ -342,6 +342,10 @@ class Component:
                               f"{what} its state (can_get_and_set_state is false). Fix: use an "
                               f"algorithm that does not roll steps back with this component.")
 
+    def why_no_state(self) -> str:
+        """Why this block cannot save its state, in a few words (for `twmr check`)."""
+        return "its can_get_and_set_state is false, as for hardware in the loop"
+
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}>"
 

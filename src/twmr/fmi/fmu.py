@@ -607,12 +607,14 @@ class FmuComponent(Component):
             self._states.release(state[0])
 
     def no_state(self, what: str) -> ComponentError:
+        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
+                        f"{self.why_no_state()}. Fix: use an algorithm that does not roll steps "
+                        f"back with this FMU, or an FMU exported with state support.")
+
+    def why_no_state(self) -> str:
         iface = "model exchange" if self.me else "co-simulation"
         attribute = "canGetAndSetFMUState" if self.fmi3 else "canGetAndSetFMUstate"
-        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
-                        f"its modelDescription.xml does not declare {attribute}=\"true\" for "
-                        f"{iface}. Fix: use an algorithm that does not roll steps back with "
-                        f"this FMU, or an FMU exported with state support.")
+        return f"its modelDescription.xml does not declare {attribute}=\"true\" for {iface}"
 
     def terminate(self) -> None:
         """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""

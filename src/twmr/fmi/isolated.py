@@ -254,6 +254,9 @@ class IsolatedFmu(Component):
         self._call("set_state", (worker,))
         super().set_state(values)
 
+    def why_no_state(self) -> str:
+        return self._desc.why_no_state()
+
     def release_state(self, state: Any) -> None:
         if self._conn is not None:
             self._call("release_state", (state[0],))
