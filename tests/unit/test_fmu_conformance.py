@@ -164,8 +164,8 @@ def test_state_support_follows_the_description_per_interface(fmus) -> None:
         admit(loads(scenario(fmus["bounce2"], ", interface: model_exchange")),
               Rollback("jacobi"), "rollback")
     text = str(err.value)
-    assert "'ball' (FmuComponent: its modelDescription.xml does not declare " \
-           "canGetAndSetFMUstate=\"true\" for model exchange) cannot save" in text
+    assert "'ball' (FmuComponent) cannot save and restore its state: its modelDescription.xml " \
+           "does not declare canGetAndSetFMUstate=\"true\" for model exchange." in text
 
 
 def steps(comp: FmuComponent, t0: float, n: int, h: float = 0.01) -> list[tuple]:

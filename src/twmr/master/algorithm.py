@@ -106,11 +106,12 @@ def admit(system: System, algorithm: Algorithm, name: str = "") -> None:
     if not unfit:
         return
     label = f"'{name}'" if name else type(algorithm).__name__
-    why = ", ".join(f"'{n}' ({type(c).__name__}: {c.why_no_state()})" for n, c in unfit.items())
+    why = "; ".join(f"'{n}' ({type(c).__name__}) cannot save and restore its state: "
+                    f"{c.why_no_state()}" for n, c in unfit.items())
     raise ScenarioError(Problem(
         Location(system.source, 0, "experiment.algorithm"),
         f"the master algorithm {label} restores earlier component states (it needs state "
-        f"rollback), but {why} cannot save and restore its state.",
+        f"rollback), but {why}.",
         f"use an algorithm without rollback (gauss_seidel or jacobi), or replace "
         f"{', '.join(map(repr, unfit))} by a block that can save its state (an FMU that "
         f"declares it)."))
