@@ -2,7 +2,8 @@
 tests/fmus: `can_get_and_set_state` follows the model description (FMI 2.0 and 3.0, co-simulation
 and model exchange); a restored state continues exactly as the first continuation did (model
 exchange with CVODE too); states are freed, so 10,000 save/restore cycles keep the memory of the
-process and of the isolation worker flat; a state is plain values that pickle (serialised bytes where the FMU can serialise)."""
+process and of the isolation worker flat; a state is plain values that pickle (serialised bytes
+where the FMU can serialise)."""
 from __future__ import annotations
 
 import math

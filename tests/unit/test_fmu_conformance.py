@@ -23,6 +23,7 @@ from twmr.master import simulate
 from twmr.master.algorithm import admit
 from twmr.master.schedule import FixedStep
 from twmr.scenario import loads
+from twmr.scenario.listing import describe
 
 G, E = 9.81, 0.7
 #: feet per metre, the factor of bounce3's DisplayUnit "ft"
@@ -33,7 +34,8 @@ FT = 3.28084
 def fmus(tmp_path_factory) -> dict[str, str]:
     out = tmp_path_factory.mktemp("conformance")
     built = {"bounce2": str(build_c_fmu("bounce2", out))}
-    built.update({n: str(build_c_fmu(n, out, fmi3=True)) for n in ("bounce3", "roberts3")})
+    built.update({n: str(build_c_fmu(n, out, fmi3=True)) for n in ("bounce3", "roberts3",
+                                                                     "types3")})
     return built
 
 
@@ -147,6 +149,31 @@ def test_the_boolean_reaches_the_fmu_in_configuration_mode(fmus) -> None:
     text = str(err.value)
     assert "fmi3EnterInitializationMode failed" in text
     assert "dae = true (the semi-explicit DAE form) is not provided" in text
+
+
+# ---- what `twmr check` shows ---------------------------------------------------------------
+
+def test_check_shows_the_open_input_values_the_run_uses(fmus) -> None:
+    text = f"""
+components:
+  t: {{kind: fmu, parameters: {{path: {fmus["types3"]}, n: 5}},
+      initial: {{Float64_input: 7.5, vec_in: [4, 5, 6]}}}}
+experiment: {{start: 0.0, stop: 0.02, step: 0.01}}
+open: [t.Float64_input, t.vec_in]
+"""
+    with pytest.raises(ScenarioError, match=r"'t.vec_in' under 'open:' to keep its start "
+                                            r"value \(4.0, 5.0, 6.0\)\."):
+        loads(text.replace(", t.vec_in]", "]"), source="t.yaml")
+    opened = ", ".join(f"t.{p}_input" for p in ("Float32", "Int8", "UInt8", "Int16", "UInt16",
+                                                "Int32", "UInt32", "Int64", "UInt64", "Boolean",
+                                                "String", "Binary", "Enumeration"))
+    system = loads(text.replace("open: [", f"open: [{opened}, "), source="t.yaml")
+    shown = describe(system)
+    assert "t.Float64_input = 7.5" in shown and "t.vec_in = (4.0, 5.0, 6.0)" in shown
+    r = simulate(system)
+    assert list(r["t.Float64_output"]) == [7.5] * 3
+    assert [tuple(r[f"t.vec_out[{i}]"]) for i in (1, 2, 3)] == [(8.0,) * 3, (10.0,) * 3,
+                                                                  (12.0,) * 3]
 
 
 # ---- FMU state ----------------------------------------------------------------------------

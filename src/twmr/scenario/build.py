@@ -313,7 +313,8 @@ class _Builder:
                     self.problems.append(Problem(
                         self.spec.components[name].where, f"input '{name}.{port}'{which} is not "
                         f"connected.", f"wire an output to it ('x.y -> {name}.{port}'), or list "
-                        f"'{name}.{port}' under 'open:' to keep its start value {var.start!r}."))
+                        f"'{name}.{port}' under 'open:' to keep its start value "
+                        f"{comp.get(port)!r}."))
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record
