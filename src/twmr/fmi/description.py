@@ -9,6 +9,11 @@ description. An FMI 3.0 array (`<Dimension>`) is a vector port of the product of
 array names `x[1]..x[n]` are grouped into a vector port `x`. Direct feedthrough comes from
 ModelStructure (an output without dependency information depends on every input, as the standard
 says).
+
+Aliases (FMI 3.0 `<Alias>`, FMI 2.0 variables of one type sharing a value reference) are one
+variable: an alias of an output or state is a read-only output reading it (in the alias's own
+display unit where the FMU defines one), an alias of an input or parameter is no port, and
+`aliases_of` names what each alias stands for, so that setting one can be refused.
 """
 from __future__ import annotations
 
@@ -329,11 +334,10 @@ def ports_of(md: Any, given: dict[str, Any] | None = None
         if p.alias_of:
             alias, base = variables[p.name], variables[p.alias_of]
             assert isinstance(alias, Output)
-            factor, offset = p.display or (1, 0)
-            alias.start = alias.coerce(base.start if p.display is None else
-                                       tuple(factor * x + offset for x in base.start)
-                                       if isinstance(base.start, tuple) else
-                                       factor * base.start + offset)
+            factor, offset = p.display or (1.0, 0.0)
+            starts = base.start if isinstance(base.start, tuple) else (base.start,)
+            shown = starts if p.display is None else tuple(factor * x + offset for x in starts)
+            alias.start = alias.coerce(shown if isinstance(base.start, tuple) else shown[0])
             alias.depends_on = (p.alias_of,) if base.kind == "input" else \
                 getattr(base, "depends_on", ())
     return ports, variables
@@ -377,12 +381,13 @@ def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: 
         units = tuple(_unit(v) for v in vs) if size is None else (_unit(vs[0]),)
         kwargs["unit"] = units[0] if len(set(units)) == 1 else units
         kwargs["unit_definitions"] = defined
-        if display is not None:
+        low, high = _RANGE.get(fmi_type, (None, None))
+        kwargs["min"], kwargs["max"] = _bound(vs[0], "min", low), _bound(vs[0], "max", high)
+        if display is not None:  # its unit is the display unit; min and max are in the base's
             shown = display[2]
             kwargs["unit"], kwargs["unit_definitions"] = shown.text, {**defined,
                                                                        shown.text: shown}
-        low, high = _RANGE.get(fmi_type, (None, None))
-        kwargs["min"], kwargs["max"] = _bound(vs[0], "min", low), _bound(vs[0], "max", high)
+            kwargs["min"] = kwargs["max"] = None
     scalar = len(vs) == 1 and size is None
     if scalar:
         var = cls(start=starts[0], **kwargs)
