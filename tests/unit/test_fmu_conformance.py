@@ -93,6 +93,10 @@ def test_an_alias_of_a_parameter_is_no_port_and_is_refused(fmus) -> None:
         loads(scenario(fmus["bounce3"], ", gravity: 3.0"), source="b.yaml")
     with pytest.raises(ValueError, match="'h_ft' is an alias of 'h'"):
         FmuComponent("ball", fmus["bounce3"], h_ft=3.0)
+    wired = scenario(fmus["bounce3"]) + "connections:\n  - ball.h -> ball.gravity\n"
+    with pytest.raises(ScenarioError, match=r"'ball.gravity' is an alias of parameter 'ball.g' "
+                                            r".*Fix: set 'g' under 'parameters:'"):
+        loads(wired, source="b.yaml")
     text = describe_fmu(fmus["bounce3"])
     assert "output    h_ft [ft] Real (Float64) = 3.28084 (alias of h, read only)" in text
     assert "aliases (other names of a port, never set): h_ft = h, gravity = g" in text
