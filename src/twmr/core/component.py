@@ -21,8 +21,9 @@ from __future__ import annotations
 import dataclasses
 import functools
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, ClassVar
 
 from twmr.core.errors import ComponentError
@@ -133,6 +134,8 @@ class Component:
     needs_realtime: ClassVar[bool] = False
     #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
     sizing_parameters: frozenset[str] = frozenset()
+    #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
+    aliases: Mapping[str, str] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}
@@ -338,6 +341,10 @@ class Component:
         return ComponentError(self.name, None, f"a {self.kind or type(self).__name__} cannot "
                               f"{what} its state (can_get_and_set_state is false). Fix: use an "
                               f"algorithm that does not roll steps back with this component.")
+
+    def why_no_state(self) -> str:
+        """Why this block cannot save its state, in a few words (for `twmr check`)."""
+        return "its can_get_and_set_state is false, as for hardware in the loop"
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}>"

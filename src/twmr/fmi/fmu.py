@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError
 from twmr.fmi import guard
-from twmr.fmi.description import FmuPort, ports_of, read_description
+from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
@@ -68,6 +68,15 @@ def _text_getter(get: Callable[..., list[Any]]) -> Callable[..., list[str]]:
         return [v.decode("utf-8", "replace") if isinstance(v, bytes) else v for v in get(*args)]
 
     return get_text
+
+
+def _shown(get: Callable[..., list[Any]], factor: float, offset: float
+           ) -> Callable[..., list[float]]:
+    """A getter of aliases in a display unit of their own: factor * value + offset."""
+    def get_shown(*args: Any) -> list[float]:
+        return [factor * v + offset for v in get(*args)]
+
+    return get_shown
 
 
 class FmuComponent(Component):
@@ -125,7 +134,9 @@ class FmuComponent(Component):
                            f"modelDescription.xml. Fix: correct the FMU's model description "
                            f"(or ask its vendor).") from None
         self.sizing_parameters = frozenset(v.name for v in self.md.modelVariables
-                                           if v.causality == "structuralParameter")
+                                           if v.causality == "structuralParameter" and
+                                           getattr(v, "alias", None) is None)
+        self.aliases = aliases_of(self.md)
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
         # FMUs built by pythonfmu itself (generationTool "PythonFMU x"; not twmr's Python exports,
@@ -187,6 +198,10 @@ class FmuComponent(Component):
         return runnable(path, read_description(path, name), name, True, float(timeout))
 
     def set_parameter(self, name: str, value: Any) -> None:
+        if name in self.aliases:
+            raise ValueError(f"'{name}' is an alias of '{self.aliases[name]}' in the FMU (one "
+                             f"variable under two names, read only as '{name}'); set "
+                             f"'{self.aliases[name]}'")
         super().set_parameter(name, value)
         self._given.add(name)
         if name in self.sizing_parameters:
@@ -326,14 +341,16 @@ class FmuComponent(Component):
         """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
         number of values, the ports [(name, scalar, count)] and a function gathering their
         values (for a setter), so each type is one call."""
-        by: dict[str, list[FmuPort]] = {}
+        by: dict[tuple[str, tuple[float, float] | None], list[FmuPort]] = {}
         for p in ports:
-            by.setdefault(_call_suffix(p.fmi_type, self.fmi3), []).append(p)
+            by.setdefault((_call_suffix(p.fmi_type, self.fmi3), p.display), []).append(p)
         plan = []
-        for ps in by.values():
+        for (_, display), ps in by.items():
             fn = self._accessors(ps[0].fmi_type)[which]
             if which == 0 and ps[0].fmi_type == "String":
                 fn = _text_getter(fn)
+            if display is not None:
+                fn = _shown(fn, *display)
             vrs = [vr for p in ps for vr in p.vrs]
             names = [(p.name, p.scalar, p.count) for p in ps]
             plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
@@ -543,8 +560,8 @@ class FmuComponent(Component):
     def get_state(self) -> Any:
         """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,
         time and step flag; for model exchange the integrator's time, next event time and last
-        inputs): plain values that pickle. For model exchange with CVODE a restore restarts the
-        solver, so a continuation agrees to the solver's tolerance, not bit for bit."""
+        inputs): plain values that pickle. For model exchange the solver restarts at a save as
+        at a restore, so a step re-run after a restore repeats the first one bit for bit."""
         if not self.can_get_and_set_state:
             raise self.no_state("save")
         if self._states is None:
@@ -556,7 +573,7 @@ class FmuComponent(Component):
         integ = self._integrator
         if integ is None:
             return ()
-        return (integ.saved(), tuple(map(tuple, self._last_cont)),
+        return (integ.save(), tuple(map(tuple, self._last_cont)),
                 tuple(map(tuple, self._last_disc)))
 
     def set_state(self, state: Any) -> None:
@@ -590,12 +607,14 @@ class FmuComponent(Component):
             self._states.release(state[0])
 
     def no_state(self, what: str) -> ComponentError:
+        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
+                        f"{self.why_no_state()}. Fix: use an algorithm that does not roll steps "
+                        f"back with this FMU, or an FMU exported with state support.")
+
+    def why_no_state(self) -> str:
         iface = "model exchange" if self.me else "co-simulation"
         attribute = "canGetAndSetFMUState" if self.fmi3 else "canGetAndSetFMUstate"
-        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
-                        f"its modelDescription.xml does not declare {attribute}=\"true\" for "
-                        f"{iface}. Fix: use an algorithm that does not roll steps back with "
-                        f"this FMU, or an FMU exported with state support.")
+        return f"its modelDescription.xml does not declare {attribute}=\"true\" for {iface}"
 
     def terminate(self) -> None:
         """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""

@@ -69,6 +69,7 @@ class IsolatedFmu(Component):
                            f"(.inf: no limit)")
         self._kwargs = kwargs
         self.can_get_and_set_state = self._desc.can_get_and_set_state
+        self.aliases = self._desc.aliases
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
         self.variables = dict(self._desc.variables)
         self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})
@@ -252,6 +253,9 @@ class IsolatedFmu(Component):
         worker, values = state
         self._call("set_state", (worker,))
         super().set_state(values)
+
+    def why_no_state(self) -> str:
+        return self._desc.why_no_state()
 
     def release_state(self, state: Any) -> None:
         if self._conn is not None:

@@ -193,6 +193,14 @@ class _Builder:
                                  comp.sizing_parameters):
             loc, value = given.where, given.value
             var = comp.variables.get(key)
+            base = comp.aliases.get(key)
+            if base is not None:
+                also = f" ('{base}' is set as well)" if base in values else ""
+                self.problems.append(Problem(loc, f"component '{name}': '{key}' is an alias of "
+                                             f"'{base}'{also}: one variable of the FMU under "
+                                             f"two names, which is set only as '{base}'.",
+                                             f"set '{base}' only (and drop '{key}')."))
+                continue
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:
                 what = "parameter" if section == "parameters" else "state or input"
@@ -305,7 +313,8 @@ class _Builder:
                     self.problems.append(Problem(
                         self.spec.components[name].where, f"input '{name}.{port}'{which} is not "
                         f"connected.", f"wire an output to it ('x.y -> {name}.{port}'), or list "
-                        f"'{name}.{port}' under 'open:' to keep its start value {var.start!r}."))
+                        f"'{name}.{port}' under 'open:' to keep its start value "
+                        f"{comp.get(port)!r}."))
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record

@@ -74,6 +74,15 @@ def find_port(comps: dict[str, Component], end: End, loc: Location,
                                 f"use one of: {', '.join(comps)}."))
         return None
     var = comp.variables.get(end.port)
+    if var is None and end.port in comp.aliases:
+        base = comp.aliases[end.port]
+        parameter = getattr(comp.variables.get(base), "kind", "") == "parameter"
+        problems.append(Problem(loc, f"'{end.comp}.{end.port}' is an alias of "
+                                f"{'parameter ' if parameter else ''}'{end.comp}.{base}' (one "
+                                f"variable of the FMU under two names), not a port.",
+                                f"set '{base}' under 'parameters:' (parameters are not wired)."
+                                if parameter else f"wire '{end.comp}.{base}'."))
+        return None
     if var is None or var.kind == "parameter":
         ports = [n for n, v in comp.variables.items() if v.kind in ("input", "output")]
         problems.append(Problem(loc, f"component '{end.comp}' ({type(comp).__name__}) has no port "

@@ -33,7 +33,8 @@ def describe(system: System) -> str:
         driven.add((c.dst, c.dst_port))
     unwired = [(n, p, v) for n, comp in system.components.items()
                for p, v in comp.inputs.items() if (n, p) not in driven]
-    opened = [f"{n}.{p} = {v.start!r}" for n, p, v in unwired if not v.optional]
+    opened = [f"{n}.{p} = {system.components[n].get(p)!r}" for n, p, v in unwired
+              if not v.optional]
     if opened:
         lines.append("open inputs (start values): " + ", ".join(opened))
     optional = [f"{n}.{p}" for n, p, v in unwired if v.optional]
