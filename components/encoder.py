@@ -86,8 +86,8 @@ class Encoder(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.cpr != int(self.cpr):
-            return [("cpr", f"cpr = {self.cpr} is not a whole number of counts",
-                     "give the counts per wheel revolution as a whole number, e.g. 4096")]
+            return [("cpr", f"cpr = {self.cpr} is not a whole number of counts.",
+                     "give the counts per wheel revolution as a whole number, e.g. 4096.")]
         return []
 
     def initialize(self) -> None:

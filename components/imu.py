@@ -83,8 +83,8 @@ class Imu(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.seed != int(self.seed):
-            return [("seed", f"seed = {self.seed} is not a whole number",
-                     "give the seed as a whole number, e.g. 1")]
+            return [("seed", f"seed = {self.seed} is not a whole number.",
+                     "give the seed as a whole number, e.g. 1.")]
         return []
 
     def initialize(self) -> None:

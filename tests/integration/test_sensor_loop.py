@@ -218,3 +218,23 @@ def test_the_same_seed_gives_the_same_imu_sequence_python_compiled_and_c(tmp_pat
     # another seed, another sequence
     other = loads(IMU_SCENARIO, overrides=["imu.seed=43"])
     assert not np.array_equal(simulate(other)["imu.yaw_rate"], python["imu.yaw_rate"])
+
+
+# -- bad input -------------------------------------------------------------------------------
+@pytest.mark.parametrize(("old", "new", "named"), [
+    ("cpr: 4096,", "cpr: 4096.5,", "component 'encoder' (encoder): cpr = 4096.5"),
+    ("seed: 1,", "seed: 1.5,", "component 'imu' (imu): seed = 1.5")])
+def test_a_fraction_of_a_count_or_a_seed_is_refused_at_check(tmp_path: Path, old: str, new: str,
+                                                             named: str) -> None:
+    from twmr.core.errors import ScenarioError
+
+    text = SENSORS.read_text()
+    assert old in text
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(old, new))
+    line = next(i + 1 for i, row in enumerate(text.splitlines()) if old in row)
+    with pytest.raises(ScenarioError) as err:
+        load(bad)
+    message = str(err.value)
+    assert named in message and "Fix: give" in message
+    assert f"bad.yaml:{line}" in message
