@@ -208,7 +208,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100, help="blocks in each chain (default 100)")
     ap.add_argument("--steps", type=int, default=10_000, help="steps of 1 ms (default 10,000)")
-    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--kinds", nargs="*", help="only these kinds (default: every one that fits)")
     ap.add_argument("--cached", action="store_true",
                     help="use the compiled-loop cache (TWMR_CACHE_DIR) instead of a fresh one, "

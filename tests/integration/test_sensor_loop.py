@@ -5,7 +5,7 @@ Closed loop, measured over slip phases 0..5 s (`slip.phase`; the loop is sensiti
 realisations, each paired with the ideal scenario of the same phase): with 4096 counts per
 revolution the sum of the x and y tracking MSE is at most 6.4 % above the ideal one and the pose
 of M never more than 0.073 m from the ideal run's; with 16 counts the robot loses the track (MSE
-49 to 260 times the ideal). Asserted with margins: at most 15 % and 0.15 m; at least 10 times.
+50 to 264 times the ideal). Asserted with margins: at most 15 % and 0.15 m; at least 10 times.
 """
 from __future__ import annotations
 
