@@ -28,6 +28,7 @@ _TRACKING = {"drive": Choice("DRIVE", {"auto": 0, "forward": 1, "backward": 2}),
 _DRIVES = {"DRIVE_FORWARD": 1, "DRIVE_BACKWARD": 2}
 
 INERTIA, SLIP_PROFILE = C / "inertia.h", C / "slip_profile.h"
+SAMPLED, SPLITMIX = C / "sampled.h", C / "splitmix.h"
 
 PLANT = CTwin(C / "plant.c", headers=(INERTIA, SLIP_PROFILE), defines=SLIP_CODES,
               work=lambda comp: 8)
@@ -46,3 +47,7 @@ SMC = CTwin(C / "tracking.c", headers=(INERTIA,), tunable=frozenset(_GAINS), cho
             defines=_DRIVES, work=lambda comp: 4)
 MOTOR = CTwin(C / "motor.c", choices={"mode": Choice("MODE_DC", {"ideal": 0, "dc": 1})},
               work=lambda comp: 9)
+ENCODER = CTwin(C / "encoder.c", headers=(SAMPLED,), tunable=frozenset({"sample_period"}),
+                work=lambda comp: 3)
+IMU = CTwin(C / "imu.c", headers=(SAMPLED, SPLITMIX),
+            tunable=frozenset({"bias", "noise_std", "sample_period"}), work=lambda comp: 3)
