@@ -28,7 +28,7 @@ from twmr.core.errors import (
 from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
-from twmr.scenario.flatten import Exposed, Wire, flatten
+from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
 from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
@@ -75,7 +75,7 @@ def build_system(spec: ScenarioSpec) -> System:
     """The System of a scenario's structure (subsystems flattened into blocks named by their
     path, `twmr.scenario.flatten`): components created and configured, wires checked, order
     found. Raises a `CosimError` subclass listing every problem."""
-    return _guarded(spec.source, lambda: _Builder(*flatten(spec)).build())
+    return _guarded(spec.source, lambda: _Builder(flatten(spec)).build())
 
 
 def _guarded(source: str, make: Any) -> Any:
@@ -95,11 +95,12 @@ def _guarded(source: str, make: Any) -> Any:
 
 
 class _Builder:
-    def __init__(self, spec: ScenarioSpec, exposed: Sequence[Exposed] = ()):
-        self.spec = spec
-        self.exposed = exposed
+    def __init__(self, flat: Flat):
+        self.spec = flat.spec
+        self.exposed = flat.exposed
+        self.flat_problems = flat.problems
         self.problems: list[Problem] = []
-        self.miswired: set[tuple[str, str]] = set()  # inputs of wires refused
+        self.miswired: set[tuple[str, str]] = set(flat.miswired)  # inputs of wires refused
         self.broken: set[int] = set()  # ids of the exposures found wrong
 
     def fail_if_problems(self, kind: type[ScenarioError] = ScenarioError) -> None:
@@ -111,6 +112,7 @@ class _Builder:
         comps = self.components()
         experiment = self.experiment()
         self.fail_if_problems()
+        self.problems += self.flat_problems
         self.check_exposed(comps)
         conns = self.connections(comps)
         self.check_drivers(comps, conns)
@@ -280,7 +282,6 @@ class _Builder:
                 self.problems.append(Problem(p.location, f"{what}: {p.message}", p.hint))
             if found:
                 self.broken.add(id(ex.via.exposure))
-        self.fail_if_problems(WiringError)
 
     def exposed_units(self, ex: Exposed, var: Any) -> list[Problem]:
         """The problems of an exposed port's declared unit(s) against the inner port's."""

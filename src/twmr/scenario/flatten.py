@@ -15,7 +15,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from twmr.core.errors import Location, Problem, ScenarioError
+from twmr.core.errors import Location, Problem
 from twmr.registry import suggest
 from twmr.scenario.graph import End, parse_end
 from twmr.scenario.structure import ComponentSpec, Exposure, Given, ScenarioSpec
@@ -74,6 +74,19 @@ class _Flat:
     open: list[Given[str]] = field(default_factory=list)
     exposed: list[Exposed] = field(default_factory=list)
     problems: list[Problem] = field(default_factory=list)
+    miswired: set[tuple[str, str]] = field(default_factory=set)
+
+
+@dataclass(frozen=True)
+class Flat:
+    """A flattened scenario: the flat structure, the exposed ports to check against the built
+    components, the problems found while flattening (wires naming a port no subsystem exposes,
+    exposed inputs left unconnected) and the flat inputs of the wires refused."""
+
+    spec: ScenarioSpec
+    exposed: tuple[Exposed, ...] = ()
+    problems: tuple[Problem, ...] = ()
+    miswired: frozenset[tuple[str, str]] = frozenset()
 
 
 def has_subsystems(spec: ScenarioSpec) -> bool:
@@ -81,9 +94,8 @@ def has_subsystems(spec: ScenarioSpec) -> bool:
     return any(c.system is not None for c in spec.components.values())
 
 
-def flatten(spec: ScenarioSpec) -> tuple[ScenarioSpec, list[Exposed]]:
-    """(the flat structure of `spec`, the exposed ports to check). ScenarioError listing every
-    wire that names a port no subsystem exposes, or an exposed input left unconnected."""
+def flatten(spec: ScenarioSpec) -> Flat:
+    """The flat structure of `spec`, with what the builder checks and reports."""
     out = _Flat()
     _into(spec, "", 1, out)
     for side, ports in (("dst", spec.inputs), ("src", spec.outputs)):
@@ -91,15 +103,14 @@ def flatten(spec: ScenarioSpec) -> tuple[ScenarioSpec, list[Exposed]]:
             found = _exposure(spec, "", name, ex, side, out)  # type: ignore[arg-type]
             if found is not None and side == "dst":
                 out.open.append(Given(f"{found.end.comp}.{found.end.port}", ex.where))
-    if out.problems:
-        raise ScenarioError(list(dict.fromkeys(out.problems)))
     record = spec.record
     if record.signals is not None:
         record = dataclasses.replace(record, signals=tuple(
             _pattern(spec, s) for s in record.signals))
     flat = dataclasses.replace(spec, components=out.comps, connections=tuple(out.wires),
                                open=tuple(out.open), record=record, inputs={}, outputs={})
-    return flat, out.exposed
+    return Flat(flat, tuple(out.exposed), tuple(dict.fromkeys(out.problems)),
+                frozenset(out.miswired))
 
 
 def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
@@ -127,10 +138,12 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
             continue
         src = _resolve(spec, prefix, ends[0], "src", given.where, out)
         dst = _resolve(spec, prefix, ends[1], "dst", given.where, out)
-        if src is None or dst is None:
-            continue
-        if dst[1]:
+        if dst is not None and dst[1]:
             used.add((ends[1].comp, ends[1].port))
+        if src is None or dst is None:
+            if dst is not None:
+                out.miswired.add((dst[0].comp, dst[0].port))
+            continue
         out.wires.append(Wire(f"{_text(src[0])} -> {_text(dst[0])}", given.where,
                               src[1], dst[1]))
     for given in spec.open:
@@ -143,6 +156,12 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
         if found is not None:
             used.add((end.comp, end.port))
             out.open.append(Given(f"{found[0].comp}.{found[0].port}", given.where))
+    for ex in spec.inputs.values():  # an input exposed again from here is connected outside
+        try:
+            end = parse_end(ex.port.value)
+        except ValueError:
+            continue
+        used.add((end.comp, end.port))
     for name, comp in spec.components.items():
         for port, ex in (comp.system.inputs if comp.system is not None else {}).items():
             if (name, port) not in used:

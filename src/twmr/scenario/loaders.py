@@ -86,9 +86,10 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
 
     def given(*path: Any, default: Any = None) -> Given[Any]:
         node: Any = data
-        for key in path:
-            node = node.get(key, default) if isinstance(node, dict) else \
-                default if node is None else node[key]
+        for i, key in enumerate(path):
+            missing = default if i == len(path) - 1 else None  # a section may be left out
+            node = node.get(key, missing) if isinstance(node, dict) else \
+                missing if node is None else node[key]
         return Given(node, at(*path))
 
     comps = {}

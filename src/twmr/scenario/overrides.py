@@ -101,7 +101,7 @@ def assign(spec: ScenarioSpec, path: Sequence[str], name: str, value: Given[Any]
         if target.system is None:
             problems.append(Problem(loc, f"'{here}' ({target.kind.value}) is a block, not a "
                                     f"subsystem, so '{full}.{name}' names nothing.",
-                                    f"write {here}.{name.split('.')[0]}=value."))
+                                    f"write {here}.{path[1]}=value."))
             return spec
         changed = dataclasses.replace(target, system=assign(target.system, path[1:], name,
                                                             value, problems, here))
