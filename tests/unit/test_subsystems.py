@@ -288,3 +288,17 @@ def test_twmr_check_prints_the_tree(tmp_path: Path, capsys: pytest.CaptureFixtur
     tree = out[out.index("tree (subsystems"):].splitlines()[1:6]
     assert tree == ["  src: constant", f"  amp: system {tmp_path / 'amp.yaml'}",
                     "    input  u [1] -> g.u", "    output y <- g.y", "    g: gain"]
+
+
+def test_one_file_used_twice_and_from_a_dict_gives_two_independent_blocks(tmp_path: Path) -> None:
+    write(tmp_path, amp_yaml=AMP)
+    data = {"components": {"src": {"kind": "constant", "parameters": {"value": 2.0}},
+                           "a": {"kind": "system", "parameters": {"path": "amp.yaml",
+                                                                  "g.k": 3.0}},
+                           "b": {"kind": "system", "parameters": {"path": "amp.yaml"}}},
+            "connections": ["src.y -> a.u", "a.y -> b.u"],
+            "experiment": {"stop": 0.002, "step": 0.001}, "record": {"signals": ["*.g.y"]}}
+    spec = twmr.scenario.read_structure(data, "<dict>", tmp_path)
+    result = twmr.simulate(twmr.load(spec, ["b.g.k=-1"]))
+    assert result.data.dtype.names == ("time", "a.g.y", "b.g.y")
+    assert np.all(column(result, "a.g.y") == 6.0) and np.all(column(result, "b.g.y") == -6.0)

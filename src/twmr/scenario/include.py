@@ -44,7 +44,8 @@ def subsystem(name: str, parameters: dict[str, Given[Any]], initial: dict[str, G
                                     "the cycle: a file may not include itself, directly or "
                                     "through others."))
     if not target.is_file():
-        what = "is a folder" if target.is_dir() else "does not exist"
+        what = "is a folder" if target.is_dir() else "is not a regular file" \
+            if target.exists() else "does not exist"
         raise ScenarioError(Problem(given.where, f"component '{name}' (kind: system) includes "
                                     f"'{shown}', which {what} (path '{given.value}' is relative "
                                     f"to the including file's folder, {base_dir}).",
