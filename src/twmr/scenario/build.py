@@ -183,10 +183,11 @@ class _Builder:
         except KeyError:
             self.problems.append(Problem(
                 spec.kind.where, f"component '{name}': unknown kind "
-                f"'{kind}'{suggest(kind, list(kinds()))}.",
+                f"'{kind}'{suggest(kind, [*kinds(), 'system'])}.",
                 f"use one of: {', '.join(sorted(kinds()))} (`twmr components` lists them), or "
                 f"a class of your own: 'my_block.py:MyBlock' (a file next to the scenario) or "
-                f"'package.module:MyBlock'."))
+                f"'package.module:MyBlock', or 'system' with 'parameters: {{path: file.yaml}}' "
+                f"(another scenario file as a block, docs/systems.md)."))
             return None
         except ImportError as err:
             self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
