@@ -302,3 +302,13 @@ def test_one_file_used_twice_and_from_a_dict_gives_two_independent_blocks(tmp_pa
     result = twmr.simulate(twmr.load(spec, ["b.g.k=-1"]))
     assert result.data.dtype.names == ("time", "a.g.y", "b.g.y")
     assert np.all(column(result, "a.g.y") == 6.0) and np.all(column(result, "b.g.y") == -6.0)
+
+
+def test_a_format_error_in_the_inner_file_says_where_it_was_included(tmp_path: Path) -> None:
+    write(tmp_path, amp_yaml=AMP.replace("{kind: gain,", "{kind: gain, paramters: {},"),
+          top_yaml=TOP)
+    with pytest.raises(ScenarioError) as err:
+        twmr.load(tmp_path / "top.yaml")
+    text = str(err.value)
+    assert text.startswith(f"{tmp_path / 'amp.yaml'}:7 (components.g.paramters)")
+    assert f"(included as 'amp' at {tmp_path / 'top.yaml'}:3). Fix:" in text

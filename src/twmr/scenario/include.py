@@ -58,6 +58,10 @@ def subsystem(name: str, parameters: dict[str, Given[Any]], initial: dict[str, G
                         (target, given.where)))
     try:
         inner = load_structure(Path(shown))
+    except ScenarioError as err:  # which inclusion read it: the same file may be included twice
+        at = f"{given.where.file}:{given.where.line}"
+        raise type(err)([Problem(p.location, f"{p.message.rstrip('.')} (included as '{name}' "
+                                 f"at {at}).", p.hint) for p in err.problems]) from None
     finally:
         _CHAIN.reset(token)
     problems: list[Problem] = []
