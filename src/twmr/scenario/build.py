@@ -278,16 +278,15 @@ class _Builder:
                                      f"{var.kind}, not an {kind}.",
                                      f"expose it under '{other}:', or name an {kind} here."))
             elif var is not None and ex.via.exposure.unit is not None:
-                found += self.exposed_units(ex, var)
+                found += self.exposed_units(ex, var, ex.via.exposure.unit)
             for p in found:
                 self.problems.append(Problem(p.location, f"{what}: {p.message}", p.hint))
             if found:
                 self.broken.add(id(ex.via.exposure))
 
-    def exposed_units(self, ex: Exposed, var: Any) -> list[Problem]:
-        """The problems of an exposed port's declared unit(s) against the inner port's."""
-        unit = ex.via.exposure.unit
-        assert unit is not None
+    def exposed_units(self, ex: Exposed, var: Any, unit: Given[Any]) -> list[Problem]:
+        """The problems of an exposed port's declared `unit` (one, or one per element) against
+        the inner port's."""
         where = unit.where
         elements = ex.end.index if ex.end.index is not None else tuple(range(var.width))
         if isinstance(unit.value, list) and len(unit.value) != len(elements):

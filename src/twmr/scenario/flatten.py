@@ -98,11 +98,10 @@ def flatten(spec: ScenarioSpec) -> Flat:
     """The flat structure of `spec`, with what the builder checks and reports."""
     out = _Flat()
     _into(spec, "", 1, out)
-    for side, ports in (("dst", spec.inputs), ("src", spec.outputs)):
-        for name, ex in ports.items():
-            found = _exposure(spec, "", name, ex, side, out)  # type: ignore[arg-type]
-            if found is not None and side == "dst":
-                out.open.append(Given(f"{found.end.comp}.{found.end.port}", ex.where))
+    for side, name, ex in _exposures(spec):  # the file runs on its own: its inputs are open
+        found = _exposure(spec, "", name, ex, side, out)
+        if found is not None and side == "dst":
+            out.open.append(Given(f"{found.end.comp}.{found.end.port}", ex.where))
     record = spec.record
     if record.signals is not None:
         record = dataclasses.replace(record, signals=tuple(
@@ -125,10 +124,8 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
                                                            step_multiple=step)
             continue
         _into(comp.system, f"{prefix}{name}.", int(step.value), out)
-        for side, ports in (("dst", comp.system.inputs), ("src", comp.system.outputs)):
-            for port, ex in ports.items():
-                _exposure(comp.system, f"{prefix}{name}.", port, ex, side,  # type: ignore[arg-type]
-                          out)
+        for side, port, ex in _exposures(comp.system):
+            _exposure(comp.system, f"{prefix}{name}.", port, ex, side, out)
     for given in spec.connections:
         left, _, right = str(given.value).partition("->")
         try:
@@ -170,6 +167,12 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
                     f"{ex.port.value}, {ex.where}) is not connected.",
                     f"wire an output to it ('x.y -> {name}.{port}'), or list '{name}.{port}' "
                     f"under 'open:' to keep the start value of {ex.port.value}."))
+
+
+def _exposures(spec: ScenarioSpec) -> list[tuple[Side, str, Exposure]]:
+    """(side, name, exposure) of every port `spec` exposes: inputs are wires' destinations."""
+    return [*(("dst", n, e) for n, e in spec.inputs.items()),
+            *(("src", n, e) for n, e in spec.outputs.items())]
 
 
 def _exposure(spec: ScenarioSpec, prefix: str, name: str, ex: Exposure, side: Side,
