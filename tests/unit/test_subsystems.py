@@ -312,3 +312,34 @@ def test_a_format_error_in_the_inner_file_says_where_it_was_included(tmp_path: P
     text = str(err.value)
     assert text.startswith(f"{tmp_path / 'amp.yaml'}:7 (components.g.paramters)")
     assert f"(included as 'amp' at {tmp_path / 'top.yaml'}:3). Fix:" in text
+
+
+def test_exposed_ports_select_elements_and_wires_select_from_them(tmp_path: Path) -> None:
+    sub = """\
+outputs:
+  y: ref.position[2]                                  # y_T = sin(0.5 t) + 0.5 t + 1
+  position: {port: ref.position, unit: [mm, cm]}
+components:
+  ref: {kind: trajectory, parameters: {shape: paper1}}
+"""
+    top = """\
+components:
+  s: {kind: system, parameters: {path: sub.yaml}}
+  a: {kind: gain}
+  b: {kind: gain}
+connections:
+  - s.y -> a.u
+  - s.position[2] -> b.u
+experiment: {stop: 0.5, step: 0.01}
+record: {signals: [a.u, b.u]}
+"""
+    write(tmp_path, sub_yaml=sub, top_yaml=top)
+    result = twmr.simulate(twmr.load(tmp_path / "top.yaml"))
+    t = column(result, "time")
+    np.testing.assert_allclose(column(result, "a.u"), np.sin(0.5 * t) + 0.5 * t + 1, rtol=1e-12)
+    np.testing.assert_allclose(column(result, "b.u"), 100 * column(result, "a.u"), rtol=1e-12)
+    write(tmp_path, top_yaml=top.replace("s.position[2]", "s.y[2]"))
+    with pytest.raises(ScenarioError, match=r"top\.yaml:7 .*'s\.y\[2\]' selects element 2 but "
+                                            r"the exposed output 's\.y' \(ref\.position\[2\]\) "
+                                            r"has 1"):
+        twmr.load(tmp_path / "top.yaml")
