@@ -126,11 +126,16 @@ def cmd_check(args: argparse.Namespace) -> int:
     from twmr.api import load
     from twmr.fmi.guard import isolation_advice
     from twmr.master.algorithm import algorithm_for
-    from twmr.scenario.listing import describe
+    from twmr.scenario.flatten import has_subsystems
+    from twmr.scenario.listing import describe, tree
 
-    system = load(Path(args.scenario), args.set).system
+    scenario = load(Path(args.scenario), args.set)
+    system = scenario.system
     algorithm = algorithm_for(system)
     print(describe(system))
+    if has_subsystems(scenario.spec):
+        print("tree (subsystems and the ports they expose):")
+        print("\n".join(tree(scenario.spec)))
     for advice in isolation_advice(system.components):
         log.warning("warning: %s", advice)
     if args.schedule:

@@ -28,7 +28,8 @@ from twmr.core.errors import (
 from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
-from twmr.scenario.graph import describe_cycle, order, parse_end, wire
+from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
+from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
@@ -41,7 +42,7 @@ __all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schem
 MAX_STEPS = 1e9
 _NOUNS = {"Real": ("a number", "numbers"), "Integer": ("an integer", "integers"),
           "Boolean": ("true or false", "booleans")}
-_NAMED = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)")  # the port a wire's end names
+_NAMED = re.compile(r"^\s*([A-Za-z_][\w.]*)\.([A-Za-z_]\w*)")  # the port a wire's end names
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
 
 
@@ -71,9 +72,10 @@ def scenario_spec(text: str | dict[str, Any] | ScenarioSpec, source: str = "<str
 
 
 def build_system(spec: ScenarioSpec) -> System:
-    """The System of a scenario's structure: components created and configured, wires checked,
-    order found. Raises a `CosimError` subclass listing every problem."""
-    return _guarded(spec.source, _Builder(spec).build)
+    """The System of a scenario's structure (subsystems flattened into blocks named by their
+    path, `twmr.scenario.flatten`): components created and configured, wires checked, order
+    found. Raises a `CosimError` subclass listing every problem."""
+    return _guarded(spec.source, lambda: _Builder(flatten(spec)).build())
 
 
 def _guarded(source: str, make: Any) -> Any:
@@ -93,10 +95,13 @@ def _guarded(source: str, make: Any) -> Any:
 
 
 class _Builder:
-    def __init__(self, spec: ScenarioSpec):
-        self.spec = spec
+    def __init__(self, flat: Flat):
+        self.spec = flat.spec
+        self.exposed = flat.exposed
+        self.flat_problems = flat.problems
         self.problems: list[Problem] = []
-        self.miswired: set[tuple[str, str]] = set()  # inputs of wires refused
+        self.miswired: set[tuple[str, str]] = set(flat.miswired)  # inputs of wires refused
+        self.broken: set[int] = set()  # ids of the exposures found wrong
 
     def fail_if_problems(self, kind: type[ScenarioError] = ScenarioError) -> None:
         if self.problems:
@@ -107,6 +112,8 @@ class _Builder:
         comps = self.components()
         experiment = self.experiment()
         self.fail_if_problems()
+        self.problems += self.flat_problems
+        self.check_exposed(comps)
         conns = self.connections(comps)
         self.check_drivers(comps, conns)
         self.fail_if_problems(WiringError)
@@ -176,10 +183,11 @@ class _Builder:
         except KeyError:
             self.problems.append(Problem(
                 spec.kind.where, f"component '{name}': unknown kind "
-                f"'{kind}'{suggest(kind, list(kinds()))}.",
+                f"'{kind}'{suggest(kind, [*kinds(), 'system'])}.",
                 f"use one of: {', '.join(sorted(kinds()))} (`twmr components` lists them), or "
                 f"a class of your own: 'my_block.py:MyBlock' (a file next to the scenario) or "
-                f"'package.module:MyBlock'."))
+                f"'package.module:MyBlock', or 'system' with 'parameters: {{path: file.yaml}}' "
+                f"(another scenario file as a block, docs/systems.md)."))
             return None
         except ImportError as err:
             self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
@@ -224,6 +232,13 @@ class _Builder:
     def experiment(self) -> Experiment:
         e = self.spec.experiment
         times = {"start": e.start, "stop": e.stop, "step": e.step}
+        if e.stop.value is None or e.step.value is None:
+            self.problems.append(Problem(e.where, f"{self.spec.source} has no 'experiment:' "
+                                         f"(it is a subsystem: it exposes ports), so it does not "
+                                         f"run on its own.", "include it from a scenario with "
+                                         "'kind: system', or give it 'experiment: {stop: ..., "
+                                         "step: ...}'."))
+            return Experiment()
         start, stop, step = (float(g.value) for g in times.values())
         bad = [k for k, v in (("start", start), ("stop", stop), ("step", step))
                if not math.isfinite(v)]
@@ -257,6 +272,53 @@ class _Builder:
                                          f"'twmr.algorithms' entry points)."))
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value)
 
+    def check_exposed(self, comps: dict[str, Component]) -> None:
+        """Every exposed port names an inner port of its side, with a declared unit that
+        converts to the inner port's (one per element when a list)."""
+        for ex in self.exposed:
+            where, kind = ex.via.exposure.port.where, "input" if ex.side == "dst" else "output"
+            what = f"exposed {kind} '{ex.via.path}' ({ex.via.exposure.port.value})"
+            found: list[Problem] = []
+            var = find_port(comps, ex.end, where, found)
+            if var is not None and (var.kind == "input") != (kind == "input"):
+                other = "outputs" if kind == "input" else "inputs"
+                found.append(Problem(where, f"'{ex.end.text}' is {_article(var.kind)} "
+                                     f"{var.kind}, not an {kind}.",
+                                     f"expose it under '{other}:', or name an {kind} here."))
+            elif var is not None and ex.via.exposure.unit is not None:
+                found += self.exposed_units(ex, var, ex.via.exposure.unit)
+            for p in found:
+                self.problems.append(Problem(p.location, f"{what}: {p.message}", p.hint))
+            if found:
+                self.broken.add(id(ex.via.exposure))
+
+    def exposed_units(self, ex: Exposed, var: Any, unit: Given[Any]) -> list[Problem]:
+        """The problems of an exposed port's declared `unit` (one, or one per element) against
+        the inner port's."""
+        where = unit.where
+        elements = ex.end.index if ex.end.index is not None else tuple(range(var.width))
+        if isinstance(unit.value, list) and len(unit.value) != len(elements):
+            return [Problem(where, f"{len(unit.value)} unit(s) declared for "
+                            f"{len(elements)} element(s) of '{ex.end.text}'.",
+                            f"give one unit for all, or a list of {len(elements)}.")]
+        problems: list[Problem] = []
+        for k, i in enumerate(elements):
+            inner, outer = var.element_unit(i), ex.via.unit(k)
+            if not inner or inner == outer:
+                continue
+            a, b = known_unit(outer), known_unit(inner, var.unit_definitions)
+            try:
+                if a is None or b is None:
+                    raise UnitError(outer)
+                conversion(a, b)
+            except UnitError:
+                problems.append(Problem(where, f"declared unit '{outer}' (element {k + 1}) "
+                                        f"cannot be converted to '{inner}' of "
+                                        f"'{ex.end.text}'.", f"declare '{inner}' or a unit of "
+                                        f"the same quantity."))
+                break
+        return problems
+
     def connections(self, comps: dict[str, Component]) -> list[Connection]:
         conns: list[Connection] = []
         for given in self.spec.connections:
@@ -273,7 +335,12 @@ class _Builder:
                 if named:  # reported; its input is not reported again as unconnected
                     self.miswired.add((named.group(1), named.group(2)))
                 continue
-            made = wire(comps, src, dst, loc, self.problems)
+            src_via, dst_via = (given.src_via, given.dst_via) if isinstance(given, Wire) \
+                else ((), ())
+            if any(id(v.exposure) in self.broken for v in (*src_via, *dst_via)):
+                self.miswired.add((dst.comp, dst.port))  # reported where it is exposed
+                continue
+            made = wire(comps, src, dst, loc, self.problems, src_via, dst_via)
             if not made:  # reported; its input is not reported again as unconnected
                 self.miswired.add((dst.comp, dst.port))
             conns += made
@@ -295,7 +362,7 @@ class _Builder:
         opened: set[tuple[str, str]] = set()
         for given in self.spec.open:
             text = str(given.value)
-            owner, _, port = text.partition(".")
+            owner, _, port = text.rpartition(".")
             var = comps[owner].variables.get(port) if owner in comps else None
             if var is None or var.kind != "input":
                 inputs = list(comps[owner].inputs) if owner in comps else []
@@ -363,6 +430,10 @@ def _quantity(value: Any, var: Any, index: int) -> Any:
                          f"converted to; give a plain number")
     gain, offset = conversion(m.group(2), unit)
     return float(m.group(1)) * gain + offset
+
+
+def _article(word: str) -> str:
+    return "an" if word[0] in "aeiou" else "a"
 
 
 def _file_of(cls: type) -> Path | None:
