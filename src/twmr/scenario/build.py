@@ -41,7 +41,7 @@ __all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schem
 MAX_STEPS = 1e9
 _NOUNS = {"Real": ("a number", "numbers"), "Integer": ("an integer", "integers"),
           "Boolean": ("true or false", "booleans")}
-_NAMED = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)")  # the port a wire's end names
+_NAMED = re.compile(r"^\s*([A-Za-z_][\w.]*)\.([A-Za-z_]\w*)")  # the port a wire's end names
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
 
 
@@ -287,7 +287,7 @@ class _Builder:
         opened: set[tuple[str, str]] = set()
         for given in self.spec.open:
             text = str(given.value)
-            owner, _, port = text.partition(".")
+            owner, _, port = text.rpartition(".")
             var = comps[owner].variables.get(port) if owner in comps else None
             if var is None or var.kind != "input":
                 inputs = list(comps[owner].inputs) if owner in comps else []

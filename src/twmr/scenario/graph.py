@@ -27,7 +27,8 @@ log = logging.getLogger("twmr")
 
 #: the most elements one end of a wire may select
 MAX_SELECTED = 1_000_000
-_END = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_][\w]*)\s*(\[\s*([0-9:,\s]+)\s*\])?\s*$")
+#: 'comp.port[sel]'; an instance name may be dotted ('sub.comp', an SSP nested system)
+_END = re.compile(r"^\s*([A-Za-z_][\w.]*)\.([A-Za-z_][\w]*)\s*(\[\s*([0-9:,\s]+)\s*\])?\s*$")
 
 
 @dataclass(frozen=True)

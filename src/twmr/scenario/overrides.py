@@ -53,7 +53,7 @@ def _parse(text: str, key: str, value: str, loc: Location, problems: list[Proble
 def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSpec:
     loc = Location("--set", 0, text)
     key, sep, value = text.partition("=")
-    comp, dot, name = key.strip().partition(".")
+    comp, dot, name = _split(spec, key.strip())
     if not sep or not dot or not name:
         problems.append(Problem(loc, f"cannot read the override '{text}'.", _FORM))
         return spec
@@ -90,6 +90,16 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
     else:
         changed = _set_value(spec, target, name, Given(parsed, loc))
     return dataclasses.replace(spec, components={**spec.components, comp: changed})
+
+
+def _split(spec: ScenarioSpec, key: str) -> tuple[str, str, str]:
+    """(component, '.', name) of 'comp.name'; a dotted instance name ('sub.comp.k', an SSP
+    nested system) is the longest one the scenario has."""
+    parts = key.split(".")
+    for i in range(len(parts) - 1, 1, -1):
+        if ".".join(parts[:i]) in spec.components:
+            return ".".join(parts[:i]), ".", ".".join(parts[i:])
+    return key.partition(".")
 
 
 def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
