@@ -461,6 +461,13 @@ class _Reader:
                 continue
             for edge in edges:
                 self.wire(end, edge, comps, conns, opened)
+        driven = {g.value.split("->")[1].strip().split("[")[0] for g in conns}
+        for fmu in self.fmus.values():  # an unconnected input keeps its start value (SSP)
+            for port, var in fmu.variables.items():
+                text = f"{fmu.name}.{port}"
+                if var.kind == "input" and text not in driven and \
+                        text not in {g.value for g in opened}:
+                    opened.append(Given(text, fmu.where))
         return comps, conns, opened
 
     def put(self, fmu: _Fmu, port: str, value: Any, where: Location,

@@ -1,0 +1,106 @@
+"""SSP import: systems written by hand after the SSP standard's examples and by OMSimulator,
+with our blocks' standalone C FMUs, run to analytic answers (SSP 1.0 and 2.0, .ssp zip and
+unpacked folder, nested systems, linear transformations, .ssv bindings, .ssm mappings, units)."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twmr
+from tests.ssp_build import FIXTURES, fmus, linear_ssd, package, values_ssv, zipped
+from twmr.cli import main
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    return fmus(tmp_path_factory.mktemp("fmus"))
+
+
+@pytest.fixture(autouse=True)
+def cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(folder))
+    return folder
+
+
+def rows(source: Path | str, overrides: tuple[str, ...] = ("experiment.step=0.01",)) -> dict:
+    df = twmr.simulate(twmr.load(source, list(overrides))).to_pandas()
+    return {c: df[c].to_numpy() for c in df.columns}
+
+
+@pytest.mark.parametrize("version", ["1.0", "2.0"])
+@pytest.mark.parametrize("form", ["ssp", "folder"])
+def test_linear_transformation_and_ssv_binding_give_the_analytic_ramp(
+        built, tmp_path, cache, version, form) -> None:
+    """source.value = 2 (.ssv), u = 3 y + 1 on the wire, integ.k = 0.5 (.ssv) inside the nested
+    system `sub`: y(t) = k (3 c + 1) t = 3.5 t, which forward Euler integrates exactly."""
+    folder = package(tmp_path / "pkg", linear_ssd(version), built, values_ssv(version=version))
+    source = zipped(folder, tmp_path / "linear.ssp") if form == "ssp" else folder
+    got = rows(source)
+    np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)
+    assert got["time"][-1] == pytest.approx(2.0)  # DefaultExperiment stopTime
+    if form == "ssp":  # unpacked into the cache folder, nowhere else
+        assert (next(cache.glob("ssp/*")) / "resources" / "values.ssv").is_file()
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["cache", "linear.ssp", "pkg"]
+
+
+def test_units_declared_on_connectors_are_converted(built, tmp_path) -> None:
+    """The source's connector is in cm, the integrator's in m (the FMUs declare none). The
+    standard converts the units before the linear transformation: u = 3 * (0.01 * 2) + 1 =
+    1.06, so y(t) = 0.5 * 1.06 t."""
+    folder = package(tmp_path / "pkg", linear_ssd(units=("cm", "m")), built)
+    got = rows(folder)
+    np.testing.assert_allclose(got["sub.integ.y"], 0.53 * got["time"], rtol=1e-12, atol=1e-15)
+
+
+def test_a_parameter_of_a_nested_component_is_set_from_outside(built, tmp_path) -> None:
+    folder = package(tmp_path / "pkg", linear_ssd(), built)
+    got = rows(folder, ("experiment.step=0.01", "sub.integ.k=2"))
+    np.testing.assert_allclose(got["sub.integ.y"], 14.0 * got["time"], rtol=0, atol=1e-12)
+
+
+def test_the_step_comes_from_an_annotation(built, tmp_path) -> None:
+    note = ('  <ssd:Annotations><ssc:Annotation type="org.openmodelica"><oms:FixedStepMaster '
+            'xmlns:oms="urn:oms" stepSize="0.25"/></ssc:Annotation></ssd:Annotations>\n')
+    ssd = linear_ssd().replace('stopTime="2"/>',
+                               f'stopTime="2">\n{note}  </ssd:DefaultExperiment>')
+    folder = package(tmp_path / "pkg", ssd, built)
+    scenario = twmr.load(folder)
+    assert scenario.system.experiment.step == 0.25
+    assert scenario.system.experiment.n_steps == 8
+
+
+def test_an_omsimulator_file_with_a_parameter_mapping_runs(built, tmp_path) -> None:
+    """OMSimulator's LinearTransformation3 system (tests/fixtures/ssp/README.md): the .ssv
+    names mapped_Gain_u / mapped_Gain_k, the .ssm maps them to Gain1.u and Gain1.k; Add1.u2 is
+    left unconnected (its start value 0). Add1.y = k1 * (k * u) + k2 * 0 = 1 * 2 * 2 = 4."""
+    folder = tmp_path / "oms"
+    shutil.copytree(FIXTURES / "omsimulator_linear3", folder)
+    shutil.copy(built["gain"], folder / "resources" / "Gain.fmu")
+    shutil.copy(built["sum"], folder / "resources" / "Add.fmu")
+    got = rows(zipped(folder, tmp_path / "oms.ssp"), ())
+    assert got["Add1.y"][-1] == 4.0 and got["Gain1.y"][0] == 4.0
+    assert got["time"][-1] == pytest.approx(1.0)
+
+
+def test_an_fmu_beside_the_archive_is_found(built, tmp_path) -> None:
+    folder = package(tmp_path / "pkg", linear_ssd(), built, fmus_=("constant",))
+    (tmp_path / "beside" / "resources").mkdir(parents=True)
+    archive = zipped(folder, tmp_path / "beside" / "x.ssp")
+    shutil.copy(built["integrator"], tmp_path / "beside" / "resources" / "integrator.fmu")
+    got = rows(archive)
+    np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)
+
+
+def test_cli_check_and_run_an_ssp(built, tmp_path, capsys) -> None:
+    archive = zipped(package(tmp_path / "pkg", linear_ssd("2.0"), built), tmp_path / "l.ssp")
+    assert main(["check", str(archive)]) == 0
+    shown = capsys.readouterr().out
+    assert "sub.integ: FmuComponent" in shown and "OK: the scenario is valid." in shown
+    assert main(["run", str(archive), "--out", str(tmp_path / "out"), "--quiet",
+                 "--set", "experiment.step=0.5"]) == 0
+    data = twmr.read_result(tmp_path / "out").to_pandas()
+    assert list(data["sub.integ.y"]) == [0.0, 1.75, 3.5, 5.25, 7.0]
