@@ -14,6 +14,7 @@ import shutil
 import stat
 import tempfile
 import zipfile
+import zlib
 from pathlib import Path, PurePosixPath
 
 from twmr.core.errors import Location, Problem, ScenarioError
@@ -49,10 +50,13 @@ def unpacked(archive: Path) -> Path:
     target.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".partial-", dir=target.parent))
     try:
-        with zipfile.ZipFile(archive) as z:
-            members = _checked(z, source)
-            for info, rel in members:
-                _extract(z, info, work / rel, source)
+        try:
+            with zipfile.ZipFile(archive) as z:
+                for info, rel in _checked(z, source):
+                    _extract(z, info, work / rel, source)
+        except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as err:
+            raise _refused(source, f"it is damaged or uses a feature zipfile cannot read "
+                           f"({err})", "repack the archive (plain zip, deflate).") from None
         _verify(work, source)
         (work / ".complete").write_text(source + "\n")
         try:

@@ -109,6 +109,7 @@ class _Reader:
         self.units: dict[str, Unit] = {}
         self.enums: dict[str, dict[str, int]] = {}
         self.reading: list[Path] = []
+        self.refused: set[Path_] = set()  # elements refused (their connections are not checked)
 
     def fail_if_problems(self) -> None:
         if self.problems:
@@ -190,11 +191,15 @@ class _Reader:
                             "its own.")
                 continue
             kind = tag(child)
+            self.refused.add(sub)
             if kind == "ssd:System":
+                self.refused.discard(sub)
                 self.system(child, source, sub, base)
                 self.bindings(child, source, sub, base)
             elif kind == "ssd:Component":
                 self.component(child, source, sub, base, where)
+                if sub in self.fmus or sub in self.systems:
+                    self.refused.discard(sub)
             else:
                 self.refuse(where, f"{kind} elements are not supported", "replace it by an FMU "
                             "component or a nested system.")
@@ -273,6 +278,8 @@ class _Reader:
         text = " -> ".join(".".join((*p[len(path):], c)) for p, c in ends)
         where = at(source, elem, f"ssd:Connection {text}")
         for end_path, connector in ends:
+            if end_path in self.refused:
+                return
             if end_path not in self.fmus and end_path not in self.systems:
                 self.refuse(where, f"no element '{end_path[-1]}' in the system"
                             f" '{'.'.join(path) or '(top)'}'",
@@ -346,6 +353,9 @@ class _Reader:
             if sub in self.systems and rest in self.systems[sub]:
                 self.system_values[(sub, rest)] = value
                 return
+        if any(target.startswith(".".join(p[len(path):]) + ".") for p in self.refused
+               if p[:len(path)] == path):
+            return
         log.warning("warning: %s: the parameter '%s' names no component or connector of the "
                     "system '%s'; it is ignored (as the SSP standard says).", value.where,
                     target, ".".join(path) or "(top)")
