@@ -104,3 +104,11 @@ def test_cli_check_and_run_an_ssp(built, tmp_path, capsys) -> None:
                  "--set", "experiment.step=0.5"]) == 0
     data = twmr.read_result(tmp_path / "out").to_pandas()
     assert list(data["sub.integ.y"]) == [0.0, 1.75, 3.5, 5.25, 7.0]
+
+
+def test_cli_inspect_shows_where_each_value_came_from(built, tmp_path, capsys) -> None:
+    folder = package(tmp_path / "pkg", linear_ssd(), built)
+    assert main(["inspect", str(folder)]) == 0
+    shown = capsys.readouterr().out
+    assert "sub.integ_u_ssp: transformation (Real -> Real), y = 3 * u + 1" in shown
+    assert "k = 0.5  (" in shown and "values.ssv:6" in shown
