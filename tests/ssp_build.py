@@ -102,3 +102,79 @@ def zipped(folder: Path, archive: Path) -> Path:
             if path.is_file():
                 z.write(path, path.relative_to(folder).as_posix())
     return archive
+
+
+def pyssp_package(folder: Path, built: dict[str, Path]) -> Path:
+    """src (constant) -> amp (gain) -> acc (integrator), src.value = 1.5 and amp.k = 4 in an
+    .ssv, written with the pyssp-standard package (PyPI), FMUs in resources/."""
+    from pyssp_standard.common_content_ssc import TypeReal
+    from pyssp_standard.ssd import (
+        SSD,
+        Component,
+        Connection,
+        Connector,
+        DefaultExperiment,
+        ParameterBinding,
+        System,
+    )
+    from pyssp_standard.ssv import SSV
+
+    (folder / "resources").mkdir(parents=True, exist_ok=True)
+    for name in ("constant", "gain", "integrator"):
+        (folder / "resources" / f"{name}.fmu").write_bytes(built[name].read_bytes())
+
+    def component(name: str, fmu: str, connectors: list[tuple[str, str]]) -> Component:
+        c = Component()
+        c.name, c.source = name, f"resources/{fmu}.fmu"
+        c.component_type, c.implementation = "application/x-fmu-sharedlibrary", "CoSimulation"
+        c.connectors = [Connector(name=n, kind=k, type_=TypeReal(None)) for n, k in connectors]
+        return c
+
+    with SSV(folder / "resources" / "params.ssv", "w") as ssv:
+        ssv.add_parameter("src.value", "Real", value=1.5, unit="1")
+        ssv.add_parameter("amp.k", "Real", value=4.0, unit="1")
+    with SSD(folder / "SystemStructure.ssd", "w") as ssd:
+        ssd.name, ssd.version = "pyssp", "1.0"
+        system = System(name="top")
+        system.elements = [
+            component("src", "constant", [("y", "output"), ("value", "parameter")]),
+            component("amp", "gain", [("u", "input"), ("y", "output"), ("k", "parameter")]),
+            component("acc", "integrator", [("u", "input"), ("y", "output")])]
+        system.connections = [
+            Connection(start_element="src", start_connector="y", end_element="amp",
+                       end_connector="u"),
+            Connection(start_element="amp", start_connector="y", end_element="acc",
+                       end_connector="u")]
+        system.parameter_bindings = [ParameterBinding(source="resources/params.ssv")]
+        ssd.system = system
+        experiment = DefaultExperiment()
+        experiment.start_time, experiment.stop_time = 0.0, 1.0
+        ssd.default_experiment = experiment
+    return folder
+
+
+MAPPINGS = HEAD.format(version="2.0") + """\
+  <ssd:System name="top">
+    <ssd:Elements>
+      <ssd:Component name="a" source="resources/mixed2.fmu"/>
+      <ssd:Component name="b" source="resources/mixed2.fmu"/>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="a" startConnector="i1o" endElement="b" endConnector="i1">
+        <ssc:IntegerMappingTransformation>
+          <ssc:MapEntry source="4" target="10"/>
+        </ssc:IntegerMappingTransformation>
+      </ssd:Connection>
+      <ssd:Connection startElement="a" startConnector="b1o" endElement="b" endConnector="b1">
+        <ssc:BooleanMappingTransformation>
+          <ssc:MapEntry source="true" target="false"/>
+          <ssc:MapEntry source="false" target="true"/>
+        </ssc:BooleanMappingTransformation>
+      </ssd:Connection>
+      <ssd:Connection startElement="a" startConnector="r1o" endElement="b" endConnector="r1"
+          suppressUnitConversion="true"/>
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="0.01"/>
+</ssd:SystemStructureDescription>
+"""

@@ -10,7 +10,17 @@ import numpy as np
 import pytest
 
 import twmr
-from tests.ssp_build import FIXTURES, fmus, linear_ssd, package, values_ssv, zipped
+from tests.fmu_build import build_c_fmu
+from tests.ssp_build import (
+    FIXTURES,
+    MAPPINGS,
+    fmus,
+    linear_ssd,
+    package,
+    pyssp_package,
+    values_ssv,
+    zipped,
+)
 from twmr.cli import main
 
 
@@ -112,3 +122,24 @@ def test_cli_inspect_shows_where_each_value_came_from(built, tmp_path, capsys) -
     shown = capsys.readouterr().out
     assert "sub.integ_u_ssp: transformation (Real -> Real), y = 3 * u + 1" in shown
     assert "k = 0.5  (" in shown and "values.ssv:6" in shown
+
+
+def test_a_file_written_by_pyssp_standard_runs(built, tmp_path) -> None:
+    """acc.y(t) = k * value * t = 4 * 1.5 * t."""
+    pytest.importorskip("pyssp_standard", reason="pyssp-standard is in the [test] extra")
+    got = rows(pyssp_package(tmp_path / "pyssp", built))
+    np.testing.assert_allclose(got["acc.y"], 6.0 * got["time"], rtol=0, atol=1e-12)
+
+
+def test_integer_and_boolean_mappings_change_the_values_on_the_wire(tmp_path) -> None:
+    """mixed2 (tests/fmus/README.md): a.i1o = i1 + 1 = 4 maps to 10, so b.i1o = 11; a.b1o =
+    not false = true maps to false, so b.b1o = not false = true (unmapped it would be
+    false); a.r1o = 2 * 1.5 goes to b.r1 unconverted, so b.r1o = 6."""
+    folder = tmp_path / "maps"
+    (folder / "resources").mkdir(parents=True)
+    build_c_fmu("mixed2", folder / "resources")
+    (folder / "SystemStructure.ssd").write_text(MAPPINGS)
+    got = rows(folder, ("experiment.step=0.005",))
+    assert list(got["b.i1o"]) == [11, 11, 11]
+    assert list(got["b.b1o"]) == [True, True, True]
+    assert list(got["b.r1o"]) == [6.0, 6.0, 6.0]
