@@ -143,3 +143,40 @@ def test_integer_and_boolean_mappings_change_the_values_on_the_wire(tmp_path) ->
     assert list(got["b.i1o"]) == [11, 11, 11]
     assert list(got["b.b1o"]) == [True, True, True]
     assert list(got["b.r1o"]) == [6.0, 6.0, 6.0]
+
+
+def test_another_ssd_of_the_archive_and_a_nested_ssd_component(built, tmp_path) -> None:
+    """`X.ssp#variant.ssd` reads another .ssd of the archive; there a component whose source
+    is SystemStructure.ssd is the whole linear system nested as `inner`."""
+    folder = package(tmp_path / "pkg", linear_ssd(), built)
+    (folder / "variant.ssd").write_text(linear_ssd().split("<ssd:System ")[0] + """\
+  <ssd:System name="outer">
+    <ssd:Elements>
+      <ssd:Component name="inner" type="application/x-ssp-definition"
+          source="SystemStructure.ssd"/>
+    </ssd:Elements>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="1"/>
+</ssd:SystemStructureDescription>
+""")
+    got = rows(f"{zipped(folder, tmp_path / 'x.ssp')}#variant.ssd")
+    np.testing.assert_allclose(got["inner.sub.integ.y"], 3.5 * got["time"], rtol=0,
+                               atol=1e-12)
+    assert got["time"][-1] == pytest.approx(1.0)
+
+
+def test_a_system_parameter_reaches_the_component_it_is_connected_to(built, tmp_path) -> None:
+    """A parameter connector `gain` of the system `sub`, bound to 0.25 from the top, connected
+    (through a linear transformation x 2) to integ.k: y(t) = 0.5 * 7 t."""
+    sub_u = '<ssd:Connector name="u" kind="input"><ssc:Real/></ssd:Connector>\n'
+    ssd = linear_ssd().replace(
+        sub_u, sub_u + '          <ssd:Connector name="gain" kind="parameter"><ssc:Real/>'
+        '</ssd:Connector>\n', 1).replace(
+        '<ssd:Connection startConnector="u" endElement="integ" endConnector="u"/>',
+        '<ssd:Connection startConnector="u" endElement="integ" endConnector="u"/>\n'
+        '          <ssd:Connection startConnector="gain" endElement="integ" endConnector="k">'
+        '<ssc:LinearTransformation factor="2"/></ssd:Connection>')
+    ssv = values_ssv().replace('name="sub.integ.k"', 'name="sub.gain"').replace(
+        'value="0.5"', 'value="0.25"')
+    got = rows(package(tmp_path / "pkg", ssd, built, ssv))
+    np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)

@@ -174,6 +174,7 @@ class _Reader:
         system = root.find("ssd:System", NS)
         if system is not None:
             self.system(system, source, path, base)
+            self.bindings(system, source, path, base)
 
     def system(self, elem: Any, source: str, path: Path_, base: Path) -> None:
         self.systems[path] = self.connectors(elem, source)[0]
@@ -205,8 +206,6 @@ class _Reader:
                             "component or a nested system.")
         for conn in elem.iterfind("ssd:Connections/ssd:Connection", NS):
             self.connection(conn, source, path)
-        if path == ():
-            self.bindings(elem, source, path, base)
 
     def component(self, elem: Any, source: str, path: Path_, base: Path,
                   where: Location) -> None:
@@ -303,6 +302,10 @@ class _Reader:
         for b in elem.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
             where = at(source, b, "ssd:ParameterBinding")
             src = b.get("source")
+            if b.get("sourceBase") == "component":
+                self.refuse(where, "sourceBase='component' (a parameter file inside the FMU) is "
+                            "not supported", "put the .ssv in the package and drop sourceBase.")
+                continue
             if src:
                 root, set_source = self.xml(base / src.removeprefix("file:"), where)
             else:
