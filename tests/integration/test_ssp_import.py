@@ -180,3 +180,16 @@ def test_a_system_parameter_reaches_the_component_it_is_connected_to(built, tmp_
         'value="0.5"', 'value="0.25"')
     got = rows(package(tmp_path / "pkg", ssd, built, ssv))
     np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)
+
+
+def test_an_ssp_references_file_without_a_default_experiment_runs(tmp_path, caplog) -> None:
+    """pyssporg/ssp_references' Stair system with tests/fmus/stair2 as its Stair.fmu:
+    counter(t) = floor(t) + 1; no DefaultExperiment, so the stop is given with --set."""
+    folder = tmp_path / "stair"
+    shutil.copytree(FIXTURES / "ssp_references_stair", folder)
+    (folder / "resources").mkdir()
+    build_c_fmu("stair2", folder / "resources").rename(folder / "resources" / "Stair.fmu")
+    got = rows(zipped(folder, tmp_path / "stair.ssp"), ("experiment.stop=3",
+                                                        "experiment.step=0.5"))
+    assert list(got["fmu.counter"]) == [1, 1, 2, 2, 3, 3, 4]
+    assert "no stopTime" in caplog.text
