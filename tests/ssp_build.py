@@ -178,3 +178,23 @@ MAPPINGS = HEAD.format(version="2.0") + """\
   <ssd:DefaultExperiment startTime="0" stopTime="0.01"/>
 </ssd:SystemStructureDescription>
 """
+
+
+ENUMERATIONS = HEAD.format(version="2.0") + """\
+  <ssd:System name="top">
+    <ssd:Elements>
+      <ssd:Component name="a" source="resources/types3.fmu"/>
+      <ssd:Component name="b" source="resources/types3.fmu"/>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="a" startConnector="Enumeration_output" endElement="b"
+          endConnector="Enumeration_input">
+        <ssc:EnumerationMappingTransformation>
+          <ssc:MapEntry source="medium" target="high"/>
+        </ssc:EnumerationMappingTransformation>
+      </ssd:Connection>
+    </ssd:Connections>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="0.01"/>
+</ssd:SystemStructureDescription>
+"""

@@ -12,6 +12,7 @@ import pytest
 import twmr
 from tests.fmu_build import build_c_fmu
 from tests.ssp_build import (
+    ENUMERATIONS,
     FIXTURES,
     MAPPINGS,
     fmus,
@@ -193,3 +194,15 @@ def test_an_ssp_references_file_without_a_default_experiment_runs(tmp_path, capl
                                                         "experiment.step=0.5"))
     assert list(got["fmu.counter"]) == [1, 1, 2, 2, 3, 3, 4]
     assert "no stopTime" in caplog.text
+
+
+def test_an_enumeration_mapping_uses_the_fmus_item_names(tmp_path) -> None:
+    """types3 (FMI 3.0, tests/fmus/README.md): Enumeration_output = Enumeration_input, type
+    Level (low 1, medium 2, high 3), start 2. a gives medium, mapped to high: b's output 3."""
+    folder = tmp_path / "enums"
+    (folder / "resources").mkdir(parents=True)
+    build_c_fmu("types3", folder / "resources", fmi3=True)
+    (folder / "SystemStructure.ssd").write_text(ENUMERATIONS)
+    got = rows(folder, ("experiment.step=0.005",))
+    assert list(got["a.Enumeration_output"]) == [2, 2, 2]
+    assert list(got["b.Enumeration_output"]) == [3, 3, 3]

@@ -59,6 +59,8 @@ def unpacked(archive: Path) -> Path:
                            f"({err})", "repack the archive (plain zip, deflate).") from None
         _verify(work, source)
         (work / ".complete").write_text(source + "\n")
+        if target.exists() and not (target / ".complete").is_file():  # left by a killed run
+            shutil.rmtree(target, ignore_errors=True)
         try:
             work.rename(target)
         except OSError:  # another process unpacked it first

@@ -29,7 +29,7 @@ from twmr.fmi.ssp.archive import unpacked
 from twmr.fmi.ssp.common import Transformation, enumerations, transformation, units
 from twmr.fmi.ssp.params import Entry, Value, parameter_mapping, parameter_set
 from twmr.fmi.ssp.schema import validate
-from twmr.fmi.ssp.xmlsafe import NS, at, parse_xml, tag
+from twmr.fmi.ssp.xmlsafe import MAX_XML_BYTES, NS, at, parse_xml, tag
 from twmr.scenario.structure import (
     ComponentSpec,
     ExperimentSpec,
@@ -134,6 +134,11 @@ class _Reader:
             raise ScenarioError(Problem(where or Location(source), f"'{source}' is not in the "
                                         f"package.", "add the file, or correct the reference "
                                         "to it (paths are relative to the package's root)."))
+        if file.stat().st_size > MAX_XML_BYTES:
+            raise ScenarioError(Problem(where or Location(source), f"'{source}' is "
+                                        f"{file.stat().st_size:,} bytes, more than the "
+                                        f"{MAX_XML_BYTES:,} an SSP XML file may have.",
+                                        "check that the reference names the right file."))
         root = parse_xml(file.read_bytes(), source)
         validate(root, source)
         return root, source
@@ -559,6 +564,13 @@ class _Reader:
             (eff_s != eff_d and not (fsu and fdu) and (gain, offset) != (1.0, 0.0))
         if not needs_map:
             conns.append(Given(f"{texts[0]} -> {texts[1]}", where))
+            return
+        kinds = {svar.type, dvar.type}
+        if kinds - {"Real", "Integer", "Boolean"} or \
+                ("Boolean" in kinds and any(t.kind == "linear" for t in transforms)):
+            self.refuse(where, f"a transformation between {svar.type} and {dvar.type} "
+                        f"connectors", "transform Real and Integer values linearly, and map "
+                        "Boolean, Integer and enumeration values.")
             return
         if len(transforms) > 1 and any(t.kind != "linear" for t in transforms):
             self.refuse(where, "a mapping transformation is combined with another "
