@@ -157,3 +157,19 @@ def test_an_xxe_in_utf16_is_refused_by_the_parser_too() -> None:
     text = XXE.replace('version="1.0"?>', 'version="1.0" encoding="UTF-16"?>', 1)
     with pytest.raises(ScenarioError, match="DOCTYPE or ENTITY"):
         parse_xml(text.encode("utf-16"), "u16.ssd")
+
+
+@pytest.mark.parametrize(("change", "warning"), [
+    (('linear" version="1.0"', 'linear" version="Draft20180219"'), "is not one of the standard's"),
+    (('name="y" kind="output"><ssc:Real/></ssd:Connector>\n        </ssd:Connectors>\n'
+      '      </ssd:Component>', 'name="y" kind="output"><ssc:Real/></ssd:Connector>\n'
+      '          <ssd:Connector name="value" kind="structuralParameter"><ssc:Real/>'
+      '</ssd:Connector>\n        </ssd:Connectors>\n      </ssd:Component>'),
+     "uses SSP 2.0 content"),
+])
+def test_departures_other_tools_accept_are_warnings(built, tmp_path, change, warning) -> None:
+    ssd = linear_ssd().replace(*change, 1)
+    assert ssd != linear_ssd()
+    outcome = check(tmp_path, broken(tmp_path, built, ssd))
+    assert_ok(outcome)
+    assert warning in outcome.stderr and "SystemStructure.ssd" in outcome.stderr
