@@ -206,3 +206,38 @@ def test_an_enumeration_mapping_uses_the_fmus_item_names(tmp_path) -> None:
     got = rows(folder, ("experiment.step=0.005",))
     assert list(got["a.Enumeration_output"]) == [2, 2, 2]
     assert list(got["b.Enumeration_output"]) == [3, 3, 3]
+
+
+def test_inline_values_a_prefix_and_an_inline_mapping(built, tmp_path) -> None:
+    """The integrator's own binding holds an inline parameter set (gain = 0.5, mapped to k by
+    an inline ssm); the top's binding has prefix 'source.' over a set naming 'value' = 2.
+    y(t) = 0.5 (3 * 2 + 1) t."""
+    inline = """
+            <ssd:ParameterBindings>
+              <ssd:ParameterBinding>
+                <ssd:ParameterValues>
+                  <ssv:ParameterSet version="1.0" name="own"><ssv:Parameters>
+                    <ssv:Parameter name="gain"><ssv:Real value="0.5"/></ssv:Parameter>
+                  </ssv:Parameters></ssv:ParameterSet>
+                </ssd:ParameterValues>
+                <ssd:ParameterMapping>
+                  <ssm:ParameterMapping version="1.0">
+                    <ssm:MappingEntry source="gain" target="k"/>
+                  </ssm:ParameterMapping>
+                </ssd:ParameterMapping>
+              </ssd:ParameterBinding>
+            </ssd:ParameterBindings>"""
+    ssd = linear_ssd().replace(
+        'xmlns:ssv=', 'xmlns:ssm="http://ssp-standard.org/SSP1/SystemStructureParameterMapping"'
+        ' xmlns:ssv=', 1).replace(
+        '<ssd:ParameterBinding source="resources/values.ssv"/>',
+        '<ssd:ParameterBinding source="resources/values.ssv" prefix="source."/>').replace(
+        '<ssd:Connector name="y" kind="output"><ssc:Real/></ssd:Connector>\n'
+        '            </ssd:Connectors>',
+        '<ssd:Connector name="y" kind="output"><ssc:Real/></ssd:Connector>\n'
+        f'            </ssd:Connectors>{inline}')
+    assert "prefix" in ssd and "ssm:MappingEntry" in ssd
+    ssv = values_ssv().replace('name="source.value"', 'name="value"').replace(
+        '<ssv:Parameter name="sub.integ.k"><ssv:Real value="0.5"/></ssv:Parameter>', "")
+    got = rows(package(tmp_path / "pkg", ssd, built, ssv))
+    np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)

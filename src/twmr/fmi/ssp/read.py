@@ -383,6 +383,13 @@ class _Reader:
                 fmu.variables = ports_of(fmu.md)[1]
             except (CosimError, ValueError) as err:
                 self.problems.append(Problem(fmu.where, f"component '{fmu.name}': {err}"))
+                continue
+            for name, (kind, _, where) in fmu.connectors.items():
+                if self.variable(fmu, name)[0] is None:
+                    log.warning("warning: %s: the FMU of '%s' (%s) has no %s '%s' (or not one "
+                                "twmr can set or read); the connector is ignored unless a "
+                                "connection uses it.", where, fmu.name, fmu.path.name,
+                                kind or "variable", name)
 
     def typed(self, fmu: _Fmu, name: str, given: Given[Any]) -> tuple[str, Any] | None:
         """(port, value) of a bound value, converted to the FMU variable's unit; None after
