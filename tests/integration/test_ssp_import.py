@@ -241,3 +241,12 @@ def test_inline_values_a_prefix_and_an_inline_mapping(built, tmp_path) -> None:
         '<ssv:Parameter name="sub.integ.k"><ssv:Real value="0.5"/></ssv:Parameter>', "")
     got = rows(package(tmp_path / "pkg", ssd, built, ssv))
     np.testing.assert_allclose(got["sub.integ.y"], 3.5 * got["time"], rtol=0, atol=1e-12)
+
+
+def test_a_linear_transformation_runs_in_the_compiled_loop(built, tmp_path, monkeypatch) -> None:
+    monkeypatch.setenv("TWMR_COMPILED", "on")
+    folder = package(tmp_path / "pkg", linear_ssd(), built)
+    result = twmr.simulate(twmr.load(folder, ["experiment.step=0.01"]))
+    assert result.summary["pacing"]["algorithm.compiled"] is True
+    df = result.to_pandas()
+    np.testing.assert_allclose(df["sub.integ.y"], 3.5 * df["time"], rtol=0, atol=1e-12)

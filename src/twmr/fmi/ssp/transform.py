@@ -1,17 +1,33 @@
 """`SspMap`: the component an SSP connection transformation puts on its wire.
 
 One input `u`, one output `y` = f(u), direct feedthrough: `factor * u + offset` for a linear
-transformation (with the unit conversion between the connectors' units folded in), or a table for
-a boolean, integer or enumeration mapping (values the table does not list pass unchanged)."""
+transformation (with the unit conversion between the connectors' units folded in; its kernel,
+`linear_evaluate`, also runs in the compiled loop between Real ports), or a table for a boolean,
+integer or enumeration mapping (values the table does not list pass unchanged)."""
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 from twmr.core.component import Component
+from twmr.core.kernel import Kernel, kernel_function
 from twmr.core.port import Input, Output
 
 _ZERO = {"Real": 0.0, "Integer": 0, "Boolean": False}
+
+
+class LinearParams(NamedTuple):
+    """y = factor * u + offset."""
+
+    factor: float
+    offset: float
+
+
+@kernel_function
+def linear_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: LinearParams
+                    ) -> tuple[tuple, tuple]:
+    """y = factor u + offset (SSP LinearTransformation after the unit conversion)."""
+    return x, (p.factor * u[0] + p.offset,)
 
 
 class SspMap(Component):
@@ -31,16 +47,30 @@ class SspMap(Component):
         u.name, y.name = "u", "y"
         self.variables = {"u": u, "y": y}
         self.__dict__.update(u=u.start, y=y.start)
-        self.factor, self.offset = float(factor), float(offset)
+        self.params = LinearParams(float(factor), float(offset))
         self.table = {k: v for k, v in table}
-        self._cast = {"Real": float, "Integer": int, "Boolean": bool}[out_type]
+        casts: dict[str, Callable[[Any], Any]] = {"Real": float, "Integer": round,
+                                                  "Boolean": bool}
+        self._cast = casts[out_type]
+        self._linear = not self.table and in_type == out_type == "Real"
+
+    def kernel(self, h: float) -> Kernel | None:
+        """The linear map between Real ports; None for a table or other types."""
+        if not self._linear:
+            return None
+        return Kernel(params=self.params, evaluate=linear_evaluate)
 
     def initialize(self) -> None:
         self.evaluate(0.0)
+
+    def do_step(self, t: float, h: float) -> None:
+        """No state: `y` follows `u` in `evaluate`."""
 
     def evaluate(self, t: float) -> None:
         u = self.__dict__["u"]
         if self.table:
             self.__dict__["y"] = self._cast(self.table.get(u, u))
+        elif self._linear:
+            self.kernel_evaluate(t)
         else:
-            self.__dict__["y"] = self._cast(self.factor * u + self.offset)
+            self.__dict__["y"] = self._cast(linear_evaluate(t, (), (), (u,), self.params)[1][0])
