@@ -11,7 +11,13 @@ from pathlib import Path
 import pytest
 
 import twmr
-from tests.hostile.runner import assert_clean_error, assert_ok, assert_writes_only_under, run_cli
+from tests.hostile.runner import (
+    assert_clean_error,
+    assert_ok,
+    assert_writes_only_under,
+    result_family,
+    run_cli,
+)
 from tests.ssp_build import fmus, linear_ssd, package, values_ssv, zipped
 from twmr.core.errors import ScenarioError
 from twmr.fmi.ssp import archive
@@ -173,3 +179,15 @@ def test_departures_other_tools_accept_are_warnings(built, tmp_path, change, war
     outcome = check(tmp_path, broken(tmp_path, built, ssd))
     assert_ok(outcome)
     assert warning in outcome.stderr and "SystemStructure.ssd" in outcome.stderr
+
+
+def test_a_run_writes_only_its_results_and_the_unpacked_package(built, tmp_path) -> None:
+    archive = broken(tmp_path, built, linear_ssd())
+    cache = tmp_path / "cache"
+    env = {**__import__("os").environ, "TWMR_CACHE_DIR": str(cache)}
+    out = tmp_path / "results" / "x"
+    outcome = run_cli(["run", archive, "--out", out, "--quiet", "--set", "experiment.step=0.5"],
+                      tmp_path, timeout=180, env=env)
+    assert_ok(outcome)
+    assert_writes_only_under(outcome, [cache, *result_family(out)])
+    assert (out / "summary.json").is_file() and list(cache.glob("ssp/*/SystemStructure.ssd"))
