@@ -164,10 +164,11 @@ class _Reader:
         experiment = self.experiment(root, source)
         self.fail_if_problems()
         top = at(source, root)
-        return ScenarioSpec(source, self.root, comps, tuple(conns), tuple(opened), experiment,
-                            RecordingSpec(None, Given(1, top), top),
-                            root.get("description") or root.get("name") or "",
-                            {"components": top, "connections": top})
+        return ScenarioSpec(source=source, base_dir=self.root, components=comps,
+                            connections=tuple(conns), open=tuple(opened), experiment=experiment,
+                            record=RecordingSpec(None, Given(1, top), top),
+                            description=root.get("description") or root.get("name") or "",
+                            sections={"components": top, "connections": top})
 
     def description(self, root: Any, source: str, path: Path_, base: Path) -> None:
         """Read one .ssd: its units, enumerations and its system at `path`."""
@@ -416,7 +417,7 @@ class _Reader:
             return None
         v = value.value
         if value.type == "Enumeration":
-            items = self.items(fmu, name, "")
+            items = self.items(fmu, name)
             if v not in items:
                 self.problems.append(Problem(value.where, f"'{v}' is not an item of the "
                                              f"enumeration of '{fmu.name}.{name}'",
@@ -453,9 +454,9 @@ class _Reader:
                 return var, i
         return None, None
 
-    def items(self, fmu: _Fmu, connector: str, fallback: str) -> dict[str, int]:
+    def items(self, fmu: _Fmu, connector: str) -> dict[str, int]:
         """An enumeration connector's items: the SSD's ssc:Enumeration, else the FMU's type."""
-        name = fmu.enum_types.get(connector, fallback)
+        name = fmu.enum_types.get(connector, "")
         if name in self.enums:
             return self.enums[name]
         base = _CONNECTOR.match(connector)
@@ -605,7 +606,7 @@ class _Reader:
 
     def enum_table(self, t: Transformation, src: _Fmu, sconn: str, dst: _Fmu,
                    dconn: str) -> tuple[tuple[int, int], ...]:
-        a, b = self.items(src, sconn, ""), self.items(dst, dconn, "")
+        a, b = self.items(src, sconn), self.items(dst, dconn)
         rows = []
         for s, d in t.table:
             if s not in a or d not in b:
