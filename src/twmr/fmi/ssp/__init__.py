@@ -6,7 +6,8 @@ systems flattened into dotted names `sub.comp`), connections with their transfor
 parameter bindings (`.ssv`, `.ssm`, inline), units and the `DefaultExperiment`. Modules:
 `xmlsafe` (hostile XML), `schema` (the standard's XSDs), `archive` (safe extraction),
 `params` (parameter sets and mappings), `transform` (the component a transformation puts on a
-wire), `read` (the system structure)."""
+wire), `read` (the system structure), `flatten` (its FMUs and wires), `listing`
+(`twmr inspect`)."""
 from __future__ import annotations
 
 from twmr.fmi.ssp.read import load_ssp

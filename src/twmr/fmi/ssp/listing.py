@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from twmr.fmi.ssp.read import MAP_KIND
+from twmr.fmi.ssp.flatten import MAP_KIND
 from twmr.scenario.structure import ScenarioSpec
 
 
