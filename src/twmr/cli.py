@@ -175,6 +175,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_inspect(args: argparse.Namespace) -> int:
     from twmr.fmi import describe_fmu, fmu_interface
 
+    if _is_ssp(Path(args.fmu)):
+        from twmr.fmi.ssp.listing import describe_ssp
+        from twmr.scenario.listing import describe
+
+        scenario = api_load(Path(args.fmu))
+        print(describe_ssp(scenario.spec))
+        print(describe(scenario.system))
+        return 0
     if args.json:
         import json
 
@@ -182,6 +190,18 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     else:
         print(describe_fmu(Path(args.fmu)))
     return 0
+
+
+def api_load(path: Path) -> Any:
+    from twmr.api import load
+
+    return load(path)
+
+
+def _is_ssp(path: Path) -> bool:
+    from twmr.api import _is_ssp as is_ssp
+
+    return path.suffix.lower() != ".fmu" and is_ssp(path)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -396,7 +416,8 @@ def parser() -> argparse.ArgumentParser:
     sr.add_argument("folder")
     sr.add_argument("--out", help="where the report goes (default <folder>/report)")
     sr.set_defaults(fn=cmd_sweep_report)
-    i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component")
+    i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component, or "
+                       "what an SSP is read as")
     i.add_argument("fmu")
     i.add_argument("--json", action="store_true",
                    help="print the interface (ports: name, causality, type, unit, size) as JSON")

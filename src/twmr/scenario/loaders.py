@@ -2,7 +2,8 @@
 
 `load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `read_structure(source)`
 reads YAML text or a dict of the same shape. A YAML value's location is its file, line and key
-path; a dict's is its key path. Another format (SSP) adds its loader to `LOADERS`.
+path; a dict's is its key path. SSP (`.ssp`, `.ssd`, an unpacked folder) is read by
+`twmr.fmi.ssp`.
 """
 from __future__ import annotations
 
@@ -149,12 +150,22 @@ def load_yaml(path: Path) -> ScenarioSpec:
     return read_structure(read_file(path), str(path), path.resolve().parent)
 
 
+def load_ssp(path: Path) -> ScenarioSpec:
+    """The structure of an SSP archive, folder or .ssd file (`twmr.fmi.ssp`)."""
+    from twmr.fmi.ssp import load_ssp as load
+
+    return load(path)
+
+
 #: a loader by file suffix: path -> ScenarioSpec
-LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml}
+LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml,
+                                                      ".ssp": load_ssp, ".ssd": load_ssp}
 
 
 def load_structure(path: str | Path) -> ScenarioSpec:
     """The structure of the scenario file at `path`, by the loader of its suffix (YAML for an
-    unknown one)."""
+    unknown one); a folder holding SystemStructure.ssd is an unpacked SSP."""
     path = Path(path)
+    if path.is_dir():
+        return load_ssp(path)
     return LOADERS.get(path.suffix.lower(), load_yaml)(path)

@@ -56,8 +56,9 @@ def _parse(text: str, key: str, value: str, loc: Location, problems: list[Proble
 def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSpec:
     loc = Location("--set", 0, text)
     key, sep, value = text.partition("=")
-    comp, dot, name = key.strip().rpartition(".")
-    if not sep or not dot or not name or not comp:
+    path, name = _split(spec, key.strip())
+    comp = ".".join(path)
+    if not sep or not path or not name or not comp:
         problems.append(Problem(loc, f"cannot read the override '{text}'.", _FORM))
         return spec
     ok, parsed = _parse(text, key.strip(), value, loc, problems)
@@ -78,7 +79,7 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
         changes: dict[str, Any] = {name: Given(parsed, loc)}
         return dataclasses.replace(spec, experiment=dataclasses.replace(spec.experiment,
                                                                         **changes))
-    return assign(spec, comp.split("."), name, Given(parsed, loc), problems)
+    return assign(spec, path, name, Given(parsed, loc), problems)
 
 
 def assign(spec: ScenarioSpec, path: Sequence[str], name: str, value: Given[Any],
@@ -121,6 +122,25 @@ def assign(spec: ScenarioSpec, path: Sequence[str], name: str, value: Given[Any]
     else:
         changed = _set_value(spec, target, name, value)
     return dataclasses.replace(spec, components={**spec.components, head: changed})
+
+
+def _split(spec: ScenarioSpec, key: str) -> tuple[list[str], str]:
+    """(instance path, value name) of 'comp.name': the longest instance name the scenario has
+    (a flattened SSP system's 'sub.comp'; an FMU's dotted names such as 'Add1.gain.k' stay
+    whole), through subsystems ('robot.plant.scale'); the text before the last dot when no
+    instance matches (the error names it)."""
+    parts = key.split(".")
+    for i in range(len(parts) - 1, 0, -1):
+        head = ".".join(parts[:i])
+        target = spec.components.get(head)
+        if target is None:
+            continue
+        if target.system is not None and i < len(parts) - 1:
+            inner, name = _split(target.system, ".".join(parts[i:]))
+            return [head, *inner], name
+        return [head], ".".join(parts[i:])
+    comp, _, name = key.rpartition(".")
+    return (comp.split(".") if comp else []), name
 
 
 def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
