@@ -1,0 +1,1 @@
+"""SSP (System Structure and Parameterization): systems read from and written to .ssp files."""
