@@ -44,6 +44,8 @@ class BlockFmu:
     connectors: list[Connector]
     elements: dict[tuple[str, int | None], str]
     values: dict[str, tuple[str, Any]] = field(default_factory=dict)
+    #: the FMU's own UnitDefinitions: unit -> BaseUnit attributes (SI exponents, factor, offset)
+    units: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def variable(self, port: str, index: int | None) -> str:
         """The FMU variable of element `index` of `port` (CosimError when the FMU lacks it)."""
@@ -62,21 +64,26 @@ def block_fmus(system: System, spec: ScenarioSpec, folder: Path, fmi: int = 2,
     <name>.fmu. CosimError naming every block that cannot be exported, with the fix."""
     out: dict[str, BlockFmu] = {}
     refused: list[str] = []
+    fixes: dict[str, None] = {}
     for name, comp in system.components.items():
         kind = str(spec.components[name].kind.value)
         try:
             out[name] = _block_fmu(name, kind, comp, folder / f"{name}.fmu", fmi, python)
         except CosimError as err:
             refused.append(f"'{name}' (kind {kind}): {_reason(err)}")
+            fixes[_HARDWARE_FIX if comp.needs_realtime else _FIX] = None
     if refused:
         many = len(refused) > 1
-        raise CosimError(
-            f"{spec.source}: cannot export {'these blocks' if many else 'the block'} to SSP: "
-            f"{'; '.join(refused)}. Fix: swap {'each' if many else 'it'} for a block with a C "
-            f"twin (`twmr components` lists the kinds; docs/export.md), give it an FMU "
-            f"(kind: fmu), or add --python for blocks without a C twin (pythonfmu FMUs that "
-            f"need twmr-cosim where they run; FMI 2.0).")
+        raise CosimError(f"{spec.source}: cannot export {'these blocks' if many else 'the block'}"
+                         f" to SSP: {'; '.join(refused)}. Fix: {' '.join(fixes)}")
     return out
+
+
+_FIX = ("swap it for a block with a C twin (`twmr components` lists the kinds; docs/export.md) "
+        "or an FMU (kind: fmu), or add --python to export a block without a C twin through "
+        "pythonfmu (FMI 2.0; the FMU needs twmr-cosim where it runs).")
+_HARDWARE_FIX = ("export the simulated twin of a hardware block (kind motor_driver for a "
+                 "can_drive).")
 
 
 def _reason(err: CosimError) -> str:
@@ -91,8 +98,7 @@ def _block_fmu(name: str, kind: str, comp: Component, path: Path, fmi: int,
     from twmr.fmi.fmu import FmuComponent
 
     if comp.needs_realtime:
-        raise CosimError("it drives hardware in real time, which an FMU cannot carry (use its "
-                         "simulated kind, e.g. motor_driver, to export the system)")
+        raise CosimError("it drives hardware in real time, which an FMU cannot carry")
     if isinstance(comp, FmuComponent):
         shutil.copyfile(comp.path, path)
         md = _description(path)
@@ -100,7 +106,7 @@ def _block_fmu(name: str, kind: str, comp: Component, path: Path, fmi: int,
         elements = {(p.name, None if p.scalar else i): names[vr]
                     for p in comp.ports for i, vr in enumerate(p.vrs)}
         return BlockFmu(name, path, f"FMU {comp.source_path.name} copied",
-                        _connectors(md), elements, _given(comp, elements, md))
+                        _connectors(md), elements, _given(comp, elements, md), _units(md))
     reason = "it has no C twin"
     if kind in twins():
         try:
@@ -134,12 +140,28 @@ def _plain(value: Any) -> Any:
 def _description(path: Path) -> Any:
     from fmpy import read_model_description
 
-    return read_model_description(str(path))
+    return read_model_description(str(path), validate=False)  # read before, by its block
 
 
 def _unit(v: Any) -> str:
     unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
     return "" if unit in (None, "1") else str(unit)
+
+
+def _units(md: Any) -> dict[str, dict[str, str]]:
+    """The BaseUnit attributes of each unit the FMU defines."""
+    out = {}
+    for u in md.unitDefinitions:
+        base = u.baseUnit
+        if base is None:
+            continue
+        attrs = {k: str(getattr(base, k)) for k in ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+                 if getattr(base, k, 0)}
+        for k, neutral in (("factor", 1.0), ("offset", 0.0)):
+            if float(getattr(base, k, neutral)) != neutral:
+                attrs[k] = repr(float(getattr(base, k)))
+        out[u.name] = attrs
+    return out
 
 
 def _connectors(md: Any) -> list[Connector]:

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from twmr.core.errors import CosimError
+from twmr.core.errors import CosimError, UnitError
 from twmr.core.units import BASES, parse_unit
 from twmr.fmi.ssp.blocks import BlockFmu, block_fmus
 from twmr.scenario.structure import ScenarioSpec
@@ -103,20 +103,32 @@ def ssd(system: System, spec: ScenarioSpec, blocks: dict[str, BlockFmu], ssp: in
         root.set("description", spec.description)
     units: set[str] = set()
     root.append(system_element(_name(spec), system, blocks, units, ssp))
-    if units:
+    defined = {n: attrs for b in blocks.values() for n, attrs in b.units.items()}
+    bases = {u: defined.get(u) or _base_unit(u) for u in sorted(units)}
+    if any(b is not None for b in bases.values()):
         defs = ET.SubElement(root, _q(SSD, "Units"))
-        for unit in sorted(units):
-            u = parse_unit(unit)
-            base = {b: str(x) for b, x in zip(BASES, u.exponents, strict=False) if x}
-            if u.factor != 1.0:
-                base["factor"] = repr(u.factor)
-            if u.offset:
-                base["offset"] = repr(u.offset)
-            ET.SubElement(ET.SubElement(defs, _q(SSC, "Unit"), name=unit), _q(SSC, "BaseUnit"),
-                          base)
+        for unit, base in bases.items():
+            if base is not None:
+                ET.SubElement(ET.SubElement(defs, _q(SSC, "Unit"), name=unit),
+                              _q(SSC, "BaseUnit"), base)
     root.append(default_experiment(system))
     ET.indent(root)
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
+
+
+def _base_unit(unit: str) -> dict[str, str] | None:
+    """BaseUnit attributes of a Modelica unit string (None for a unit we cannot read, whose
+    FMU does not define it either: it is left undefined, as in the FMU)."""
+    try:
+        u = parse_unit(unit)
+    except UnitError:
+        return None
+    base = {b: str(x) for b, x in zip(BASES, u.exponents, strict=False) if x}
+    if u.factor != 1.0:
+        base["factor"] = repr(u.factor)
+    if u.offset:
+        base["offset"] = repr(u.offset)
+    return base
 
 
 def system_element(name: str, system: System, blocks: dict[str, BlockFmu], units: set[str],
