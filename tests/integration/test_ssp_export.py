@@ -64,7 +64,9 @@ def test_cli_exports_the_paper_scenario_as_valid_ssp_1(tmp_path, capsys) -> None
             names = {v.name for v in md.modelVariables}
             assert {k.get("name") for k in c.findall("ssd:Connectors/ssd:Connector", NS)} <= names
         plant = etree.fromstring(z.read("resources/plant.ssv"))
-    values = {p.get("name"): float(p[0].get("value")) for p in plant.iter(f"{{{plant.nsmap['ssv']}}}Parameter")}
+    ssv = {"ssv": plant.nsmap["ssv"]}
+    values = {p.get("name"): float(p[0].get("value")) for p in plant.iterfind(".//ssv:Parameter",
+                                                                              ssv)}
     assert values["scale"] == 1.25 and values["pose[3]"] == -0.7853981633974483
     exp = ssd.find("ssd:DefaultExperiment", NS)
     assert (float(exp.get("startTime")), float(exp.get("stopTime"))) == (0.0, 2.0)
@@ -155,7 +157,7 @@ def test_blocks_that_cannot_be_exported_are_refused_by_name(tmp_path) -> None:
         for word in words:
             assert word in text
         assert not list(tmp_path.iterdir())  # nothing written
-    with pytest.raises(CosimError, match="does not end in .ssp"):
+    with pytest.raises(CosimError, match=r"does not end in \.ssp"):
         export_ssp(PAPER, tmp_path / "x.zip")
 
 
