@@ -83,8 +83,10 @@ def libcosim(ssp: Path, columns: list[str], step: float, n: int) -> np.ndarray:
     """libcosim's values of `columns` after each of `n` steps (rows t_1 .. t_n; libcosim takes
     the SystemStructure.ssd's folder, so the archive is unpacked first)."""
     from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
 
+    log_output_level(CosimLogLevel.ERROR)
     with tempfile.TemporaryDirectory(prefix="twmr-libcosim-") as tmp:
         zipfile.ZipFile(ssp).extractall(tmp)
         ex = CosimExecution.from_ssp_file(tmp, step_size=round(step * 1e9))  # ns
@@ -118,3 +120,40 @@ def kinds(built: System, columns: list[str]) -> dict[str, str]:
 def worst(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> float:
     """max |a - b| / max(1, max |scale|) of one column."""
     return float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(scale)))))
+
+
+def measure(stop: float = 2.0) -> dict[str, dict[str, float]]:
+    """Per paper scenario: the largest difference of Ecos's and libcosim's runs of its SSP from
+    ours (Jacobi, `stop` s), relative to each signal's scale, compared as the tests compare
+    them (tests/integration/test_ssp_third_party.py)."""
+    from twmr.fmi.ssp.write import export_ssp
+
+    out = {}
+    for path in PAPER:
+        data = short(path, stop)
+        with tempfile.TemporaryDirectory(prefix="twmr-ssp-measure-") as tmp:
+            scenario = Path(tmp) / path.name
+            scenario.write_text(yaml.safe_dump(data, sort_keys=False))
+            ssp = export_ssp(scenario, Path(tmp) / f"{path.stem}.ssp")
+            mine = ours(started_from_sources(data))
+            cols = [c for c in mine.dtype.names if c != "time"]
+            step, n = data["experiment"]["step"], len(mine) - 1
+            e = ecos(ssp, cols, step, n, path.stem)
+            lc = libcosim(ssp, cols, step, n)
+            kind = kinds(system(data), cols)
+            plain = ours(data)
+        out[path.stem] = {
+            "ecos": max(worst(e[:, j], mine[c], mine[c]) for j, c in enumerate(cols)),
+            "libcosim": max(worst(lc[:, j], mine[c][:-1] if kind[c] == "input" else mine[c][1:],
+                                  mine[c]) for j, c in enumerate(cols)
+                            if kind[c] != "feedthrough"),
+            "ecos_without_aligned_start": max(worst(e[:, j], plain[c], plain[c])
+                                              for j, c in enumerate(cols)),
+            "columns": len(cols), "steps": n}
+    return out
+
+
+if __name__ == "__main__":  # python -m tests.integration.ssp_runners: JSON on the last line
+    import json
+
+    print(json.dumps(measure()))

@@ -175,3 +175,9 @@ def test_python_route_exports_a_block_without_a_c_twin(tmp_path) -> None:
     assert "Python route" in md.generationTool
     ctrl = ssd.find(".//ssd:Component[@name='ctrl']", NS)
     assert ctrl.get("description") == "C FMU, FMI 2.0"  # the others stay C FMUs
+
+
+def test_ssp_option_on_a_kind_is_refused(capsys) -> None:
+    assert main(["export", "gain", "--ssp", "2"]) == 1
+    err = capsys.readouterr().err
+    assert "--ssp applies to a scenario" in err and "Fix:" in err
