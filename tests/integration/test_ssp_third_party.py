@@ -142,3 +142,21 @@ def test_unaligned_start_differs(exported) -> None:
         name = _set_name(z)
     rows = r.ecos(Path(ssp), cols, data["experiment"]["step"], 3, name)
     assert max(r.worst(rows[:, j], plain[c][:4], plain[c]) for j, c in enumerate(cols)) > 1e-3
+
+
+@pytest.mark.parametrize("compiled", ["off", "on"])
+def test_our_master_runs_the_ssps_fmus_as_the_native_blocks(compiled, tmp_path, monkeypatch):
+    """The SSP's blocks are the C FMUs: in our master under Jacobi (Python and compiled loops;
+    the controller isolated in a worker process) they give the native blocks' rows. (The FMU
+    block gets its feedthrough outputs after doStep under Jacobi, as the engines above do.)"""
+    from tests.integration.c_fmu_scenario import export_blocks, swapped
+
+    monkeypatch.setenv("TWMR_COMPILED", compiled)
+    data = r.short(r.ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", stop=1.0)
+    fmu_data = swapped(data, export_blocks(data, tmp_path))
+    if compiled == "off":
+        fmu_data["components"]["ctrl"]["parameters"]["isolate"] = True
+    native, fmus = r.ours(data), r.ours(fmu_data)
+    assert len(native) == 1001
+    for c in _columns(native):
+        assert r.worst(fmus[c], native[c], native[c]) <= 1e-12, c
