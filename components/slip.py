@@ -42,6 +42,14 @@ def slip_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: SlipProfile) -> tup
     return x, ((muR, muL, dl), (muR2, muL2, dl2), (tdR, tdL), y[3])
 
 
+@kernel_function
+def slip_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: SlipProfile
+              ) -> tuple[tuple, tuple]:
+    """`SlipDisturbance.do_step`: no state; the outputs at t + h with the pose held, as its C
+    FMU reports them after fmi2DoStep (what a Jacobi master passes on)."""
+    return slip_evaluate(t + h, x, y, u, p)
+
+
 class SlipDisturbance(Component):
     """Slip velocities, slip accelerations and disturbance torques; see the module for profiles."""
 
@@ -87,7 +95,7 @@ class SlipDisturbance(Component):
         """The definition of every profile but `random` (a numpy Generator: Python only)."""
         if self.profile == "random":
             return None
-        return Kernel(params=self.params(), evaluate=slip_evaluate)
+        return Kernel(params=self.params(), evaluate=slip_evaluate, step=slip_step)
 
     def evaluate(self, t: float) -> None:
         if self.profile != "random":

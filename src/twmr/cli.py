@@ -204,7 +204,23 @@ def _is_ssp(path: Path) -> bool:
     return path.suffix.lower() != ".fmu" and is_ssp(path)
 
 
+def _is_scenario(args: argparse.Namespace) -> bool:
+    """`twmr export` of a whole scenario (to SSP) rather than of one kind (to an FMU)."""
+    return Path(args.kind).suffix.lower() in (".yaml", ".yml") or \
+        str(args.out or "").lower().endswith(".ssp")
+
+
 def cmd_export(args: argparse.Namespace) -> int:
+    if _is_scenario(args):
+        from twmr.fmi.ssp.write import export_ssp
+
+        out = args.out or f"{Path(args.kind).stem}.ssp"
+        print(export_ssp(args.kind, out, args.set, fmi=args.fmi, python=args.python,
+                         ssp=args.ssp or 1))
+        return 0
+    if args.ssp is not None:
+        raise CosimError("--ssp applies to a scenario exported as SSP. Fix: give a scenario "
+                         "file (twmr export SCENARIO.yaml --out X.ssp), or drop --ssp.")
     params = dict(_parse_set(s) for s in args.set)
     out = Path(args.out or f"fmus/{args.kind.rsplit(':', 1)[-1]}.fmu")  # 'file.py:Cls' -> Cls
     if args.python:
@@ -423,9 +439,13 @@ def parser() -> argparse.ArgumentParser:
                    help="print the interface (ports: name, causality, type, unit, size) as JSON")
     i.set_defaults(fn=cmd_inspect)
     e = sub.add_parser("export", parents=[common],
-                       help="export a component kind as a standalone C FMU (co-simulation)")
-    e.add_argument("kind")
-    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu)")
+                       help="export a component kind as a standalone C FMU (co-simulation), "
+                            "or a scenario as an SSP archive of FMUs")
+    e.add_argument("kind", help="a kind (-> .fmu), or a scenario file (-> .ssp)")
+    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu); for a scenario the "
+                                 ".ssp file (default <scenario name>.ssp)")
+    e.add_argument("--ssp", type=int, choices=(1, 2), default=None,
+                   help="SSP version of a scenario's archive (default 1)")
     e.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the FMU (default 2)")
     e.add_argument("--python", action="store_true",

@@ -215,7 +215,8 @@ class IsolatedFmu(Component):
         self._outputs = tuple(n for n in self.outputs if read is None or n in read)
         if self._conn is None:
             self._start()
-        self._call("prepare", (run.folder, run.step, run.paced, wired, read))
+        self._call("prepare", (run.folder, run.step, run.paced, wired, read,
+                               getattr(run, "algorithm", "gauss_seidel")))
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)

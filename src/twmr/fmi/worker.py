@@ -59,12 +59,13 @@ class _Server:
         self.values = self.fmu.__dict__
 
     def prepare(self, folder: Any, step: float, paced: bool, wired: set[str] | None,
-                read: set[str] | None) -> None:
+                read: set[str] | None, algorithm: str = "gauss_seidel") -> None:
         """The parent's `RunContext`, narrowed to this instance's wired inputs and read outputs."""
         def pairs(ports: set[str] | None) -> frozenset[tuple[str, str]] | None:
             return None if ports is None else frozenset((self.fmu.name, p) for p in ports)
 
-        self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read)))
+        self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read),
+                                    algorithm=algorithm))
 
     def setup(self, start: float, stop: float | None) -> None:
         self.fmu.setup(start, stop)

@@ -71,13 +71,15 @@ class RunContext:
     """What a run offers a component before `setup` (`Component.prepare`): a folder for its own
     files (None: the run writes nothing), the base step h [s], and whether steps are paced to the
     wall clock. `wired` holds the (instance, input) pairs driven by a wire and `read` the
-    (instance, output) pairs the run reads (wired or recorded); None: every port."""
+    (instance, output) pairs the run reads (wired or recorded); None: every port. `algorithm`
+    is the experiment's ('jacobi': the outputs after a step are passed on as they are)."""
 
     folder: Path | None
     step: float
     paced: bool
     wired: frozenset[tuple[str, str]] | None = None
     read: frozenset[tuple[str, str]] | None = None
+    algorithm: str = "gauss_seidel"
 
     def wired_inputs(self, instance: str) -> set[str] | None:
         """Inputs of `instance` written by the master at each step (None: all of them)."""
@@ -236,7 +238,7 @@ class Execution:
                 self.folder, exp.step, paced,
                 frozenset((c.dst, c.dst_port) for c in self.system.connections),
                 frozenset([(c.src, c.src_port) for c in self.system.connections]
-                          + list(self.signals)))
+                          + list(self.signals)), exp.algorithm)
             if paced:
                 # collect now, before hardware starts (a full collection stalls every thread
                 # for tens of ms), and freeze: a collection during the paced run scans only

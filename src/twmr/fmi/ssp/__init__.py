@@ -1,4 +1,5 @@
-"""SSP (System Structure and Parameterization, Modelica Association; 1.0 and 2.0) import.
+"""SSP (System Structure and Parameterization, Modelica Association; 1.0 and 2.0) import and
+export (`twmr.fmi.ssp.write.export_ssp`: a scenario as an .ssp of FMUs).
 
 `load_ssp(path)` reads an `.ssp` archive, an unpacked folder (holding `SystemStructure.ssd`) or
 one `.ssd` file into the flat `ScenarioSpec` every loader produces: FMU components (nested
