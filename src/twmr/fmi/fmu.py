@@ -88,7 +88,7 @@ class FmuComponent(Component):
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout", "compile", "compile_timeout")
     #: beside the ports, a saved state holds the time and whether the inputs are already set
-    state_attributes = ("_t", "_inputs_set")
+    state_attributes = ("_t", "_sent")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
@@ -124,7 +124,7 @@ class FmuComponent(Component):
         self.can_get_and_set_state = bool(iface.canGetAndSetFMUstate)
         self._serializes = bool(iface.canSerializeFMUstate)
         self._states: FmuStates | None = None
-        self._inputs_set = False
+        self._sent: tuple[Any, ...] | None = None
         self._guarded = False  # between guard.enter() in setup and guard.leave() in terminate
         self.run_folder: Path | None = None  # where the run keeps its rows (for guard messages)
         try:
@@ -336,7 +336,7 @@ class FmuComponent(Component):
         self._get_step = self._plan([p for p in read if p.name not in feedthrough]
                                     if self.has_feedthrough and not self._after_step_all
                                     else read, 0)
-        self._inputs_set = False
+        self._sent = None
         try:
             self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
@@ -442,9 +442,9 @@ class FmuComponent(Component):
             if self.me:
                 self._set_inputs(t)
             else:
-                for setter, vrs, _, _, gather in self._set_all:
-                    setter(vrs, gather())
-            self._inputs_set = True
+                self._sent = tuple(gather() for *_, gather in self._set_all)
+                for (setter, vrs, *_), values in zip(self._set_all, self._sent, strict=True):
+                    setter(vrs, values)
             if self._get_ft:
                 self._get(self._get_ft)
         except (FmuError, Terminated):
@@ -455,13 +455,16 @@ class FmuComponent(Component):
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         try:
-            if self._inputs_set:
-                self._inputs_set = False
-            elif self.me:
+            # the inputs as they are now: under Gauss-Seidel a block stepped since `evaluate`
+            # may have changed them (only those that changed are set again)
+            if self.me:
                 self._set_inputs(t)
             else:
-                for setter, vrs, _, _, gather in self._set_all:
-                    setter(vrs, gather())
+                sent, self._sent = self._sent, None
+                for i, (setter, vrs, _, _, gather) in enumerate(self._set_all):
+                    values = gather()
+                    if sent is None or values != sent[i]:
+                        setter(vrs, values)
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)

@@ -139,7 +139,7 @@ class Flattener:
                 v = entry.transform.factor * float(v) + entry.transform.offset
         elif entry and entry.transform and entry.transform.table:
             v = dict(entry.transform.table).get(v, v)
-        return name if index is None else f"{name}[{index + 1}]", v
+        return name if index is None else f"{name.partition('[')[0]}[{index + 1}]", v
 
     def variable(self, fmu: Fmu, name: str) -> tuple[Any, int | None]:
         """The FMU port a name means and the element (None: the whole port)."""
