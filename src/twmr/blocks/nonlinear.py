@@ -1,0 +1,225 @@
+"""Nonlinear blocks: saturation, dead zone, rate limiter, quantizer, backlash, relay with
+hysteresis, 1-D and 2-D lookup tables. Each acts element by element on ports of n elements
+(`n`, 1: scalars) and is defined by its kernel (`twmr.blocks.nonlinear_kernels`).
+
+The ports are generic (unit ''): a wire connects them to any unit without conversion, so the
+output carries the input's unit, and limits, widths, points and breakpoints are given in that
+unit. docs/blocks.md gives the equations."""
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from twmr.blocks import nonlinear_kernels as nk
+from twmr.blocks import tables
+from twmr.core.component import Component
+from twmr.core.kernel import Kernel
+from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
+
+Problems = list[tuple[str, str, str]]
+
+
+class ElementWise(Component):
+    """A block of one input u and one output y of n elements each (n = 1: scalars)."""
+
+    sized_by: ClassVar[dict[str, str]] = {"u": "n", "y": "n"}
+    n = Parameter(1, type=INTEGER, min=1, description="number of elements (1: a scalar)")
+    u = Input(0.0)
+    y = Output(0.0, depends_on=("u",))
+
+    def each(self, value: float) -> float | tuple[float, ...]:
+        """`value` for every element: a float (n = 1) or a tuple of n."""
+        n = int(self.n)
+        return float(value) if n == 1 else (float(value),) * n
+
+    def initialize(self) -> None:
+        self.evaluate(self.start_time)
+
+
+def _ordered(low: str, lo: float, high: str, hi: float) -> Problems:
+    if lo <= hi:
+        return []
+    return [(low, f"{low} = {lo:g} is above {high} = {hi:g}",
+             f"give {low} <= {high} (swap them?).")]
+
+
+class Saturation(ElementWise):
+    """y = min(max(u, lower), upper) element by element."""
+
+    kind = "saturation"
+    lower = Parameter(-1.0, description="lower limit [unit of u]")
+    upper = Parameter(1.0, description="upper limit [unit of u]")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return _ordered("lower", self.lower, "upper", self.upper)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.LimitsParams(float(self.lower), float(self.upper)),
+                      evaluate=nk.saturation_evaluate)
+
+
+class DeadZone(ElementWise):
+    """y = 0 for lower <= u <= upper, u - upper above, u - lower below."""
+
+    kind = "dead_zone"
+    lower = Parameter(-0.5, description="start of the dead zone [unit of u]")
+    upper = Parameter(0.5, description="end of the dead zone [unit of u]")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return _ordered("lower", self.lower, "upper", self.upper)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.LimitsParams(float(self.lower), float(self.upper)),
+                      evaluate=nk.dead_zone_evaluate)
+
+
+class Quantizer(ElementWise):
+    """y = interval * floor(u / interval + 1/2): u rounded to the nearest multiple of
+    `interval` (halves up)."""
+
+    kind = "quantizer"
+    interval = Parameter(0.1, min=0.0, description="quantization step (> 0) [unit of u]")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        if self.interval > 0.0:
+            return []
+        return [("interval", f"interval = {self.interval:g}; quantizing needs a step above 0",
+                 "give interval > 0 (in the unit of u).")]
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.QuantizerParams(float(self.interval)),
+                      evaluate=nk.quantizer_evaluate)
+
+
+class RateLimiter(ElementWise):
+    """y(t + h) = y(t) + clip(u(t) - y(t), -falling h, rising h): y follows u at most at the
+    given rates (no feedthrough: the change is made over the step)."""
+
+    kind = "rate_limiter"
+    rising = Parameter(1.0, min=0.0, description="largest rate up [unit of u per second]")
+    falling = Parameter(1.0, min=0.0, description="largest rate down [unit of u per second]")
+    y0 = Parameter(0.0, description="output at the start (every element)")
+    y = Output(0.0)
+
+    def initialize(self) -> None:
+        self.y = self.each(self.y0)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.RateParams(float(self.rising), float(self.falling)),
+                      step=nk.rate_limiter_step)
+
+
+class Backlash(ElementWise):
+    """Play of total width `width`: y stays while u moves within width/2 of it, else follows
+    at u -+ width/2 (the output of a gear with slack driven by u)."""
+
+    kind = "backlash"
+    width = Parameter(1.0, min=0.0, description="dead band, total [unit of u]")
+    y0 = Parameter(0.0, description="output at the start (every element)")
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.BacklashParams(float(self.width)), state=(self.each(self.y0),),
+                      evaluate=nk.backlash_evaluate, step=nk.backlash_step)
+
+
+class Relay(ElementWise):
+    """Relay with hysteresis: switches on (y = on_value) when u >= on_point, off (y =
+    off_value) when u <= off_point, and keeps its state in between; off at the start."""
+
+    kind = "relay"
+    on_point = Parameter(0.5, description="switch-on threshold [unit of u]")
+    off_point = Parameter(-0.5, description="switch-off threshold, <= on_point [unit of u]")
+    on_value = Parameter(1.0, description="output when on")
+    off_value = Parameter(0.0, description="output when off")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return _ordered("off_point", self.off_point, "on_point", self.on_point)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.RelayParams(float(self.on_point), float(self.off_point),
+                                            float(self.on_value), float(self.off_value)),
+                      state=(self.each(0.0),), evaluate=nk.relay_evaluate, step=nk.relay_step)
+
+
+def _strictly_increasing(params: dict[str, Any], *names: str) -> dict[str, Any]:
+    """`params` with the breakpoints `names` sorted and spread to be strictly increasing."""
+    out = dict(params)
+    for name in names:
+        bp = sorted(out[name])
+        for i in range(1, len(bp)):
+            bp[i] = max(bp[i], bp[i - 1] + 0.25)
+        out[name] = tuple(bp)
+    return out
+
+
+class Lookup1D(ElementWise):
+    """y = the piecewise-linear function through (breakpoints[i], values[i]) at u; outside the
+    breakpoints held at the end values (hold), extended along the end segments (linear), or NaN
+    (error: the run stops at the first NaN, naming the block)."""
+
+    kind = "lookup_1d"
+    breakpoints = Parameter((-1.0, 0.0, 1.0), size=0,
+                            description="strictly increasing [unit of u]")
+    values = Parameter((1.0, 0.0, 1.0), size=0, description="the output at each breakpoint")
+    extrapolation = Parameter("hold", type=STRING, description="hold | linear | error")
+
+    @classmethod
+    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
+        """`params` made valid: the breakpoints strictly increasing (tests draw them)."""
+        return _strictly_increasing(params, "breakpoints")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return (tables.choice("extrapolation", self.extrapolation, tables.EXTRAPOLATIONS) or
+                tables.increasing("breakpoints", self.breakpoints) or
+                tables.same_length("values", self.values, len(self.breakpoints),
+                                   "one per breakpoint"))
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.Lookup1Params(tables.array(self.breakpoints),
+                                              tables.array(self.values),
+                                              tables.EXTRAPOLATIONS[self.extrapolation]),
+                      evaluate=nk.lookup_1d_evaluate)
+
+
+class Lookup2D(Component):
+    """y = bilinear interpolation of the grid values[i][j] at (breakpoints1[i],
+    breakpoints2[j]) at (u1, u2), element
+    by element; outside the grid held (hold), extended (linear) or NaN (error)."""
+
+    kind = "lookup_2d"
+    sized_by: ClassVar[dict[str, str]] = {"u1": "n", "u2": "n", "y": "n"}
+    n = Parameter(1, type=INTEGER, min=1, description="number of elements (1: a scalar)")
+    breakpoints1 = Parameter((0.0, 1.0), size=0,
+                             description="breakpoints of u1, strictly increasing")
+    breakpoints2 = Parameter((0.0, 1.0, 2.0), size=0,
+                             description="breakpoints of u2, strictly increasing")
+    values = Parameter(((0.0, 1.0, 4.0), (1.0, 2.0, 3.0)), size=0,
+                       description="a row of len(breakpoints2) values for each "
+                       "of breakpoints1")
+    extrapolation = Parameter("hold", type=STRING, description="hold | linear | error")
+    u1 = Input(0.0)
+    u2 = Input(0.0)
+    y = Output(0.0, depends_on=("u1", "u2"))
+
+    @classmethod
+    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
+        """`params` made valid: both breakpoint sets strictly increasing (tests draw them)."""
+        return _strictly_increasing(params, "breakpoints1", "breakpoints2")
+
+    def check(self, given: frozenset[str]) -> Problems:
+        rows, cols = len(self.breakpoints1), len(self.breakpoints2)
+        return (tables.choice("extrapolation", self.extrapolation, tables.EXTRAPOLATIONS) or
+                tables.increasing("breakpoints1", self.breakpoints1) or
+                tables.increasing("breakpoints2", self.breakpoints2) or
+                tables.same_length("values", self.values, rows * cols,
+                                   f"{rows} rows (one per breakpoints1) of {cols} values "
+                                   f"(one per breakpoints2)"))
+
+    def initialize(self) -> None:
+        self.evaluate(self.start_time)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=nk.Lookup2Params(tables.array(self.breakpoints1),
+                                              tables.array(self.breakpoints2),
+                                              tables.array(self.values),
+                                              tables.EXTRAPOLATIONS[self.extrapolation]),
+                      evaluate=nk.lookup_2d_evaluate)

@@ -1,0 +1,179 @@
+"""More signal sources: ramp, pulse train, time table, seeded noise, linear chirp. Outputs are
+functions of time only (no inputs); each is defined by its kernel (`twmr.blocks.signal_kernels`).
+Their outputs are generic (unit ''): the parameters that set levels are in the unit of whatever
+the output drives. docs/blocks.md gives the equations."""
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from twmr.blocks import signal_kernels as sk
+from twmr.blocks import tables
+from twmr.core.component import Component
+from twmr.core.errors import ComponentError
+from twmr.core.kernel import Kernel
+from twmr.core.port import INTEGER, STRING, Output, Parameter
+
+Problems = list[tuple[str, str, str]]
+
+
+class Ramp(Component):
+    """y(t) = offset + slope * max(0, t - time)."""
+
+    kind = "ramp"
+    slope = Parameter(1.0, description="rate of rise [unit of y per second]")
+    time = Parameter(0.0, unit="s", description="start of the ramp")
+    offset = Parameter(0.0, description="output before the start")
+    y = Output(0.0)
+
+    def _params(self) -> sk.RampParams:
+        return sk.RampParams(float(self.slope), float(self.time), float(self.offset))
+
+    def initialize(self) -> None:
+        self.y = sk.ramp_at(self.start_time, self._params())
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=self._params(), step=sk.ramp_step)
+
+
+class Pulse(Component):
+    """A pulse train: y = offset + amplitude for `width` seconds of every `period`, from
+    `delay` on; offset otherwise."""
+
+    kind = "pulse"
+    amplitude = Parameter(1.0)
+    period = Parameter(1.0, unit="s", min=0.0, description="time between rising edges (> 0)")
+    width = Parameter(0.5, unit="s", min=0.0, description="time high in each period")
+    delay = Parameter(0.0, unit="s", description="first rising edge")
+    offset = Parameter(0.0)
+    y = Output(0.0)
+
+    def check(self, given: frozenset[str]) -> Problems:
+        if not self.period > 0.0:
+            return [("period", f"period = {self.period:g} s; a pulse train needs a period "
+                     f"above 0", "give period > 0 s.")]
+        if self.width > self.period:
+            return [("width", f"width = {self.width:g} s is longer than the period "
+                     f"({self.period:g} s)", "give 0 <= width <= period (width = period: "
+                     "always high).")]
+        return []
+
+    def _params(self) -> sk.PulseParams:
+        return sk.PulseParams(float(self.amplitude), float(self.period), float(self.width),
+                              float(self.delay), float(self.offset))
+
+    def initialize(self) -> None:
+        self.y = sk.pulse_at(self.start_time, self._params())
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=self._params(), step=sk.pulse_step)
+
+
+class Table(Component):
+    """y(t) from time-value pairs: linear between points or held from each point (hold); the
+    first value before the first time, the last from the last time on."""
+
+    kind = "table"
+    times = Parameter((0.0, 1.0, 2.0), size=0, unit="s",
+                      description="sample times, non-decreasing (a repeated time: a jump)")
+    values = Parameter((0.0, 1.0, 0.0), size=0, description="the value at each time")
+    interpolation = Parameter("linear", type=STRING, description="linear | hold")
+    y = Output(0.0)
+
+    @classmethod
+    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
+        """`params` made valid: the times sorted (tests draw them)."""
+        return {**params, "times": tuple(sorted(params.get("times", cls.times.start)))}
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return (tables.choice("interpolation", self.interpolation, tables.INTERPOLATIONS) or
+                tables.increasing("times", self.times, strict=False) or
+                tables.same_length("values", self.values, len(self.times), "one per time"))
+
+    def _params(self) -> sk.TableParams:
+        return sk.TableParams(tables.array(self.times), tables.array(self.values),
+                              tables.INTERPOLATIONS[self.interpolation])
+
+    def initialize(self) -> None:
+        self.y = sk.table_at(self.start_time, self._params())
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=self._params(), step=sk.table_step)
+
+
+class Noise(Component):
+    """Seeded noise, Gaussian or uniform, of mean `mean` and standard deviation `stddev`, a new
+    sample every `period` seconds held in between (band-limited: about 1 / (2 period) Hz); n
+    independent elements. Sample k of element i is Philox-4x32 of (k, i) under `seed`, so the
+    same seed gives the same sequence in Python, compiled and C, whatever the step."""
+
+    kind = "noise"
+    sized_by: ClassVar[dict[str, str]] = {"y": "n"}
+    n = Parameter(1, type=INTEGER, min=1, description="number of elements (1: a scalar)")
+    distribution = Parameter("gaussian", type=STRING, description="gaussian | uniform")
+    mean = Parameter(0.0)
+    stddev = Parameter(1.0, min=0.0, description="standard deviation (uniform: half-width / "
+                       "sqrt(3))")
+    seed = Parameter(0, type=INTEGER, min=0, max=2**53, description="seed of the generator")
+    period = Parameter(0.0, unit="s", min=0.0, description="sample period (0: every step); "
+                       "a multiple of the step")
+    y = Output(0.0)
+
+    def check(self, given: frozenset[str]) -> Problems:
+        return tables.choice("distribution", self.distribution,
+                             {k: v for k, v in sk.DISTRIBUTIONS.items()})
+
+    def prepare(self, run: Any) -> None:
+        super().prepare(run)
+        steps = self.period / run.step
+        if self.period > 0.0 and abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+            raise ComponentError(self.name, None, f"noise: period = {self.period:g} s is not a "
+                                 f"multiple of the step {run.step:g} s ({steps:.6g} steps), so "
+                                 f"samples would not fall on communication points. Fix: give "
+                                 f"period as k * step (or 0: a sample every step).")
+
+    def _params(self) -> sk.NoiseParams:
+        n = int(self.n)
+        index = 0.0 if n == 1 else tuple(float(i) for i in range(n))
+        return sk.NoiseParams(float(self.mean), float(self.stddev),
+                              sk.DISTRIBUTIONS[self.distribution], float(self.seed),
+                              float(self.period), float(self.start_time), index)
+
+    def initialize(self) -> None:
+        p = self._params()
+        self.y = sk.noise_element(0, p.index, p)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=self._params(), step=sk.noise_step)
+
+
+class Chirp(Component):
+    """A linear sine sweep from f0 to f1 over `duration` (continuing at the same rate after),
+    starting at `time`: y = offset + amplitude sin(2 pi (f0 tau + (f1 - f0) tau^2 /
+    (2 duration)) + phase), tau = max(0, t - time)."""
+
+    kind = "chirp"
+    amplitude = Parameter(1.0)
+    f0 = Parameter(0.1, unit="Hz", min=0.0, description="frequency at the start")
+    f1 = Parameter(10.0, unit="Hz", min=0.0, description="frequency after `duration`")
+    duration = Parameter(10.0, unit="s", min=0.0, description="sweep time (> 0)")
+    time = Parameter(0.0, unit="s", description="start of the sweep")
+    phase = Parameter(0.0, unit="rad")
+    offset = Parameter(0.0)
+    y = Output(0.0)
+
+    def check(self, given: frozenset[str]) -> Problems:
+        if self.duration > 0.0:
+            return []
+        return [("duration", f"duration = {self.duration:g} s; the sweep needs a duration "
+                 f"above 0", "give duration > 0 s.")]
+
+    def _params(self) -> sk.ChirpParams:
+        return sk.ChirpParams(float(self.amplitude), float(self.f0), float(self.f1),
+                              float(self.duration), float(self.time), float(self.phase),
+                              float(self.offset))
+
+    def initialize(self) -> None:
+        self.y = sk.chirp_at(self.start_time, self._params())
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=self._params(), step=sk.chirp_step)
