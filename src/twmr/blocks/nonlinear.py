@@ -163,8 +163,8 @@ class Lookup1D(ElementWise):
     extrapolation = Parameter("hold", type=STRING, description="hold | linear | error")
 
     @classmethod
-    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
-        """`params` made valid: the breakpoints strictly increasing (tests draw them)."""
+    def example(cls, params: dict[str, Any], h: float) -> dict[str, Any]:
+        """Drawn `params` made valid (tests draw them): the breakpoints strictly increasing."""
         return _strictly_increasing(params, "breakpoints")
 
     def check(self, given: frozenset[str]) -> Problems:
@@ -201,8 +201,8 @@ class Lookup2D(Component):
     y = Output(0.0, depends_on=("u1", "u2"))
 
     @classmethod
-    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
-        """`params` made valid: both breakpoint sets strictly increasing (tests draw them)."""
+    def example(cls, params: dict[str, Any], h: float) -> dict[str, Any]:
+        """Drawn `params` made valid (tests draw them): both breakpoint sets increasing."""
         return _strictly_increasing(params, "breakpoints1", "breakpoints2")
 
     def check(self, given: frozenset[str]) -> Problems:

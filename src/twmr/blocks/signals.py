@@ -80,8 +80,8 @@ class Table(Component):
     y = Output(0.0)
 
     @classmethod
-    def example(cls, params: dict[str, Any]) -> dict[str, Any]:
-        """`params` made valid: the times sorted (tests draw them)."""
+    def example(cls, params: dict[str, Any], h: float) -> dict[str, Any]:
+        """Drawn `params` made valid (tests draw them): the times sorted."""
         return {**params, "times": tuple(sorted(params.get("times", cls.times.start)))}
 
     def check(self, given: frozenset[str]) -> Problems:
@@ -117,6 +117,12 @@ class Noise(Component):
     period = Parameter(0.0, unit="s", min=0.0, description="sample period (0: every step); "
                        "a multiple of the step")
     y = Output(0.0)
+
+    @classmethod
+    def example(cls, params: dict[str, Any], h: float) -> dict[str, Any]:
+        """Drawn `params` made valid for steps of h [s] (tests draw them): a period of 0 to 4
+        steps."""
+        return {**params, "period": round(4.0 * params.get("period", 0.0)) * h}
 
     def check(self, given: frozenset[str]) -> Problems:
         return tables.choice("distribution", self.distribution,
