@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from twmr.blocks import signal_kernels, tables
 from twmr.core.component import Component
@@ -73,7 +74,12 @@ TABLES_H = C / "tables.h"
 EXTRAP_CODES = {f"EXTRAP_{k.upper()}": int(v) for k, v in tables.EXTRAPOLATIONS.items()}
 _EXTRAP = {"extrapolation": Choice("EXTRAP", {k: int(v) for k, v in
                                               tables.EXTRAPOLATIONS.items()})}
-_WIDE = {"order": _elements, "order_define": "N", "orders": (1, 3)}
+
+
+def _wide(source: Path, **twin: Any) -> CTwin:
+    """The twin of an element-wise block: its number of elements #defined as N."""
+    return CTwin(source, order=_elements, order_define="N", orders=(1, 3), **twin)
+
 
 RAMP = CTwin(C / "ramp.c", tunable=frozenset({"slope", "time", "offset"}))
 PULSE = CTwin(C / "pulse.c", tunable=frozenset({"amplitude", "width", "delay", "offset"}))
@@ -83,18 +89,18 @@ TABLE = CTwin(C / "table.c", headers=(TABLES_H,), defines=EXTRAP_CODES,
                                                                tables.INTERPOLATIONS.items()})},
               sizes=_table_sizes(N_TABLE="times"))
 _DISTRIBUTIONS = {k: int(v) for k, v in signal_kernels.DISTRIBUTIONS.items()}
-NOISE = CTwin(C / "noise.c", tunable=frozenset({"mean", "stddev"}),
+NOISE = _wide(C / "noise.c", tunable=frozenset({"mean", "stddev"}),
               defines={f"DIST_{k.upper()}": v for k, v in _DISTRIBUTIONS.items()},
               choices={"distribution": Choice("DIST", _DISTRIBUTIONS)},
-              sizes=lambda comp: {"SEED": int(comp.get("seed"))}, **_WIDE)
-SATURATION = CTwin(C / "saturation.c", tunable=frozenset({"lower", "upper"}), **_WIDE)
-DEAD_ZONE = CTwin(C / "dead_zone.c", tunable=frozenset({"lower", "upper"}), **_WIDE)
-QUANTIZER = CTwin(C / "quantizer.c", tunable=frozenset({"interval"}), **_WIDE)
-RATE_LIMITER = CTwin(C / "rate_limiter.c", tunable=frozenset({"rising", "falling"}), **_WIDE)
-BACKLASH = CTwin(C / "backlash.c", tunable=frozenset({"width"}), work=_elements, **_WIDE)
-RELAY = CTwin(C / "relay.c", tunable=frozenset({"on_point", "off_point", "on_value",
-                                                "off_value"}), work=_elements, **_WIDE)
-LOOKUP_1D = CTwin(C / "lookup_1d.c", headers=(TABLES_H,), defines=EXTRAP_CODES, choices=_EXTRAP,
-                  sizes=_table_sizes(N_BP="breakpoints"), **_WIDE)
-LOOKUP_2D = CTwin(C / "lookup_2d.c", headers=(TABLES_H,), defines=EXTRAP_CODES, choices=_EXTRAP,
-                  sizes=_table_sizes(N_BP1="breakpoints1", N_BP2="breakpoints2"), **_WIDE)
+              sizes=lambda comp: {"SEED": int(comp.get("seed"))})
+SATURATION = _wide(C / "saturation.c", tunable=frozenset({"lower", "upper"}))
+DEAD_ZONE = _wide(C / "dead_zone.c", tunable=frozenset({"lower", "upper"}))
+QUANTIZER = _wide(C / "quantizer.c", tunable=frozenset({"interval"}))
+RATE_LIMITER = _wide(C / "rate_limiter.c", tunable=frozenset({"rising", "falling"}))
+BACKLASH = _wide(C / "backlash.c", tunable=frozenset({"width"}), work=_elements)
+RELAY = _wide(C / "relay.c", tunable=frozenset({"on_point", "off_point", "on_value",
+                                                "off_value"}), work=_elements)
+LOOKUP_1D = _wide(C / "lookup_1d.c", headers=(TABLES_H,), defines=EXTRAP_CODES, choices=_EXTRAP,
+                  sizes=_table_sizes(N_BP="breakpoints"))
+LOOKUP_2D = _wide(C / "lookup_2d.c", headers=(TABLES_H,), defines=EXTRAP_CODES, choices=_EXTRAP,
+                  sizes=_table_sizes(N_BP1="breakpoints1", N_BP2="breakpoints2"))

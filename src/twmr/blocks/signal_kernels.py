@@ -52,7 +52,7 @@ class NoiseParams(NamedTuple):
     seed: float  #: whole number in [0, 2^64)
     period: float  #: [s] sample period, 0: every step
     t0: float  #: [s] time of sample 0 (the start time)
-    index: float | tuple  #: the element indices (a tuple for n > 1)
+    elements: float | tuple  #: the element numbers 0..n-1 (a tuple for n > 1)
 
 
 class ChirpParams(NamedTuple):
@@ -179,4 +179,4 @@ def noise_element(k: int, i: float, p: NoiseParams) -> float:
 def noise_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: NoiseParams
                ) -> tuple[tuple, tuple]:
     """y(t + h): the sample held over [k Ts, (k + 1) Ts)."""
-    return x, (noise_element(noise_count(t + h, h, p), p.index, p),)
+    return x, (noise_element(noise_count(t + h, h, p), p.elements, p),)

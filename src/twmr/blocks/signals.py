@@ -139,14 +139,14 @@ class Noise(Component):
 
     def _params(self) -> sk.NoiseParams:
         n = int(self.n)
-        index = 0.0 if n == 1 else tuple(float(i) for i in range(n))
+        elements = 0.0 if n == 1 else tuple(float(i) for i in range(n))
         return sk.NoiseParams(float(self.mean), float(self.stddev),
                               sk.DISTRIBUTIONS[self.distribution], float(self.seed),
-                              float(self.period), float(self.start_time), index)
+                              float(self.period), float(self.start_time), elements)
 
     def initialize(self) -> None:
         p = self._params()
-        self.y = sk.noise_element(0, p.index, p)
+        self.y = sk.noise_element(0, p.elements, p)
 
     def kernel(self, h: float) -> Kernel:
         return Kernel(params=self._params(), step=sk.noise_step)

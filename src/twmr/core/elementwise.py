@@ -65,7 +65,7 @@ class ElementWise:
                     call(i) + ", " for i in range(n)) + ")"
                 env: dict[str, Any] = {"f": fn}
                 exec(f"def impl({', '.join(names)}):\n    return {body}\n", env)  # noqa: S102
-                return env["impl"]  # type: ignore[no-any-return]
+                return env["impl"]
 
             template = make_overload_template(self, typer, {"no_cpython_wrapper": True},
                                               False, "never", False)
