@@ -178,6 +178,17 @@ def test_bad_parameters_are_refused_at_check_naming_block_and_parameter(
     assert "Fix:" in text and "Traceback" not in text
 
 
+def test_noise_period_off_the_step_is_refused_at_check_with_the_instance_step() -> None:
+    text = SCENARIO.format(kind="noise", params="period: 0.0025")
+    with pytest.raises(ScenarioError, match=r"component 'src' \(noise\): period = 0.0025 s is "
+                       r"not a multiple of the step 0.001 s \(2.5 steps\).*Fix: give period"):
+        loads(text)
+    loads(text.replace("0.0025", "0.003"))
+    multiple = text.replace("src: {", "src: {step_multiple: 2, ")
+    with pytest.raises(ScenarioError, match=r"not a multiple of the step 0\.002 s"):
+        loads(multiple.replace("0.0025", "0.003"))
+
+
 def test_noise_period_off_the_step_is_refused_before_the_run() -> None:
     with pytest.raises(ComponentError, match=r"noise: period = 0.0025 s is not a multiple of "
                        r"the step 0.001 s.*Fix:"), Harness("noise",

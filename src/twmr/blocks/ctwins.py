@@ -65,7 +65,7 @@ def _table_sizes(**lengths: str) -> Callable[[Component], dict[str, int]]:
         problems = comp.check(frozenset())
         if problems:
             _, message, fix = problems[0]
-            raise CosimError(f"export {comp.kind}: {message}. Fix: {fix}")
+            raise CosimError(f"export {comp.kind}: {message} Fix: {fix}")
         return {define: len(comp.get(name)) for define, name in lengths.items()}
     return sizes
 

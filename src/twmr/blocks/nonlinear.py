@@ -38,7 +38,7 @@ class ElementWise(Component):
 def _ordered(low: str, lo: float, high: str, hi: float) -> Problems:
     if lo <= hi:
         return []
-    return [(low, f"{low} = {lo:g} is above {high} = {hi:g}",
+    return [(low, f"{low} = {lo:g} is above {high} = {hi:g}.",
              f"give {low} <= {high} (swap them?).")]
 
 
@@ -73,8 +73,9 @@ class DeadZone(ElementWise):
 
 
 class Quantizer(ElementWise):
-    """y = interval * floor(u / interval + 1/2): u rounded to the nearest multiple of
-    `interval` (halves up)."""
+    """y = interval * floor(u / interval + 1/2), element by element.
+
+    u rounded to the nearest multiple of `interval` (halves up)."""
 
     kind = "quantizer"
     interval = Parameter(0.1, min=0.0, description="quantization step (> 0) [unit of u]")
@@ -82,7 +83,7 @@ class Quantizer(ElementWise):
     def check(self, given: frozenset[str]) -> Problems:
         if self.interval > 0.0:
             return []
-        return [("interval", f"interval = {self.interval:g}; quantizing needs a step above 0",
+        return [("interval", f"interval = {self.interval:g}; quantizing needs a step above 0.",
                  "give interval > 0 (in the unit of u).")]
 
     def kernel(self, h: float) -> Kernel:
@@ -91,8 +92,10 @@ class Quantizer(ElementWise):
 
 
 class RateLimiter(ElementWise):
-    """y(t + h) = y(t) + clip(u(t) - y(t), -falling h, rising h): y follows u at most at the
-    given rates (no feedthrough: the change is made over the step)."""
+    """y(t + h) = y(t) + clip(u(t) - y(t), -falling h, rising h), element by element.
+
+    y follows u at most at the given rates (no feedthrough: the change is made over the
+    step)."""
 
     kind = "rate_limiter"
     rising = Parameter(1.0, min=0.0, description="largest rate up [unit of u per second]")
@@ -109,8 +112,10 @@ class RateLimiter(ElementWise):
 
 
 class Backlash(ElementWise):
-    """Play of total width `width`: y stays while u moves within width/2 of it, else follows
-    at u -+ width/2 (the output of a gear with slack driven by u)."""
+    """Backlash (play) of total width `width`, element by element.
+
+    y stays while u moves within width/2 of it, else follows at u -+ width/2 (the output of a
+    gear with slack driven by u)."""
 
     kind = "backlash"
     width = Parameter(1.0, min=0.0, description="dead band, total [unit of u]")
@@ -122,8 +127,10 @@ class Backlash(ElementWise):
 
 
 class Relay(ElementWise):
-    """Relay with hysteresis: switches on (y = on_value) when u >= on_point, off (y =
-    off_value) when u <= off_point, and keeps its state in between; off at the start."""
+    """Relay with hysteresis, element by element.
+
+    Switches on (y = on_value) when u >= on_point, off (y = off_value) when u <= off_point, and
+    keeps its state in between; off at the start."""
 
     kind = "relay"
     on_point = Parameter(0.5, description="switch-on threshold [unit of u]")
@@ -152,9 +159,11 @@ def _strictly_increasing(params: dict[str, Any], *names: str) -> dict[str, Any]:
 
 
 class Lookup1D(ElementWise):
-    """y = the piecewise-linear function through (breakpoints[i], values[i]) at u; outside the
-    breakpoints held at the end values (hold), extended along the end segments (linear), or NaN
-    (error: the run stops at the first NaN, naming the block)."""
+    """y = piecewise-linear interpolation of a table at u, element by element.
+
+    The table is (breakpoints[i], values[i]); outside the breakpoints y is held at the end
+    values (hold), extended along the end segments (linear), or NaN (error: the run stops at
+    the first NaN, naming the block)."""
 
     kind = "lookup_1d"
     breakpoints = Parameter((-1.0, 0.0, 1.0), size=0,
@@ -181,9 +190,10 @@ class Lookup1D(ElementWise):
 
 
 class Lookup2D(Component):
-    """y = bilinear interpolation of the grid values[i][j] at (breakpoints1[i],
-    breakpoints2[j]) at (u1, u2), element
-    by element; outside the grid held (hold), extended (linear) or NaN (error)."""
+    """y = bilinear interpolation of a grid at (u1, u2), element by element.
+
+    The grid is values[i][j] at (breakpoints1[i], breakpoints2[j]); outside it the inputs are
+    held at the edges (hold), the edge cells extended (linear), or y is NaN (error)."""
 
     kind = "lookup_2d"
     sized_by: ClassVar[dict[str, str]] = {"u1": "n", "u2": "n", "y": "n"}

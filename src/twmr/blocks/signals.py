@@ -36,8 +36,9 @@ class Ramp(Component):
 
 
 class Pulse(Component):
-    """A pulse train: y = offset + amplitude for `width` seconds of every `period`, from
-    `delay` on; offset otherwise."""
+    """Pulse train: y = offset + amplitude for `width` s of every `period` s from `delay` on.
+
+    Offset otherwise (before `delay` too)."""
 
     kind = "pulse"
     amplitude = Parameter(1.0)
@@ -50,10 +51,10 @@ class Pulse(Component):
     def check(self, given: frozenset[str]) -> Problems:
         if not self.period > 0.0:
             return [("period", f"period = {self.period:g} s; a pulse train needs a period "
-                     f"above 0", "give period > 0 s.")]
+                     f"above 0.", "give period > 0 s.")]
         if self.width > self.period:
             return [("width", f"width = {self.width:g} s is longer than the period "
-                     f"({self.period:g} s)", "give 0 <= width <= period (width = period: "
+                     f"({self.period:g} s).", "give 0 <= width <= period (width = period: "
                      "always high).")]
         return []
 
@@ -69,8 +70,10 @@ class Pulse(Component):
 
 
 class Table(Component):
-    """y(t) from time-value pairs: linear between points or held from each point (hold); the
-    first value before the first time, the last from the last time on."""
+    """y(t) from time-value pairs, linear or held between them.
+
+    Linear between points, or held from each point (hold); the first value before the first
+    time, the last from the last time on."""
 
     kind = "table"
     times = Parameter((0.0, 1.0, 2.0), size=0, unit="s",
@@ -101,10 +104,12 @@ class Table(Component):
 
 
 class Noise(Component):
-    """Seeded noise, Gaussian or uniform, of mean `mean` and standard deviation `stddev`, a new
-    sample every `period` seconds held in between (band-limited: about 1 / (2 period) Hz); n
-    independent elements. Sample k of element i is Philox-4x32 of (k, i) under `seed`, so the
-    same seed gives the same sequence in Python, compiled and C, whatever the step."""
+    """Seeded Gaussian or uniform noise, a sample every `period` s held, n elements.
+
+    Mean `mean`, standard deviation `stddev`; held between samples (band-limited: about
+    1 / (2 period) Hz); n independent elements. Sample k of element i is Philox-4x32 of (k, i)
+    under `seed`, so the same seed gives the same sequence in Python, compiled and C, whatever
+    the step."""
 
     kind = "noise"
     sized_by: ClassVar[dict[str, str]] = {"y": "n"}
@@ -128,14 +133,19 @@ class Noise(Component):
         return tables.choice("distribution", self.distribution,
                              {k: v for k, v in sk.DISTRIBUTIONS.items()})
 
+    def check_step(self, h: float) -> Problems:
+        steps = self.period / h
+        if self.period == 0.0 or abs(steps - round(steps)) <= 1e-9 * max(1.0, steps):
+            return []
+        return [("period", f"period = {self.period:g} s is not a multiple of the step {h:g} s "
+                 f"({steps:.6g} steps), so samples would not fall on communication points.",
+                 "give period as k * step (or 0: a sample every step).")]
+
     def prepare(self, run: Any) -> None:
+        """Refuses a period off the step (a run not built from a scenario: `Harness`)."""
         super().prepare(run)
-        steps = self.period / run.step
-        if self.period > 0.0 and abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
-            raise ComponentError(self.name, None, f"noise: period = {self.period:g} s is not a "
-                                 f"multiple of the step {run.step:g} s ({steps:.6g} steps), so "
-                                 f"samples would not fall on communication points. Fix: give "
-                                 f"period as k * step (or 0: a sample every step).")
+        for _, message, fix in self.check_step(run.step):
+            raise ComponentError(self.name, None, f"noise: {message} Fix: {fix}")
 
     def _params(self) -> sk.NoiseParams:
         n = int(self.n)
@@ -153,9 +163,10 @@ class Noise(Component):
 
 
 class Chirp(Component):
-    """A linear sine sweep from f0 to f1 over `duration` (continuing at the same rate after),
-    starting at `time`: y = offset + amplitude sin(2 pi (f0 tau + (f1 - f0) tau^2 /
-    (2 duration)) + phase), tau = max(0, t - time)."""
+    """Linear sine sweep (chirp) from f0 to f1 over `duration`, starting at `time`.
+
+    y = offset + amplitude sin(2 pi (f0 tau + (f1 - f0) tau^2 / (2 duration)) + phase),
+    tau = max(0, t - time); the frequency keeps rising at the same rate after `duration`."""
 
     kind = "chirp"
     amplitude = Parameter(1.0)
@@ -171,7 +182,7 @@ class Chirp(Component):
         if self.duration > 0.0:
             return []
         return [("duration", f"duration = {self.duration:g} s; the sweep needs a duration "
-                 f"above 0", "give duration > 0 s.")]
+                 f"above 0.", "give duration > 0 s.")]
 
     def _params(self) -> sk.ChirpParams:
         return sk.ChirpParams(float(self.amplitude), float(self.f0), float(self.f1),

@@ -70,7 +70,7 @@ def increasing(name: str, bp: Sequence[float], strict: bool = True) -> Problems:
     """The problem with breakpoints `bp` (parameter `name`): fewer than two, or not (strictly)
     increasing."""
     if len(bp) < 2:
-        return [(name, f"{name} has {len(bp)} value(s); a table needs at least two",
+        return [(name, f"{name} has {len(bp)} value(s); a table needs at least two.",
                  f"give two or more {name}, increasing.")]
     bad = next((i for i in range(1, len(bp)) if bp[i] < bp[i - 1] or
                 (strict and bp[i] == bp[i - 1])), None)
@@ -78,7 +78,7 @@ def increasing(name: str, bp: Sequence[float], strict: bool = True) -> Problems:
         return []
     order = "strictly increasing" if strict else "non-decreasing"
     return [(name, f"{name} must be {order}, but {name}[{bad + 1}] = {bp[bad]:g} follows "
-             f"{name}[{bad}] = {bp[bad - 1]:g}",
+             f"{name}[{bad}] = {bp[bad - 1]:g}.",
              f"sort {name}, the values in the same order"
              f"{'; no breakpoint may repeat' if strict else ''}.")]
 
@@ -89,14 +89,14 @@ def same_length(name: str, values: Sequence[float], expected: int, shape: str) -
     if len(values) == expected:
         return []
     return [(name, f"{name} has {len(values)} values but the breakpoints call for {expected} "
-             f"({shape})", f"give {name} as {shape}.")]
+             f"({shape}).", f"give {name} as {shape}.")]
 
 
 def choice(name: str, value: str, known: dict[str, float]) -> Problems:
     """The problem with a text parameter that is not one of `known`."""
     if value in known:
         return []
-    return [(name, f"{name} '{value}' is not one of {', '.join(known)}",
+    return [(name, f"{name} '{value}' is not one of {', '.join(known)}.",
              f"set {name} to {' | '.join(known)}.")]
 
 
