@@ -301,3 +301,34 @@ def test_a_chain_of_the_blocks_runs_bit_identical_in_python_and_compiled(
     assert python["rel.y"].nunique() == 2 and python["sat.y"].max() == 2.5
     assert math.isclose(python["ramp.y"].iloc[-1], 1.0)
     assert python["vdz.y[3]"].abs().max() > 0 and python["vr.y[2]"].nunique() == 2
+
+
+UNITS = """components:
+  speed: {kind: constant, parameters: {value: 10.0}}
+  a: {kind: saturation, parameters: {unit: rad/s, lower: -1000, upper: 1000}}
+  b: {kind: saturation, parameters: {unit: rpm, lower: -3000, upper: "5 rad/s"}}
+connections: [speed.y -> a.u, a.y -> b.u]
+experiment: {stop: 0.01, step: 0.001}
+"""
+
+
+def test_a_unit_makes_the_ports_and_limits_convert(tmp_path: Path) -> None:
+    system = loads(UNITS)
+    b = system.components["b"]
+    assert b.variables["u"].unit == b.variables["y"].unit == b.variables["upper"].unit == "rpm"
+    assert b.upper == pytest.approx(5 * 60 / (2 * math.pi))  # "5 rad/s" given, held in rpm
+    frame = twmr.simulate(twmr.load(UNITS)).to_pandas()
+    assert frame["a.y"].iloc[-1] == 10.0  # rad/s
+    # the wire converts 10 rad/s to 95.5 rpm, which the limit of 5 rad/s = 47.7 rpm clips (10
+    # unconverted would pass)
+    assert frame["b.y"].iloc[-1] == pytest.approx(5 * 60 / (2 * math.pi))
+    with pytest.raises(ScenarioError, match="furlong"):
+        loads(UNITS.replace("unit: rpm", "unit: furlong"))
+    from fmpy import read_model_description
+
+    from twmr.fmi.cexport import export_c_fmu
+
+    md = read_model_description(str(export_c_fmu("saturation", tmp_path / "s.fmu",
+                                                  {"unit": "N.m", "n": 2})))
+    units = {v.name: v.declaredType or v.unit for v in md.modelVariables}
+    assert units["u[1]"] == units["y[2]"] == units["lower"] == "N.m"

@@ -7,6 +7,7 @@ output carries the input's unit, and limits, widths, points and breakpoints are 
 unit. docs/blocks.md gives the equations."""
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, ClassVar
 
 from twmr.blocks import nonlinear_kernels as nk
@@ -14,17 +15,38 @@ from twmr.blocks import tables
 from twmr.core.component import Component
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
+from twmr.core.units import parse_unit
 
 Problems = list[tuple[str, str, str]]
 
 
 class ElementWise(Component):
-    """A block of one input u and one output y of n elements each (n = 1: scalars)."""
+    """A block of one input u and one output y of n elements each (n = 1: scalars). Its `unit`
+    (default '': generic) is the unit of u and of the variables `united` with it, so a wire
+    from another unit converts and parameters given as text ('-200 mN.m') convert to it."""
 
     sized_by: ClassVar[dict[str, str]] = {"u": "n", "y": "n"}
+    sizing_parameters = frozenset({"unit"})  # set first: the parameters take their unit from it
+    #: the variables in the unit of u
+    united: ClassVar[tuple[str, ...]] = ("u", "y")
     n = Parameter(1, type=INTEGER, min=1, description="number of elements (1: a scalar)")
+    unit = Parameter("", type=STRING, description="unit of u ('': any, no conversion)")
     u = Input(0.0)
     y = Output(0.0, depends_on=("u",))
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        if name != "unit":
+            super().set_parameter(name, value)
+            return
+        text = self.variables["unit"].coerce(value)
+        if text:
+            parse_unit(text)  # UnitError for text that is not a unit
+        self.__dict__["unit"] = text
+        self.variables = dict(self.variables)
+        for key in self.united:
+            var = dataclasses.replace(self.variables[key], unit=text)
+            var.name = key
+            self.variables[key] = var
 
     def each(self, value: float) -> float | tuple[float, ...]:
         """`value` for every element: a float (n = 1) or a tuple of n."""
@@ -46,6 +68,7 @@ class Saturation(ElementWise):
     """y = min(max(u, lower), upper) element by element."""
 
     kind = "saturation"
+    united = ("u", "y", "lower", "upper")
     lower = Parameter(-1.0, description="lower limit [unit of u]")
     upper = Parameter(1.0, description="upper limit [unit of u]")
 
@@ -61,6 +84,7 @@ class DeadZone(ElementWise):
     """y = 0 for lower <= u <= upper, u - upper above, u - lower below."""
 
     kind = "dead_zone"
+    united = ("u", "y", "lower", "upper")
     lower = Parameter(-0.5, description="start of the dead zone [unit of u]")
     upper = Parameter(0.5, description="end of the dead zone [unit of u]")
 
@@ -78,6 +102,7 @@ class Quantizer(ElementWise):
     u rounded to the nearest multiple of `interval` (halves up)."""
 
     kind = "quantizer"
+    united = ("u", "y", "interval")
     interval = Parameter(0.1, min=0.0, description="quantization step (> 0) [unit of u]")
 
     def check(self, given: frozenset[str]) -> Problems:
@@ -98,6 +123,7 @@ class RateLimiter(ElementWise):
     step)."""
 
     kind = "rate_limiter"
+    united = ("u", "y", "y0")
     rising = Parameter(1.0, min=0.0, description="largest rate up [unit of u per second]")
     falling = Parameter(1.0, min=0.0, description="largest rate down [unit of u per second]")
     y0 = Parameter(0.0, description="output at the start (every element)")
@@ -118,6 +144,7 @@ class Backlash(ElementWise):
     gear with slack driven by u)."""
 
     kind = "backlash"
+    united = ("u", "y", "width", "y0")
     width = Parameter(1.0, min=0.0, description="dead band, total [unit of u]")
     y0 = Parameter(0.0, description="output at the start (every element)")
 
@@ -133,6 +160,7 @@ class Relay(ElementWise):
     keeps its state in between; off at the start."""
 
     kind = "relay"
+    united = ("u", "on_point", "off_point")
     on_point = Parameter(0.5, description="switch-on threshold [unit of u]")
     off_point = Parameter(-0.5, description="switch-off threshold, <= on_point [unit of u]")
     on_value = Parameter(1.0, description="output when on")
@@ -166,6 +194,7 @@ class Lookup1D(ElementWise):
     the first NaN, naming the block)."""
 
     kind = "lookup_1d"
+    united = ("u", "breakpoints")
     breakpoints = Parameter((-1.0, 0.0, 1.0), size=0,
                             description="strictly increasing [unit of u]")
     values = Parameter((1.0, 0.0, 1.0), size=0, description="the output at each breakpoint")
