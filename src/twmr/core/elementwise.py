@@ -37,9 +37,12 @@ class ElementWise:
 
     def __call__(self, *args: Any) -> Any:
         f = self.fn.py_func
-        n = next((len(a) for a in args if _mapped(a)), None)
-        if n is None:
+        sizes = {len(a) for a in args if _mapped(a)}
+        if not sizes:
             return f(*args)
+        if len(sizes) > 1:
+            raise ValueError(f"{self.__name__}: tuples of different lengths {sorted(sizes)}")
+        n = sizes.pop()
         return tuple(f(*(a[i] if _mapped(a) else a for a in args)) for i in range(n))
 
     @property
@@ -55,7 +58,11 @@ class ElementWise:
             def typer(*args: Any) -> Callable[..., Any]:
                 names = [f"a{i}" for i in range(len(args))]
                 tuples = [type(a) is types.UniTuple for a in args]
-                n = next((a.count for a, t in zip(args, tuples, strict=True) if t), None)
+                sizes = {a.count for a, t in zip(args, tuples, strict=True) if t}
+                if len(sizes) > 1:
+                    raise TypeError(f"{self.__name__}: tuples of different lengths "
+                                    f"{sorted(sizes)}")
+                n = sizes.pop() if sizes else None
 
                 def call(i: int | None) -> str:
                     return "f(" + ", ".join(
