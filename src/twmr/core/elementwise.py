@@ -33,6 +33,7 @@ class ElementWise:
     def __init__(self, fn: Callable[..., Any]):
         functools.update_wrapper(self, fn)
         self.fn = fn if isinstance(fn, KernelFunction) else KernelFunction(fn)
+        self.name: str = getattr(fn, "__name__", "elementwise")
         self._type: Any = None
 
     def __call__(self, *args: Any) -> Any:
@@ -41,7 +42,7 @@ class ElementWise:
         if not sizes:
             return f(*args)
         if len(sizes) > 1:
-            raise ValueError(f"{self.__name__}: tuples of different lengths {sorted(sizes)}")
+            raise ValueError(f"{self.name}: tuples of different lengths {sorted(sizes)}")
         n = sizes.pop()
         return tuple(f(*(a[i] if _mapped(a) else a for a in args)) for i in range(n))
 
@@ -60,7 +61,7 @@ class ElementWise:
                 tuples = [type(a) is types.UniTuple for a in args]
                 sizes = {a.count for a, t in zip(args, tuples, strict=True) if t}
                 if len(sizes) > 1:
-                    raise TypeError(f"{self.__name__}: tuples of different lengths "
+                    raise TypeError(f"{self.name}: tuples of different lengths "
                                     f"{sorted(sizes)}")
                 n = sizes.pop() if sizes else None
 
