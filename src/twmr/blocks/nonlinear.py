@@ -2,9 +2,9 @@
 hysteresis, 1-D and 2-D lookup tables. Each acts element by element on ports of n elements
 (`n`, 1: scalars) and is defined by its kernel (`twmr.blocks.nonlinear_kernels`).
 
-The ports are generic (unit ''): a wire connects them to any unit without conversion, so the
-output carries the input's unit, and limits, widths, points and breakpoints are given in that
-unit. docs/blocks.md gives the equations."""
+The ports are generic (unit '') unless `unit` names one: a generic wire connects to any unit
+without conversion, so the output carries the input's unit, and limits, widths, points and
+breakpoints are given in that unit. docs/blocks.md gives the equations."""
 from __future__ import annotations
 
 import dataclasses
@@ -12,15 +12,14 @@ from typing import Any, ClassVar
 
 from twmr.blocks import nonlinear_kernels as nk
 from twmr.blocks import tables
+from twmr.blocks.tables import Problems
 from twmr.core.component import Component
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 from twmr.core.units import parse_unit
 
-Problems = list[tuple[str, str, str]]
 
-
-class ElementWise(Component):
+class ElementBlock(Component):
     """A block of one input u and one output y of n elements each (n = 1: scalars). Its `unit`
     (default '': generic) is the unit of u and of the variables `united` with it, so a wire
     from another unit converts and parameters given as text ('-200 mN.m') convert to it."""
@@ -64,7 +63,7 @@ def _ordered(low: str, lo: float, high: str, hi: float) -> Problems:
              f"give {low} <= {high} (swap them?).")]
 
 
-class Saturation(ElementWise):
+class Saturation(ElementBlock):
     """y = min(max(u, lower), upper) element by element."""
 
     kind = "saturation"
@@ -80,7 +79,7 @@ class Saturation(ElementWise):
                       evaluate=nk.saturation_evaluate)
 
 
-class DeadZone(ElementWise):
+class DeadZone(ElementBlock):
     """y = 0 for lower <= u <= upper, u - upper above, u - lower below."""
 
     kind = "dead_zone"
@@ -96,7 +95,7 @@ class DeadZone(ElementWise):
                       evaluate=nk.dead_zone_evaluate)
 
 
-class Quantizer(ElementWise):
+class Quantizer(ElementBlock):
     """y = interval * floor(u / interval + 1/2), element by element.
 
     u rounded to the nearest multiple of `interval` (halves up)."""
@@ -116,7 +115,7 @@ class Quantizer(ElementWise):
                       evaluate=nk.quantizer_evaluate)
 
 
-class RateLimiter(ElementWise):
+class RateLimiter(ElementBlock):
     """y(t + h) = y(t) + clip(u(t) - y(t), -falling h, rising h), element by element.
 
     y follows u at most at the given rates (no feedthrough: the change is made over the
@@ -137,7 +136,7 @@ class RateLimiter(ElementWise):
                       step=nk.rate_limiter_step)
 
 
-class Backlash(ElementWise):
+class Backlash(ElementBlock):
     """Backlash (play) of total width `width`, element by element.
 
     y stays while u moves within width/2 of it, else follows at u -+ width/2 (the output of a
@@ -153,7 +152,7 @@ class Backlash(ElementWise):
                       evaluate=nk.backlash_evaluate, step=nk.backlash_step)
 
 
-class Relay(ElementWise):
+class Relay(ElementBlock):
     """Relay with hysteresis, element by element.
 
     Switches on (y = on_value) when u >= on_point, off (y = off_value) when u <= off_point, and
@@ -186,7 +185,7 @@ def _strictly_increasing(params: dict[str, Any], *names: str) -> dict[str, Any]:
     return out
 
 
-class Lookup1D(ElementWise):
+class Lookup1D(ElementBlock):
     """y = piecewise-linear interpolation of a table at u, element by element.
 
     The table is (breakpoints[i], values[i]); outside the breakpoints y is held at the end

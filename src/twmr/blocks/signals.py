@@ -8,12 +8,11 @@ from typing import Any, ClassVar
 
 from twmr.blocks import signal_kernels as sk
 from twmr.blocks import tables
+from twmr.blocks.tables import Problems
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Output, Parameter
-
-Problems = list[tuple[str, str, str]]
 
 
 class Ramp(Component):

@@ -16,6 +16,7 @@ HOLD, LINEAR, ERROR = EXTRAPOLATIONS.values()
 #: the interpolation of a time table between its points
 INTERPOLATIONS = {"linear": 0.0, "hold": 1.0}
 
+#: what `Component.check` returns: (parameter, what is wrong, how to fix it)
 Problems = list[tuple[str, str, str]]
 
 
