@@ -13,7 +13,7 @@ import pytest
 from scipy.interpolate import RegularGridInterpolator, interp1d
 
 import twmr
-from twmr.core import ScenarioError
+from twmr.core import CosimError, ScenarioError
 from twmr.scenario import loads
 from twmr.testing import Harness
 
@@ -332,3 +332,37 @@ def test_a_unit_makes_the_ports_and_limits_convert(tmp_path: Path) -> None:
                                                   {"unit": "N.m", "n": 2})))
     units = {v.name: v.declaredType or v.unit for v in md.modelVariables}
     assert units["u[1]"] == units["y[2]"] == units["lower"] == "N.m"
+
+
+def test_lookup_error_extrapolation_stops_the_run_naming_the_block() -> None:
+    text = """components:
+  ramp: {kind: ramp, parameters: {slope: 1.0}}
+  lut: {kind: lookup_1d, parameters: {breakpoints: [0, 0.5], values: [0, 1], extrapolation: error}}
+connections: [ramp.y -> lut.u]
+experiment: {stop: 1.0, step: 0.01}
+"""
+    with pytest.raises(CosimError) as err:
+        twmr.simulate(twmr.load(text))
+    assert "component 'lut'" in str(err.value) and "output 'y' is nan" in str(err.value)
+    assert "t = 0.51" in str(err.value)  # the first point past the last breakpoint
+
+
+@pytest.mark.parametrize("kind", ["relay", "backlash", "rate_limiter", "noise"])
+def test_a_saved_state_restores_the_memory_of_the_block(kind: str) -> None:
+    wave = 2.0 * np.sin(np.linspace(0.0, 12.0, 120))
+    inputs = {"u": wave} if kind != "noise" else {}
+    with Harness(kind, parameters={"n": 2}, step=0.01) as dut:
+        dut.initialize()
+
+        def run(k0: int, k1: int) -> list:
+            rows = []
+            for k in range(k0, k1):
+                dut.step(**{name: (float(v[k]), -float(v[k])) for name, v in inputs.items()})
+                rows.append(dut["y"])
+            return rows
+        run(0, 40)
+        saved = dut.component.get_state()
+        first = run(40, 120)
+        dut.component.set_state(saved)
+        dut.n = 40
+        assert run(40, 120) == first
