@@ -1,8 +1,8 @@
 """Every registered block's three forms are one definition: for each kind with a C twin (entry-point
 group `twmr.c_kernels`) and each kind of `twmr.components` that offers a compiled kernel,
 hypothesis draws the variant (each compiled-in choice the twin supports, the order of a
-variable-size block), the Real parameters within their declared min/max, the initial states, the
-start time, the step size and a sequence of inputs, and drives
+variable-size block, the size of an element-wise one), the Real parameters within their declared
+min/max, the initial states, the start time, the step size and a sequence of inputs, and drives
 
 - the Python form: the component's own methods (`initialize`, `evaluate`, `do_step`), as the
   master's Gauss-Seidel loop calls them for one block;
@@ -25,7 +25,9 @@ into the outputs. Measured over this test's examples (the worst err / scale per 
 motor_driver 7.9e-16, state_space 2.2e-16 of the scale, every other kind 0. A changed operator,
 constant or index in a twin gives errors of the order of the signal itself, far above REL.
 
-A kind added to either registry is covered by this test with no edit of it.
+A kind added to either registry is covered by this test with no edit of it. A block whose
+parameters constrain each other (sorted breakpoints, a sample period that is a multiple of the
+step) offers a classmethod `example(params, h) -> params` that makes drawn parameters valid.
 """
 from __future__ import annotations
 
@@ -46,6 +48,8 @@ from twmr.testing import Harness
 
 REL = 1e-12
 EXAMPLES = 12
+#: the sizes drawn for an element-wise block (`Component.sized_by`) whose twin names no orders
+SIZES = (1, 3)
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck))
 
@@ -97,21 +101,25 @@ def _value(var: Any, element: Any, length: int | None = None) -> st.SearchStrate
 def case(draw: Any, kind: str) -> dict[str, Any]:
     """A variant, parameters, initial states, start, step and inputs for a block of `kind`."""
     cls = lookup(kind)
-    proto = cls(kind)
     twin = twin_of(kind) if kind in twins() else None
-    params: dict[str, Any] = {}
+    order = draw(st.sampled_from(twin.orders)) if twin is not None and twin.orders else None
+    sizing = {name: order or draw(st.sampled_from(SIZES)) for name in cls.sized_by.values()}
+    proto = cls(kind, **sizing)
+    params: dict[str, Any] = dict(sizing)
     if twin is not None:
         for name, choice in twin.choices.items():
             params[name] = draw(st.sampled_from(list(choice.codes)))
     for name, var in proto.parameters.items():
         if var.type == BOOLEAN and name not in params and not (twin and name in twin.hidden):
             params[name] = draw(st.booleans())
-    order = draw(st.sampled_from(twin.orders)) if twin is not None and twin.orders else None
     for name, var in proto.parameters.items():
         if var.type != REAL or (twin is not None and name in twin.hidden):
             continue
         length = twin.lengths[name](order) if twin and order and name in twin.lengths else None
         params[name] = draw(_value(var, _element, length))
+    h = draw(st.one_of(st.just(1e-3), st.floats(-4.0, -1.3).map(lambda e: 10.0 ** e)))
+    if hasattr(cls, "example"):
+        params = cls.example(params, h)
     states = {name: draw(_value(var, _signal)) for name, var in proto.outputs.items()
               if var.kind == "state"}
     n_steps = draw(st.integers(1, 25))
@@ -119,7 +127,6 @@ def case(draw: Any, kind: str) -> dict[str, Any]:
             for _ in range(draw(st.integers(1, 4)))]
     every = -(-(n_steps + 1) // len(held))
     inputs = [held[k // every] for k in range(n_steps + 1)]
-    h = draw(st.one_of(st.just(1e-3), st.floats(-4.0, -1.3).map(lambda e: 10.0 ** e)))
     start = draw(st.one_of(st.just(0.0), st.floats(0.0, 5.0)))
     return {"params": params, "states": states, "inputs": inputs, "h": h, "start": start}
 

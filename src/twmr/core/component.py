@@ -213,6 +213,11 @@ class Component:
         parameters the scenario set (the others hold their defaults)."""
         return []
 
+    def check_step(self, h: float) -> list[tuple[str, str, str]]:
+        """Problems of the parameters with communication steps of h [s] (the base step times
+        the component's step_multiple), found when the scenario is built, as `check`'s."""
+        return []
+
     def set_parameter(self, name: str, value: Any) -> None:
         """Set a parameter or a start value (input, state) before `initialize()`.
 

@@ -111,6 +111,8 @@ class _Builder:
     def build(self) -> System:
         comps = self.components()
         experiment = self.experiment()
+        if not self.problems:
+            self.check_steps(comps, experiment.step)
         self.fail_if_problems()
         self.problems += self.flat_problems
         self.check_exposed(comps)
@@ -164,12 +166,24 @@ class _Builder:
             self.configure(comp, name, params, "parameters", ("parameter",))
             self.configure(comp, name, spec.initial, "initial", ("state", "input"))
             given = frozenset(params) | frozenset(construction)
-            for key, message, fix in comp.check(given):
-                where = spec.parameters[key].where if key in given else spec.where
-                self.problems.append(Problem(where, f"component '{name}' ({kind}): {message}",
-                                             fix))
+            self.report(name, comp.check(given))
             comps[name] = comp
         return comps
+
+    def report(self, name: str, problems: list[tuple[str, str, str]]) -> None:
+        """`Component.check`-style problems of component `name`, each at the parameter at fault
+        when the scenario sets it."""
+        spec = self.spec.components[name]
+        for key, message, fix in problems:
+            where = spec.parameters[key].where if key in spec.parameters else spec.where
+            self.problems.append(Problem(where, f"component '{name}' ({spec.kind.value}): "
+                                         f"{message}", fix))
+
+    def check_steps(self, comps: dict[str, Component], step: float) -> None:
+        """Each component's problems with its step (the base step times its step_multiple)."""
+        for name, comp in comps.items():
+            h = step * int(self.spec.components[name].step_multiple.value)
+            self.report(name, comp.check_step(h))
 
     def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
         """The class of a component's kind, or None after adding the problem."""

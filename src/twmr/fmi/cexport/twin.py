@@ -37,7 +37,7 @@ class CTwin:
     one is exported as n zeros) and `orders` the orders a test exercises; `work(comp)` the number
     of work values, `hidden` the parameters not exported, `pinned(comp)` the parameters whose
     export value decides the FMU's structure (its feedthrough): their min and max are that
-    value."""
+    value; `sizes(comp)` further constants #defined from the instance (its tables' lengths)."""
 
     source: Path
     headers: tuple[Path, ...] = ()
@@ -51,6 +51,7 @@ class CTwin:
     work: Callable[[Component], int] = field(default=lambda comp: 1)
     hidden: frozenset[str] = frozenset()
     pinned: Callable[[Component], frozenset[str]] = field(default=lambda comp: frozenset())
+    sizes: Callable[[Component], Mapping[str, int]] = field(default=lambda comp: {})
 
     def options(self, comp: Component) -> dict[str, int]:
         """The #defines of `comp`'s variant; CosimError for a value the twin does not support."""
@@ -65,6 +66,7 @@ class CTwin:
             out[choice.define] = choice.codes[value]
         if self.order is not None:
             out[self.order_define] = self.order(comp)
+        out.update(self.sizes(comp))
         return out
 
     def fill_empty(self, comp: Component) -> None:
