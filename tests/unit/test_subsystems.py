@@ -247,10 +247,12 @@ def test_a_step_multiple_on_a_subsystem_multiplies_its_blocks(tmp_path: Path) ->
 
 def test_bad_values_from_outside_name_the_subsystem_and_its_blocks(tmp_path: Path) -> None:
     write(tmp_path, amp_yaml=AMP, top_yaml=TOP)
-    cases = {"amp.k=3": "'amp' is a subsystem", "amp.x.k=3": "no component 'x' in the "
-             "subsystem 'amp'", "src.value.k=1": "component 'src' (Constant) has no parameter 'value.k' (did you mean "
-             "'value'?)",
-             "amp.g.kk=1": "component 'amp.g' (Gain) has no parameter 'kk' (did you mean 'k'?)"}
+    cases = {
+        "amp.k=3": "'amp' is a subsystem",
+        "amp.x.k=3": "no component 'x' in the subsystem 'amp'",
+        "src.value.k=1": "component 'src' (Constant) has no parameter 'value.k' (did you "
+                         "mean 'value'?)",
+        "amp.g.kk=1": "component 'amp.g' (Gain) has no parameter 'kk' (did you mean 'k'?)"}
     for text, expected in cases.items():
         with pytest.raises(ScenarioError) as err:
             twmr.load(tmp_path / "top.yaml", [text])
