@@ -8,7 +8,7 @@ the connections with their unit conversions as linear transformations, the units
 base step, the algorithm and the recorded signals go into annotations: the experiment's
 `org.twmr-cosim` one (ours) and libcosim's `com.opensimulationplatform` fixed-step one. The
 element prefixes are written as the standard's examples write them (ssd:, ssc:, ssv:), which the
-parsers of libcosim and Ecos require. docs/ssp_export.md describes the mapping.
+parsers of libcosim and Ecos require. docs/systems.md, SSP export describes the mapping.
 """
 from __future__ import annotations
 
@@ -135,7 +135,7 @@ def system_element(name: str, system: System, blocks: dict[str, BlockFmu], units
                    ssp: int = 1) -> ET.Element:
     """The ssd:System of a flat system: one ssd:Component per block, the connections. (A
     subsystem becomes an ssd:System inside Elements, with the ports it exposes as its
-    ssd:Connectors: docs/ssp_export.md.)"""
+    ssd:Connectors: docs/systems.md, SSP export.)"""
     root = ET.Element(_q(SSD, "System"), name=name)
     elements = ET.SubElement(root, _q(SSD, "Elements"))
     for block in blocks.values():
