@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from twmr.blocks.ctwins import C as BLOCKS_C
 from twmr.components import _model, trajectory
 from twmr.fmi.cexport.twin import Choice, CTwin
 
@@ -28,7 +29,9 @@ _TRACKING = {"drive": Choice("DRIVE", {"auto": 0, "forward": 1, "backward": 2}),
 _DRIVES = {"DRIVE_FORWARD": 1, "DRIVE_BACKWARD": 2}
 
 INERTIA, SLIP_PROFILE = C / "inertia.h", C / "slip_profile.h"
-SAMPLED, SPLITMIX = C / "sampled.h", C / "splitmix.h"
+SAMPLED = C / "sampled.h"
+#: the blocks' one random generator (twmr.blocks.philox)
+PHILOX = BLOCKS_C / "philox.h"
 
 PLANT = CTwin(C / "plant.c", headers=(INERTIA, SLIP_PROFILE), defines=SLIP_CODES,
               work=lambda comp: 8)
@@ -49,5 +52,5 @@ MOTOR = CTwin(C / "motor.c", choices={"mode": Choice("MODE_DC", {"ideal": 0, "dc
               work=lambda comp: 9)
 ENCODER = CTwin(C / "encoder.c", headers=(SAMPLED,), tunable=frozenset({"sample_period"}),
                 work=lambda comp: 3)
-IMU = CTwin(C / "imu.c", headers=(SAMPLED, SPLITMIX),
+IMU = CTwin(C / "imu.c", headers=(SAMPLED, PHILOX),
             tunable=frozenset({"bias", "noise_std", "sample_period"}), work=lambda comp: 3)

@@ -6,18 +6,19 @@ previous sample over the time between them, which is the true mean yaw rate over
 
     r_k = (theta(t_k) - theta(t_{k-1})) / (t_k - t_{k-1}) + bias + noise_std n_k
 
-with n_k sample k of the standard normal sequence of `seed` (`_splitmix.splitmix_normal`, the
-same in Python, compiled and C). Sample 0 is at the start time with no rate (r_0 = bias +
-noise_std n_0; its heading is taken at the first step); a sample is taken at the first
-communication point at least `sample_period` after the previous one, and held until the next.
+with n_k sample k of the standard normal sequence of `seed` (`twmr.blocks.philox`, the one
+generator of the blocks, the same in Python, compiled and C). Sample 0 is at the start time
+with no rate (r_0 = bias + noise_std n_0; its heading is taken at the first step); a sample is
+taken at the first communication point at least `sample_period` after the previous one, and held
+until the next.
 """
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
 
+from twmr.blocks.philox import standard_normal
 from twmr.components._sampled import sample_due
-from twmr.components._splitmix import splitmix_normal
 from twmr.core import Component, Input, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
 
@@ -49,7 +50,7 @@ def imu_evaluate(t: float, x: ImuState, y: tuple, u: tuple, p: ImuParams
     if not sample_due(t, x.t_last, p.period):
         return x, y
     rate = (u[0] - x.heading) / (t - x.t_last)
-    return x, (rate + p.bias + p.noise_std * splitmix_normal(p.seed, x.k + 1.0),)
+    return x, (rate + p.bias + p.noise_std * standard_normal(int(p.seed), int(x.k) + 1, 0),)
 
 
 @kernel_function
@@ -89,7 +90,7 @@ class Imu(Component):
 
     def initialize(self) -> None:
         p = self._params()
-        self.yaw_rate = p.bias + p.noise_std * splitmix_normal(p.seed, 0.0)
+        self.yaw_rate = p.bias + p.noise_std * standard_normal(int(p.seed), 0, 0)
 
     def _params(self) -> ImuParams:
         return ImuParams(float(self.bias), float(self.noise_std), float(self.seed),

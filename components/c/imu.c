@@ -1,10 +1,10 @@
 /* Yaw-rate gyro (rate-integrating): at each sample k, the heading change since the last sample
- * over the time between them, plus bias and noise_std n_k (n_k: splitmix.h); held between
+ * over the time between them, plus bias and noise_std n_k (n_k: philox.h); held between
  * samples. The C twin of components/imu.py, in the same order of operations. */
 #include <math.h>
 #include "kernel.h"
 #include "sampled.h"
-#include "splitmix.h"
+#include "philox.h"
 
 enum { HEADING, T_LAST, K };  /* work values: heading, time and index of the last sample */
 
@@ -12,14 +12,14 @@ void kernel_eval(Model *m) {
     double *v = m->v, *w = m->w;
     if (!sample_due(m->time, w[T_LAST], v[V_sample_period])) return;
     v[V_yaw_rate] = (v[V_heading] - w[HEADING]) / (m->time - w[T_LAST]) + v[V_bias]
-                    + v[V_noise_std] * splitmix_normal(v[V_seed], w[K] + 1.0);
+                    + v[V_noise_std] * standard_normal((uint64_t)v[V_seed], (int64_t)w[K] + 1, 0);
 }
 
 void kernel_init(Model *m) {
     double *v = m->v;
     m->w[HEADING] = m->w[K] = 0.0;
     m->w[T_LAST] = NAN;  /* sample 0's heading: taken by the first step */
-    v[V_yaw_rate] = v[V_bias] + v[V_noise_std] * splitmix_normal(v[V_seed], 0.0);
+    v[V_yaw_rate] = v[V_bias] + v[V_noise_std] * standard_normal((uint64_t)v[V_seed], 0, 0);
 }
 
 void kernel_step(Model *m, double t, double h) {

@@ -1,6 +1,7 @@
 """Runs of one exported SSP by tools we did not write (Ecos through ecospy, libcosim through
 libcosimpy) and by our master on the scenario it came from, sampled on the same grid
-(shared by tests/integration/test_ssp_third_party.py and docs/systems.md, SSP export's measurement)."""
+(shared by tests/integration/test_ssp_third_party.py and the measurement in docs/systems.md,
+SSP export)."""
 from __future__ import annotations
 
 import copy

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from twmr.components._splitmix import splitmix64
 from twmr.components.metrics import tracking_metrics
 from twmr.master import Execution, simulate
 from twmr.master.algorithm import make_algorithm
@@ -28,7 +27,6 @@ SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 SENSORS = SCENARIOS / "paper_trajectory1_asmc_sensors.yaml"
 IDEAL = SCENARIOS / "paper_trajectory1_asmc.yaml"
 PHASES = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0)
-M64 = (1 << 64) - 1
 
 
 def _mse(data: np.ndarray) -> float:
@@ -101,22 +99,12 @@ def test_encoder_speed_of_a_constant_speed() -> None:
 
 # -- imu -------------------------------------------------------------------------------------
 def _reference_normal(seed: int, k: int) -> float:
-    """Sample k of the normal sequence: SplitMix64 in Python integers and Box-Muller."""
-    def draw(i: int) -> int:
-        z = (seed + i * 0x9E3779B97F4A7C15) & M64
-        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & M64
-        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & M64
-        return z ^ (z >> 31)
-    u1 = ((draw(2 * k + 1) >> 11) + 1) * 2.0 ** -53
-    u2 = (draw(2 * k + 2) >> 11) * 2.0 ** -53
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2)
+    """Sample k of the normal sequence: Philox-4x32-10 (the Random123 known answers are checked
+    in tests/unit/test_blocks_signals.py) of the counter (k, 0) in Python integers, Box-Muller."""
+    from twmr.blocks.philox import draw
 
-
-def test_splitmix64_gives_the_published_sequence() -> None:
-    """Rosetta Code, 'Pseudo-random numbers/Splitmix64': the first five of seed 1234567."""
-    assert [int(splitmix64(1234567.0, float(i))) for i in range(1, 6)] == [
-        6457827717110365317, 3203168211198807973, 9817491932198370423, 4593380528125082431,
-        16408922859458223821]
+    r1, r2 = draw(seed, k, 0)
+    return math.sqrt(-2.0 * math.log(1.0 - r1)) * math.cos(2.0 * math.pi * r2)
 
 
 def _imu_run(n: int, omega: float, bias: float, std: float, seed: float, every: int = 1,

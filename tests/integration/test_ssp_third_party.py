@@ -2,7 +2,8 @@
 two co-simulation engines we did not write — Ecos (ecospy) and libcosim (libcosimpy), both from
 PyPI — and is read by a third (fmpy.ssp); the engines' results equal our master's run of the same
 scenario under the same algorithm (fixed-step Jacobi, the scenario's 1 ms step, 2 s) within
-1e-9 of each signal's scale, max(1, max |ours|). Measured: at most 7.3e-12 (docs/systems.md, SSP export).
+1e-9 of each signal's scale, max(1, max |ours|). Measured: at most 7.3e-12 (docs/systems.md,
+SSP export).
 
 What each tool samples, and how the comparison lines them up (t_n = n h):
 

@@ -89,7 +89,7 @@ TABLE = CTwin(C / "table.c", headers=(TABLES_H,), defines=EXTRAP_CODES,
                                                                tables.INTERPOLATIONS.items()})},
               sizes=_table_sizes(N_TABLE="times"))
 _DISTRIBUTIONS = {k: int(v) for k, v in signal_kernels.DISTRIBUTIONS.items()}
-NOISE = _wide(C / "noise.c", tunable=frozenset({"mean", "stddev"}),
+NOISE = _wide(C / "noise.c", headers=(C / "philox.h",), tunable=frozenset({"mean", "stddev"}),
               defines={f"DIST_{k.upper()}": v for k, v in _DISTRIBUTIONS.items()},
               choices={"distribution": Choice("DIST", _DISTRIBUTIONS)},
               sizes=lambda comp: {"SEED": int(comp.get("seed"))})

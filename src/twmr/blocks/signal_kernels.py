@@ -1,8 +1,6 @@
 """The definitions of the signal sources `ramp`, `pulse`, `table`, `noise` and `chirp`: their
-parameter tables and kernel functions (`twmr.core.kernel`), and the counter-based generator of
-`noise` (Philox-4x32-10, Salmon et al., SC'11), written in integer operations that give the same
-bits as plain Python, compiled by numba (int64, the products wrapping and masked to 32 bits) and
-in C (c/noise.c, uint32_t / uint64_t)."""
+parameter tables and kernel functions (`twmr.core.kernel`); `noise` draws from the one
+counter-based generator, `twmr.blocks.philox`."""
 from __future__ import annotations
 
 import math
@@ -10,14 +8,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twmr.blocks.philox import box_muller, draw
 from twmr.blocks.tables import interp1, interval
 from twmr.core.elementwise import elementwise
 from twmr.core.kernel import kernel_function
 
-M32 = 0xFFFFFFFF
-#: Philox-4x32 multipliers and Weyl key increments
-PHILOX_M0, PHILOX_M1 = 0xD2511F53, 0xCD9E8D57
-PHILOX_W0, PHILOX_W1 = 0x9E3779B9, 0xBB67AE85
 #: noise distributions (codes shared with c/noise.c through config.h)
 DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
 SQRT3 = 1.7320508075688772
@@ -130,37 +125,13 @@ def table_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: TableParams
 
 # -- noise ------------------------------------------------------------------------------------
 @kernel_function
-def philox(c0: int, c1: int, c2: int, c3: int, k0: int, k1: int) -> tuple[int, int, int, int]:
-    """Philox-4x32-10 of the counter (c0, c1, c2, c3) under the key (k0, k1), 32-bit words."""
-    for _ in range(10):
-        p0 = PHILOX_M0 * c0
-        p1 = PHILOX_M1 * c2
-        c0, c1, c2, c3 = (((p1 >> 32) & M32) ^ c1 ^ k0, p1 & M32,
-                          ((p0 >> 32) & M32) ^ c3 ^ k1, p0 & M32)
-        k0 = (k0 + PHILOX_W0) & M32
-        k1 = (k1 + PHILOX_W1) & M32
-    return c0, c1, c2, c3
-
-
-@kernel_function
-def unit53(a: int, b: int) -> float:
-    """A double in [0, 1) from two 32-bit words: 53 random bits times 2^-53 (exact)."""
-    return float((a >> 5) * 67108864 + (b >> 6)) * (1.0 / 9007199254740992.0)
-
-
-@kernel_function
 def noise_sample(k: int, i: int, p: NoiseParams) -> float:
-    """Sample k of element i: Philox of the counter (k, i) under the key `seed`; uniform:
-    mean + stddev sqrt(3) (2 r - 1); Gaussian (Box-Muller): mean + stddev sqrt(-2 ln(1 - r1))
-    cos(2 pi r2)."""
-    seed = int(p.seed)
-    w0, w1, w2, w3 = philox(k & M32, (k >> 32) & M32, i, 0, seed & M32, (seed >> 32) & M32)
-    r1 = unit53(w0, w1)
+    """Sample k of element i: draw (k, i) of `seed` (`twmr.blocks.philox`); uniform:
+    mean + stddev sqrt(3) (2 r - 1); Gaussian: mean + stddev n (Box-Muller)."""
+    r1, r2 = draw(int(p.seed), k, i)
     if p.uniform == 1.0:
         return p.mean + p.stddev * SQRT3 * (2.0 * r1 - 1.0)
-    r2 = unit53(w2, w3)
-    return p.mean + p.stddev * (math.sqrt(-2.0 * math.log(1.0 - r1)) *
-                                math.cos(2.0 * math.pi * r2))
+    return p.mean + p.stddev * box_muller(r1, r2)
 
 
 @kernel_function
