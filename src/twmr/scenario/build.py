@@ -211,9 +211,15 @@ class _Builder:
 
     def configure(self, comp: Component, name: str, values: dict[str, Given[Any]],
                   section: str, allowed: tuple[str, ...]) -> None:
-        for key, given in sorted(values.items(), key=lambda kv: kv[0] not in
-                                 comp.sizing_parameters):
+        # sizing parameters first, elements ('pose[1]') after the whole values they change
+        for key, given in sorted(values.items(), key=lambda kv: (kv[0] not in
+                                 comp.sizing_parameters, "[" in kv[0])):
             loc, value = given.where, given.value
+            element = _ELEMENT_KEY.match(key)
+            if element and element["name"] in comp.variables:
+                self.configure_element(comp, name, element["name"], int(element["index"]),
+                                       given, section, allowed)
+                continue
             var = comp.variables.get(key)
             base = comp.aliases.get(key)
             if base is not None:
@@ -242,6 +248,32 @@ class _Builder:
                 self.problems.append(Problem(
                     loc, f"component '{name}', {var.kind} '{key}' = {value!r}: {err}.",
                     f"give {_expected(var)}."))
+
+    def configure_element(self, comp: Component, name: str, key: str, index: int,
+                          given: Given[Any], section: str, allowed: tuple[str, ...]) -> None:
+        """Element `index` (1-based) of vector `key` set to the given value, the others kept."""
+        var = comp.variables[key]
+        where = f"'{name}.{key}[{index}]'"
+        if var.kind not in allowed:
+            self.problems.append(Problem(given.where, f"{where}: '{key}' is a {var.kind}; it "
+                                         f"is not set under '{section}:'.",
+                                         "set a parameter, a state or an input."))
+            return
+        current = comp.get(key)
+        if not isinstance(current, tuple) or not 1 <= index <= len(current):
+            size = len(current) if isinstance(current, tuple) else 0
+            self.problems.append(Problem(
+                given.where, f"{where}: '{name}.{key}' has "
+                f"{f'{size} elements' if size else 'no elements (a scalar)'}.",
+                f"index from 1 to {size}." if size else f"set {name}.{key}=value."))
+            return
+        try:
+            values = list(current)
+            values[index - 1] = _quantity(given.value, var, index - 1)
+            comp.set_parameter(key, values)
+        except (ValueError, TypeError, UnitError) as err:
+            self.problems.append(Problem(given.where, f"component '{name}', {where} = "
+                                         f"{given.value!r}: {err}.", "give a number."))
 
     def experiment(self) -> Experiment:
         e = self.spec.experiment
@@ -373,22 +405,12 @@ class _Builder:
                         f"'{first}' ({first.location}) and by '{c}'.",
                         "keep one wire per input (add a `sum` block to combine signals)."))
                 driven[key] = c
-        opened: set[tuple[str, str]] = set()
-        for given in self.spec.open:
-            text = str(given.value)
-            owner, _, port = text.rpartition(".")
-            var = comps[owner].variables.get(port) if owner in comps else None
-            if var is None or var.kind != "input":
-                inputs = list(comps[owner].inputs) if owner in comps else []
-                self.problems.append(Problem(given.where, f"'{text}' in 'open:' is not an input"
-                                             f"{suggest(port, inputs)}.",
-                                             "list inputs as component.input."))
-                continue
-            opened.add((owner, port))
+        opened = self.opened(comps)
         for name, comp in comps.items():
             for port, var in comp.inputs.items():
-                missing = [j for j in range(var.width) if (name, port, j) not in driven]
-                if missing and (name, port) not in opened | self.miswired and not var.optional:
+                missing = [j for j in range(var.width) if (name, port, j) not in driven
+                           and (name, port, j) not in opened]
+                if missing and (name, port) not in self.miswired and not var.optional:
                     which = "" if len(missing) == var.width else \
                         f" (elements {', '.join(str(j + 1) for j in missing)})"
                     self.problems.append(Problem(
@@ -396,6 +418,36 @@ class _Builder:
                         f"connected.", f"wire an output to it ('x.y -> {name}.{port}'), or list "
                         f"'{name}.{port}' under 'open:' to keep its start value "
                         f"{comp.get(port)!r}."))
+
+    def opened(self, comps: dict[str, Component]) -> set[tuple[str, str, int]]:
+        """The input elements `open:` keeps at their start values: entries `comp.input`,
+        wildcards (`ft.*`, `*.u`) and elements (`lag.u[3]`, `lag.u[1,3]`)."""
+        opened: set[tuple[str, str, int]] = set()
+        for given in self.spec.open:
+            text = str(given.value).strip()
+            m = _OPEN.match(text)
+            pattern, chosen = (m["pattern"], m["elements"]) if m else (text, None)
+            matched = [(n, p, v) for n, c in comps.items() for p, v in c.inputs.items()
+                       if fnmatch.fnmatchcase(f"{n}.{p}", pattern)]
+            if not matched:
+                owner, _, port = pattern.rpartition(".")
+                inputs = list(comps[owner].inputs) if owner in comps else []
+                self.problems.append(Problem(given.where, f"'{text}' in 'open:' is no input"
+                                             f"{suggest(port, inputs)}.",
+                                             "list inputs as component.input, with wildcards "
+                                             "(ft.*) or elements (lag.u[3]) if needed."))
+                continue
+            for n, p, v in matched:
+                indices = range(v.width) if chosen is None else \
+                    [int(i) - 1 for i in chosen.split(",")]
+                bad = [i + 1 for i in indices if not 0 <= i < v.width]
+                if bad:
+                    self.problems.append(Problem(given.where, f"'{text}' in 'open:': '{n}.{p}' "
+                                                 f"has {v.width} element(s), not {bad[0]}.",
+                                                 f"index from 1 to {v.width}."))
+                    continue
+                opened |= {(n, p, i) for i in indices}
+        return opened
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record
@@ -417,6 +469,10 @@ class _Builder:
                                                  "('ctrl.*')."))
                 chosen += [h for h in hits if h not in chosen]
         return RecordSpec(tuple(chosen), int(spec.decimation.value))
+
+
+_OPEN = re.compile(r"^(?P<pattern>[^\[\]]+?)\s*(?:\[(?P<elements>[\d,\s]+)\])?$")
+_ELEMENT_KEY = re.compile(r"^(?P<name>\w+)\[(?P<index>\d+)\]$")
 
 
 def _value(value: Any, var: Any) -> Any:

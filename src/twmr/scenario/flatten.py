@@ -152,7 +152,9 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
         found = _resolve(spec, prefix, end, "dst", given.where, out)
         if found is not None:
             used.add((end.comp, end.port))
-            out.open.append(Given(f"{found[0].comp}.{found[0].port}", given.where))
+            text = str(given.value)
+            elements = text[text.index("["):] if "[" in text else ""  # 'lag.u[3]' keeps [3]
+            out.open.append(Given(f"{found[0].comp}.{found[0].port}{elements}", given.where))
     for ex in spec.inputs.values():  # an input exposed again from here is connected outside
         try:
             end = parse_end(ex.port.value)

@@ -91,7 +91,7 @@ def find_port(comps: dict[str, Component], end: End, loc: Location,
                                 if parameter else f"wire '{end.comp}.{base}'."))
         return None
     if var is None or var.kind == "parameter":
-        ports = [n for n, v in comp.variables.items() if v.kind in ("input", "output")]
+        ports = [n for n, v in comp.variables.items() if v.kind in ("input", "output", "state")]
         problems.append(Problem(loc, f"component '{end.comp}' ({type(comp).__name__}) has no port "
                                 f"'{end.port}'{suggest(end.port, ports)}.",
                                 f"its ports are: {', '.join(ports)}."))

@@ -148,7 +148,7 @@ def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
     """`comp` with `name` set under 'initial' (an input or state of its kind) or 'parameters'."""
     section = "parameters"
     try:
-        var = lookup(comp.kind.value, spec.base_dir).declared().get(name)
+        var = lookup(comp.kind.value, spec.base_dir).declared().get(name.partition("[")[0])
         if var is not None and var.kind in ("state", "input"):
             section = "initial"
     except Exception:  # noqa: BLE001 - a kind that does not load is reported by the builder
