@@ -51,8 +51,9 @@ def _frozen(value: Any) -> Any:
     return value.copy() if type(value).__name__ == "ndarray" else value
 
 
-#: attributes of a component that runs a kernel: its private state x, and the kernel in use
-_X, _RUN = "_kernel_x", "_kernel_run"
+#: attributes of a component that runs a kernel: its private state x, and the two functions of
+#: the kernel in use (`_Run`)
+_X, _EVALUATE, _STEP = "_kernel_x", "_kernel_evaluate", "_kernel_step"
 
 
 def _python(fn: Any) -> Any:
@@ -64,11 +65,12 @@ def _python(fn: Any) -> Any:
 class _Run:
     """The kernel a component runs in Python, made for steps of `h` [s], as two functions
     `evaluate(t)` and `step(t, h)` generated for its ports (values read from and written to the
-    component's `__dict__` by name); shared, not copied, by a saved state (it follows from the
-    parameters)."""
+    component's `__dict__` by name, the kernel's functions and table bound as globals), kept in
+    that `__dict__` (`_EVALUATE`, `_STEP`) where `kernel_evaluate` / `kernel_do_step` call them.
+    `step` given another h makes the kernel again. Shared, not copied, by a saved state (they
+    follow from the parameters)."""
 
     def __init__(self, h: float, kernel: Kernel, comp: Component):
-        self.h = h
         d = comp.__dict__
 
         def ports(names: list[str]) -> str:
@@ -76,13 +78,17 @@ class _Run:
 
         ys, us = ports(list(comp.outputs)), ports(list(comp.inputs))
         report = getattr(kernel.sync, "__wrapped__", kernel.sync)  # the block's own sync
-        env: dict[str, Any] = {"d": d, "p": kernel.params, "report": report,
+        env: dict[str, Any] = {"d": d, "p": kernel.params, "report": report, "H": h,
+                               "remake": comp._make_run,
                                "ev": _python(kernel.evaluate), "st": _python(kernel.step)}
         lines = []
         for name, fn, args in (("evaluate", "ev", "t"), ("step", "st", "t, h")):
             lines.append(f"def {name}({args}):")
+            if fn == "st":
+                lines.append("    if h != H:")
+                lines.append("        return remake(h)[1](t, h)")
             if env[fn] is None:
-                lines.append("    pass")
+                lines.append("    return")
                 continue
             lines.append(f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)")
             lines.append(f"    d[{_X!r}] = x")
@@ -91,9 +97,7 @@ class _Run:
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
         self.evaluate: Callable[[float], None] = env["evaluate"]
         self.step: Callable[[float, float], None] = env["step"]
-
-    def __deepcopy__(self, memo: dict[int, Any]) -> _Run:
-        return self
+        d[_EVALUATE], d[_STEP] = self.evaluate, self.step
 
 
 def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, float], Kernel | None]:
@@ -252,7 +256,8 @@ class Component:
         self.start_time = start
         self.stop_time = stop
         self.__dict__.pop(_X, None)  # a kernel's private state starts again from its `state`
-        self.__dict__.pop(_RUN, None)
+        self.__dict__.pop(_EVALUATE, None)
+        self.__dict__.pop(_STEP, None)
 
     def initialize(self) -> None:
         """Compute the outputs at the start time from parameters, states and inputs."""
@@ -263,7 +268,10 @@ class Component:
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h [s] with inputs held; leave outputs at t + h."""
 
-    def _make_run(self, h: float) -> _Run:
+    def _make_run(self, h: float) -> tuple[Callable[[float], None],
+                                          Callable[[float, float], None]]:
+        """The kernel made for steps of `h` [s]: its (evaluate, step) functions, kept in
+        `__dict__` for the calls that follow."""
         make = getattr(self, "kernel", None)
         k = make(h) if make is not None else None
         if k is None:
@@ -271,23 +279,29 @@ class Component:
                 f"component '{self.name}' ({type(self).__name__}) offers no kernel with these "
                 f"parameters and has no evaluate/do_step of its own. Fix: give the class "
                 f"Python methods for the parameters its kernel does not cover.")
-        run = self.__dict__[_RUN] = _Run(h, k, self)
-        return run
+        run = _Run(h, k, self)
+        return run.evaluate, run.step
 
     def kernel_evaluate(self, t: float) -> None:
         """`evaluate` of a block that offers a kernel: its `evaluate` function on (held state,
         outputs, inputs, parameters), the outputs written back. Before the first step the
         kernel is made with h = 0 (the step is not known yet; evaluate must not depend on it)."""
-        run = self.__dict__.get(_RUN) or self._make_run(0.0)
-        run.evaluate(t)
+        try:
+            self.__dict__[_EVALUATE](t)
+        except KeyError:
+            if _EVALUATE in self.__dict__:
+                raise
+            self._make_run(0.0)[0](t)
 
     def kernel_do_step(self, t: float, h: float) -> None:
         """`do_step` of a block that offers a kernel: its `step` function from t to t + h [s]
         (the kernel made again when h changes), the outputs written back."""
-        run = self.__dict__.get(_RUN)
-        if run is None or run.h != h:
-            run = self._make_run(h)
-        run.step(t, h)
+        try:
+            self.__dict__[_STEP](t, h)
+        except KeyError:
+            if _STEP in self.__dict__:
+                raise
+            self._make_run(h)[1](t, h)
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
