@@ -88,8 +88,8 @@ class _Calls:
                       f"    d[{_X!r}] = x",
                       "    if report is not None: report(x)"]
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
-        self.evaluate: Callable[[float], None] = env["evaluate"]
-        self.step: Callable[[float, float], None] = env["step"]
+        self.functions: dict[str, Callable[..., None]] = {"evaluate": env["evaluate"],
+                                                          "step": env["step"]}
 
     def load(self, h: float) -> None:
         """The kernel made for steps of `h` [s] (h = 0: before the first step, for `evaluate`,
@@ -123,10 +123,11 @@ class _KernelMethod:
     def __get__(self, comp: Component | None, cls: type | None = None) -> Any:
         if comp is None:
             return self
-        calls = comp.__dict__.get(_CALLS)
-        if calls is None:
+        try:
+            return comp.__dict__[_CALLS].functions[self.which]
+        except KeyError:
             calls = comp.__dict__[_CALLS] = _Calls(comp)
-        return getattr(calls, self.which)
+            return calls.functions[self.which]
 
 
 def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, float], Kernel | None]:
