@@ -30,7 +30,8 @@ def asmc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
     """`AsmcController.evaluate`: y = (torque, error, s, d_hat)."""
     dR, dL = y[3]
     tR, tL, s1, s2, e1, e2, sat = limited_law(u, p.law, dR, dL)
-    return TrackingState(sat), ((tR, tL), (e1, e2), (s1, s2), y[3])
+    x = x if sat == x.saturated else TrackingState(sat)
+    return x, ((tR, tL), (e1, e2), (s1, s2), y[3])
 
 
 @kernel_function

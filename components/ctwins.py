@@ -3,7 +3,9 @@ group `twmr.c_kernels` for `twmr export KIND` (standalone C FMUs).
 
 The codes the Python and the C side share are the Python constants, #defined into each FMU's
 config.h: the slip profile codes of `_model` (SLIP_PAPER, ...; the slip block writes them into its
-`model` descriptor and the plant reads them) and the trajectory shapes of `trajectory` (SHAPE_*).
+`model` descriptor and the plant reads them), the index of each field of that descriptor (D_CODE,
+D_SLIP_GAIN, ...: the fields of `_model.SlipProfile`, in its order) and the trajectory shapes of
+`trajectory` (SHAPE_*).
 """
 from __future__ import annotations
 
@@ -17,6 +19,9 @@ C = Path(__file__).parent / "c"
 
 SLIP_CODES = {f"SLIP_{name}": getattr(_model, name)
               for name in ("HELD", "PAPER", "NO_SLIP", "CONSTANT", "STEP", "MUD")}
+#: the profile descriptor's fields (`_model.SlipProfile`), name -> index
+SLIP_FIELDS = {f"D_{name.upper()}": i for i, name in enumerate(_model.SlipProfile._fields)}
+_SLIP_DEFINES = {**SLIP_CODES, **SLIP_FIELDS}
 #: the profiles the C twin evaluates (`random` draws from numpy's generator: Python only)
 PROFILES = {"paper": _model.PAPER, "none": _model.NO_SLIP, "constant": _model.CONSTANT,
             "step": _model.STEP, "mud": _model.MUD}
@@ -33,9 +38,9 @@ SAMPLED = C / "sampled.h"
 #: the blocks' one random generator (twmr.blocks.philox)
 PHILOX = BLOCKS_C / "philox.h"
 
-PLANT = CTwin(C / "plant.c", headers=(INERTIA, SLIP_PROFILE), defines=SLIP_CODES,
+PLANT = CTwin(C / "plant.c", headers=(INERTIA, SLIP_PROFILE), defines=_SLIP_DEFINES,
               work=lambda comp: 8)
-SLIP = CTwin(C / "slip.c", headers=(SLIP_PROFILE,), defines=SLIP_CODES,
+SLIP = CTwin(C / "slip.c", headers=(SLIP_PROFILE,), defines=_SLIP_DEFINES,
              choices={"profile": Choice("PROFILE", PROFILES)},
              hidden=frozenset({"bandwidth", "seed"}))
 TRAJECTORY = CTwin(C / "trajectory.c", tunable=frozenset({"radius", "omega", "phase", "center"}),

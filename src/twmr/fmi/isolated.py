@@ -30,7 +30,7 @@ from typing import Any
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
 from twmr.fmi.fmu import FmuComponent
-from twmr.fmi.worker import receive
+from twmr.fmi.worker import receive, send
 
 #: the longest the worker may take to start: an interpreter, fmpy, reading the FMU [s]
 START_TIMEOUT = 60.0
@@ -139,7 +139,7 @@ class IsolatedFmu(Component):
         request = pickle.dumps((method, args), pickle.HIGHEST_PROTOCOL)
         limit = self._timeout if limit is None else limit
         try:
-            conn.send_bytes(request)
+            send(conn, request)
             self._pending = True
             reply = receive(conn, self._poll, limit)
             if reply is None:
