@@ -26,7 +26,9 @@ def test_valid_scenario_builds_in_feedthrough_order() -> None:
     assert system.record.decimation == 2
     assert system.experiment.n_steps == 100
     text = describe(system)
-    assert "plant.y -> err.u2" in text and "execution order" in text
+    assert "plant.y -> err.u2" in text and "the order they step in" in text
+    # ref and plant have no feedthrough; err feeds ctrl: evaluated err, then ctrl
+    assert text.splitlines()[7].endswith("evaluated in this order (`evaluate`): err, ctrl"), text
 
 
 def test_yaml_syntax_error_names_the_line() -> None:

@@ -6,9 +6,20 @@ from pathlib import Path
 
 from twmr.core.component import Component
 from twmr.registry import kinds, lookup
+from twmr.scenario.graph import evaluation_plan
 from twmr.scenario.kinds import KindError
 from twmr.scenario.structure import Exposure, ScenarioSpec
 from twmr.scenario.system import System
+
+
+def evaluation_order(system: System) -> list[str]:
+    """The components whose feedthrough outputs are computed at each communication point, in
+    the order the master calls `evaluate` (Gauss-Seidel: as the port graph asks; Jacobi: the
+    step order, all from one snapshot)."""
+    if system.experiment.algorithm == "jacobi":
+        return [n for n in system.order if system.components[n].has_feedthrough]
+    actions, _ = evaluation_plan(system.components, system.connections)
+    return [name for action, name, _ in actions if action == "evaluate"]
 
 
 def describe(system: System) -> str:
@@ -17,13 +28,17 @@ def describe(system: System) -> str:
     lines = [f"scenario {system.source}",
              f"experiment: {exp.start:g} .. {exp.stop:g} s, step {exp.step:g} s "
              f"({exp.n_steps} steps), {exp.algorithm}{', real time' if system.paced else ''}",
-             "components (execution order):"]
+             "components (the order they step in, `do_step`):"]
     for i, name in enumerate(system.order, 1):
         comp = system.components[name]
         mult = system.multiple(name)
         ft = " feedthrough" if comp.has_feedthrough else ""
         lines.append(f"  {i}. {name}: {type(comp).__name__}{ft}"
                      f"{f', every {mult} steps' if mult != 1 else ''}")
+    evaluated = evaluation_order(system)
+    if evaluated:
+        lines.append("at each communication point, before the steps, the feedthrough outputs "
+                     f"are evaluated in this order (`evaluate`): {', '.join(evaluated)}")
     lines.append("connections:")
     driven = set()
     for c in system.connections:
