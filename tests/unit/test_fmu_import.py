@@ -183,9 +183,12 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
 
 
 @pytest.mark.parametrize("setting, message", [
-    ("solver: euler", "solver 'euler' is unknown"),
-    ("rtol: -1.0e-6", "rtol = -1e-06 must be a positive number"),
-    ("solver_step: 0", "solver_step = 0 must be a positive number"),
+    ("interface: model_exchange, solver: euler", "solver 'euler' is unknown"),
+    ("interface: model_exchange, rtol: -1.0e-6", "rtol = -1e-06 must be a positive number"),
+    ("interface: model_exchange, solver_step: 0", "solver_step = 0 must be a positive number"),
+    ("solver: rk4, rtol: 1.0e-8", "solver, rtol given, but 'lag2.fmu' runs as co-simulation"),
+    ("interface: co_simulation, max_step: 0.1", "max_step given, but 'lag2.fmu' runs as "
+                                                "co-simulation"),
     ("isolate: 'yes'", "isolate: 'yes' is not true or false"),
     ("isolate: true, timeout: 0", "timeout 0 is not positive"),
     ("interface: model_exchange, solver: rk4, k: [1, 2]", "expected a scalar"),

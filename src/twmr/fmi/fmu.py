@@ -79,6 +79,16 @@ def _shown(get: Callable[..., list[Any]], factor: float, offset: float
     return get_shown
 
 
+#: options of the solver that integrates a model-exchange FMU
+SOLVER_OPTIONS = ("solver", "rtol", "atol", "max_step", "solver_step")
+
+
+def _model_exchange(md: Any, interface: str) -> bool:
+    """Whether an FMU runs as model exchange under `interface` (auto: when it has no
+    co-simulation)."""
+    return interface == "model_exchange" or (interface == "auto" and md.coSimulation is None)
+
+
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -103,8 +113,7 @@ class FmuComponent(Component):
         if interface not in ("auto", "co_simulation", "model_exchange"):
             raise FmuError(label, None, f"interface '{interface}' is unknown. Fix: use auto, "
                            f"co_simulation or model_exchange.")
-        self.me = interface == "model_exchange" or (interface == "auto" and
-                                                     self.md.coSimulation is None)
+        self.me = _model_exchange(self.md, interface)
         if (self.me and self.md.modelExchange is None) or (not self.me and
                                                            self.md.coSimulation is None):
             raise FmuError(label, None, f"'{self.source_path.name}' has no {interface} "
@@ -175,6 +184,14 @@ class FmuComponent(Component):
                            f"isolate: true to run the FMU in a worker process of its own.")
         full = cls._built(name, full, rest.pop("compile", False),
                           rest.pop("compile_timeout", DEFAULT_TIMEOUT))
+        solver_options = [k for k in SOLVER_OPTIONS if k in rest]
+        if solver_options and rest.get("interface", "auto") in ("auto", "co_simulation") and \
+                not _model_exchange(read_description(full, name), rest.get("interface", "auto")):
+            raise FmuError(name, None, f"{', '.join(solver_options)} given, but "
+                           f"'{full.name}' runs as co-simulation, which brings its own solver "
+                           f"(these options would change nothing). Fix: remove them, or set "
+                           f"interface: model_exchange, if the FMU has it, to integrate it with "
+                           f"{' or '.join(SOLVERS)}.")
         if isolate:
             from twmr.fmi.isolated import IsolatedFmu
 
