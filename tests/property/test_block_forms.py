@@ -93,22 +93,35 @@ def _value(var: Any, element: Any, length: int | None = None) -> st.SearchStrate
     return st.tuples(*parts)
 
 
+def _sized_first(cls: Any, params: dict[str, Any]) -> dict[str, Any]:
+    """`params` with the sizing parameters first (they declare the ports the others fit)."""
+    return dict(sorted(params.items(), key=lambda kv: kv[0] not in cls.sizing_parameters))
+
+
 @st.composite
 def case(draw: Any, kind: str) -> dict[str, Any]:
-    """A variant, parameters, initial states, start, step and inputs for a block of `kind`."""
+    """A variant, parameters, initial states, start, step and inputs for a block of `kind`.
+
+    A class that has parameters this cannot draw (coefficient lists, sizes, a sign pattern, a
+    period that must be a whole number of steps) offers `examples(h)`: parameter sets that suit
+    steps of h [s]; one is drawn and its parameters are kept as given."""
     cls = lookup(kind)
-    proto = cls(kind)
+    h = draw(st.one_of(st.just(1e-3), st.floats(-4.0, -1.3).map(lambda e: 10.0 ** e)))
+    examples = getattr(cls, "examples", None)
+    example = _sized_first(cls, draw(st.sampled_from(examples(h)))) if examples else {}
+    proto = cls(kind, **example)
     twin = twin_of(kind) if kind in twins() else None
     params: dict[str, Any] = {}
     if twin is not None:
         for name, choice in twin.choices.items():
             params[name] = draw(st.sampled_from(list(choice.codes)))
+    params.update(example)
     for name, var in proto.parameters.items():
         if var.type == BOOLEAN and name not in params and not (twin and name in twin.hidden):
             params[name] = draw(st.booleans())
     order = draw(st.sampled_from(twin.orders)) if twin is not None and twin.orders else None
     for name, var in proto.parameters.items():
-        if var.type != REAL or (twin is not None and name in twin.hidden):
+        if var.type != REAL or (twin is not None and name in twin.hidden) or name in example:
             continue
         length = twin.lengths[name](order) if twin and order and name in twin.lengths else None
         params[name] = draw(_value(var, _element, length))
@@ -119,9 +132,9 @@ def case(draw: Any, kind: str) -> dict[str, Any]:
             for _ in range(draw(st.integers(1, 4)))]
     every = -(-(n_steps + 1) // len(held))
     inputs = [held[k // every] for k in range(n_steps + 1)]
-    h = draw(st.one_of(st.just(1e-3), st.floats(-4.0, -1.3).map(lambda e: 10.0 ** e)))
     start = draw(st.one_of(st.just(0.0), st.floats(0.0, 5.0)))
-    return {"params": params, "states": states, "inputs": inputs, "h": h, "start": start}
+    return {"params": _sized_first(cls, params), "states": states, "inputs": inputs, "h": h,
+            "start": start}
 
 
 # -- the three forms -------------------------------------------------------------------------

@@ -1,49 +1,82 @@
-"""Linear blocks: gain, sum, integrator, single-input single-output state space, unit delay. Each
-is defined by its kernel (`twmr.blocks.kernels`)."""
+"""Linear blocks: gain (scalar or matrix), sum (with signs), integrator, state space, unit
+delay. Each is defined by its kernel (`twmr.blocks.kernels`, `twmr.blocks.routing_kernels`)."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from twmr.blocks import kernels
+from twmr.blocks import routing_kernels as rk
+from twmr.blocks.routing import Nary
 from twmr.core.component import Component
 from twmr.core.kernel import Kernel
-from twmr.core.port import Input, Output, Parameter
+from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 
 
 class Gain(Component):
-    """y = k u (direct feedthrough)."""
+    """y = k u element by element (n_in = n_out), or y = K u for a matrix K of n_out x n_in
+    values given row by row; direct feedthrough."""
 
     kind = "gain"
-    k = Parameter(1.0)
+    sized_by: ClassVar[dict[str, str]] = {"u": "n_in", "y": "n_out"}
+    n_in = Parameter(1, type=INTEGER, min=1, description="elements of u")
+    n_out = Parameter(1, type=INTEGER, min=1, description="elements of y")
+    k = Parameter(1.0, description="scalar gain (when K is empty)")
+    K = Parameter((), size=0, description="gain matrix, n_out x n_in row by row")
     u = Input(0.0)
     y = Output(0.0, depends_on=("u",))
 
+    @classmethod
+    def examples(cls, h: float) -> tuple[dict[str, Any], ...]:
+        """Parameter sets for tests (tests/property/test_block_forms.py)."""
+        return ({}, {"n_in": 3, "n_out": 3},
+                {"n_in": 3, "n_out": 2, "K": [[1.0, -2.0, 0.5], [0.25, 3.0, -1.0]]},
+                {"n_in": 2, "n_out": 1, "K": [2.0, -1.5]})
+
+    def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        if self.K and len(self.K) != self.n_out * self.n_in:
+            return [("K", f"K has {len(self.K)} values, not n_out x n_in = {self.n_out} x "
+                     f"{self.n_in}", "give K row by row, one row per output, one column per "
+                     "input (or set n_in and n_out to its shape).")]
+        if not self.K and self.n_in != self.n_out:
+            return [("K", f"a scalar gain keeps the width, but n_in = {self.n_in} and n_out = "
+                     f"{self.n_out}", "give the matrix K, or equal n_in and n_out.")]
+        return []
+
     def initialize(self) -> None:
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
-        return Kernel(params=kernels.GainParams(float(self.k)), evaluate=kernels.gain_evaluate)
+        if not self.K:
+            return Kernel(params=rk.GainParams(float(self.k)), evaluate=rk.gain_evaluate)
+        K = np.reshape(np.array(self.K, dtype=float), (self.n_out, self.n_in))
+        return Kernel(params=rk.GainMatrixParams(K), evaluate=rk.gain_matrix_evaluate)
 
 
-class Sum(Component):
-    """y = k1 u1 + k2 u2 (direct feedthrough); k2 = -1 makes an error junction."""
+class Sum(Nary):
+    """y = s1 k1 u1 + s2 k2 u2 + s3 u3 + ... element by element, s_i the sign (+ or -) of input
+    i in `signs` (default '++': y = k1 u1 + k2 u2; k2 = -1 or signs '+-' make an error
+    junction); direct feedthrough."""
 
     kind = "sum"
+    OPS, ALPHABET = "signs", "+-"
     k1 = Parameter(1.0)
     k2 = Parameter(1.0)
-    u1 = Input(0.0)
-    u2 = Input(0.0)
+    signs = Parameter("++", type=STRING, description="'+' or '-' per input, e.g. '+-+'")
     y = Output(0.0, depends_on=("u1", "u2"))
 
-    def initialize(self) -> None:
-        self.evaluate(self.start_time)
+    @classmethod
+    def examples(cls, h: float) -> tuple[dict[str, Any], ...]:
+        """Parameter sets for tests (tests/property/test_block_forms.py)."""
+        return ({}, {"signs": "+-+"}, {"signs": "-+", "n": 3}, {"signs": "++-+"})
 
     def kernel(self, h: float) -> Kernel:
-        return Kernel(params=kernels.SumParams(float(self.k1), float(self.k2)),
-                      evaluate=kernels.sum_evaluate)
+        gains = [1.0 if c == "+" else -1.0 for c in self.signs]
+        gains[0] *= self.k1
+        gains[1] *= self.k2
+        return Kernel(params=rk.NaryParams(np.array(gains)), evaluate=rk.sum_evaluate)
 
 
 class Integrator(Component):

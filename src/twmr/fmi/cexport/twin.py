@@ -37,7 +37,7 @@ class CTwin:
     one is exported as n zeros) and `orders` the orders a test exercises; `work(comp)` the number
     of work values, `hidden` the parameters not exported, `pinned(comp)` the parameters whose
     export value decides the FMU's structure (its feedthrough): their min and max are that
-    value."""
+    value; `computed(comp)` further #defines derived from the parameters."""
 
     source: Path
     headers: tuple[Path, ...] = ()
@@ -51,10 +51,12 @@ class CTwin:
     work: Callable[[Component], int] = field(default=lambda comp: 1)
     hidden: frozenset[str] = frozenset()
     pinned: Callable[[Component], frozenset[str]] = field(default=lambda comp: frozenset())
+    #: #defines that follow from `comp`'s parameters (sizes, a sign pattern as a C initialiser)
+    computed: Callable[[Component], Mapping[str, int | str]] = field(default=lambda comp: {})
 
-    def options(self, comp: Component) -> dict[str, int]:
+    def options(self, comp: Component) -> dict[str, int | str]:
         """The #defines of `comp`'s variant; CosimError for a value the twin does not support."""
-        out = dict(self.defines)
+        out: dict[str, int | str] = dict(self.defines)
         for name, choice in self.choices.items():
             value = comp.get(name)
             if value not in choice.codes:
@@ -65,6 +67,7 @@ class CTwin:
             out[choice.define] = choice.codes[value]
         if self.order is not None:
             out[self.order_define] = self.order(comp)
+        out.update(self.computed(comp))
         return out
 
     def fill_empty(self, comp: Component) -> None:
