@@ -1,7 +1,24 @@
 """numba's side of `twmr.blocks.vectors` (imported only when compiled code calls it)."""
+from typing import Any
+
+from numba.core import types
 from numba.cpython.unsafe.tuple import tuple_setitem
+from numba.extending import overload
+
+
+def _replace(t: tuple, i: int, v: float) -> tuple:
+    raise NotImplementedError("compiled code only")
+
+
+@overload(_replace)
+def _replace_typed(t: Any, i: Any, v: Any) -> Any:
+    """numba's tuple intrinsic for a tuple; for anything else no implementation (a typing error,
+    which numba accepts in a branch pruned by `isinstance`)."""
+    if isinstance(t, types.UniTuple):
+        return lambda t, i, v: tuple_setitem(t, i, v)  # type: ignore[call-arg]
+    return None
 
 
 def setitem(t: tuple, i: int, v: float) -> tuple:
-    """`t` with element i replaced by v (numba's tuple intrinsic)."""
-    return tuple_setitem(t, i, v)  # type: ignore[call-arg]
+    """`t` with element i replaced by v."""
+    return _replace(t, i, v)

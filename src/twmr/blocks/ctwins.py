@@ -13,28 +13,22 @@ from twmr.core.errors import CosimError
 from twmr.fmi.cexport.twin import Choice, CTwin
 
 C = Path(__file__).parent / "c"
-#: the length of each matrix of a `state_space` block of n states (x0 may also be empty: zeros)
+#: the length of each matrix of a single-input single-output `state_space` block of n states (x0
+#: may also be empty: zeros)
 SS_LENGTHS = {"A": lambda n: n * n, "B": lambda n: n, "C": lambda n: n, "x0": lambda n: n}
 
 
 def state_space_size(comp: Component) -> int:
-    """Number of states n of a `state_space` block, its matrices checked (A n*n, C n, x0 n or
-    empty: zeros)."""
-    n = len(comp.get("B"))
-    if n == 0:
-        raise CosimError("export state_space: B is empty. Fix: give at least one state.")
-    for name, length in SS_LENGTHS.items():
-        got, size = len(comp.get(name)), length(n)
-        if got != size and not (name == "x0" and got == 0):
-            raise CosimError(f"export state_space: {name} has {got} values but B has {n} "
-                             f"(expected {size}). Fix: give A as n*n values row by row, B, C "
-                             f"and x0 as n values each.")
-    return n
+    """Number of states n of a `state_space` block, its matrices checked (`StateSpace.order`)."""
+    try:
+        return int(comp.order())  # type: ignore[attr-defined]
+    except ValueError as err:
+        raise CosimError(f"export state_space: {err}") from None
 
 
 def _ss_work(comp: Component) -> int:
     n = state_space_size(comp)
-    return n * n + 2 * n + 1
+    return n * n + n * comp.get("n_in") + n + 1
 
 
 CONSTANT = CTwin(C / "constant.c")
@@ -62,12 +56,13 @@ INTEGRATOR = CTwin(C / "integrator.c", tunable=frozenset({"k"}))
 DELAY = CTwin(C / "delay.c")
 def _ss_pinned(comp: Component) -> frozenset[str]:
     """D = 0 exports a block without feedthrough (y does not depend on u), so D stays 0."""
-    return frozenset({"D"}) if comp.get("D") == 0.0 else frozenset()
+    return frozenset() if comp.has_feedthrough else frozenset({"D"})
 
 
 STATE_SPACE = CTwin(C / "state_space.c", order=state_space_size, order_define="N_SS",
                     lengths=SS_LENGTHS, orders=(1, 2, 3), work=_ss_work, pinned=_ss_pinned,
-                    headers=(C / "expm.h",))
+                    headers=(C / "expm.h",),
+                    computed=lambda comp: {"N_IN": comp.get("n_in"), "N_OUT": comp.get("n_out")})
 
 
 def _width(comp: Component, name: str) -> int:

@@ -9,35 +9,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twmr.blocks.vectors import setitem
+from twmr.blocks.vectors import at, put, width
 from twmr.core.kernel import kernel_function
 
 #: `pid` anti-windup codes (shared with c/pid.c through its #defines)
 ANTIWINDUP = {"none": 0, "clamping": 1, "back_calculation": 2}
-
-
-@kernel_function
-def at(v: float | tuple, i: int) -> float:
-    """Element i of a port value (a scalar is its own element 0)."""
-    if isinstance(v, float):
-        return v
-    return v[i]
-
-
-@kernel_function
-def put(v: float | tuple, i: int, e: float) -> float | tuple:
-    """The port value `v` with element i set to e (a scalar becomes e)."""
-    if isinstance(v, float):
-        return e
-    return setitem(v, i, e)
-
-
-@kernel_function
-def width(v: float | tuple) -> int:
-    """Number of elements of a port value."""
-    if isinstance(v, float):
-        return 1
-    return len(v)
 
 
 # -- first_order: y' = (K u - y) / T ------------------------------------------------------------

@@ -7,6 +7,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from twmr.blocks import discrete_kernels as dk
 from twmr.blocks import kernels
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.routing import Nary
@@ -112,32 +113,79 @@ class Delay(Component):
 
 
 class StateSpace(Component):
-    """x' = A x + B u, y = C x + D u (single input, single output, n states), discretised exactly
+    """x' = A x + B u, y = C x + D u (n states, n_in inputs, n_out outputs), discretised exactly
     for an input held over the step (zero-order hold) for each step size.
 
-    A is n*n values row by row, B and C n values each. y depends on u directly only when D != 0."""
+    A is n x n values row by row, B n x n_in, C n_out x n, D n_out x n_in (a scalar for a single
+    input and output). y depends on u directly only when D != 0."""
 
     kind = "state_space"
+    sized_by: ClassVar[dict[str, str]] = {"u": "n_in", "y": "n_out"}
+    n_in = Parameter(1, type=INTEGER, min=1, description="elements of u")
+    n_out = Parameter(1, type=INTEGER, min=1, description="elements of y")
     A = Parameter((0.0,), size=0, description="state matrix, row-major")
-    B = Parameter((1.0,), size=0, description="input column")
-    C = Parameter((1.0,), size=0, description="output row")
-    D = Parameter(0.0, description="feedthrough")
+    B = Parameter((1.0,), size=0, description="input matrix, row-major")
+    C = Parameter((1.0,), size=0, description="output matrix, row-major")
+    D = Parameter(0.0, description="feedthrough (n_out x n_in, row-major, when not 1 x 1)")
     x0 = Parameter((), size=0, description="initial state (default zeros)")
     u = Input(0.0)
     y = Output(0.0)
 
+    @classmethod
+    def examples(cls, h: float) -> tuple[dict[str, Any], ...]:
+        """Parameter sets for tests (tests/property/test_block_forms.py); {}: drawn SISO."""
+        return ({}, {}, {"n_in": 2, "n_out": 1, "A": [[-1.0, 2.0], [-3.0, -4.0]],
+                         "B": [[1.0, 0.0], [0.5, 2.0]], "C": [1.0, -1.0], "D": [0.0, 0.0],
+                         "x0": [0.5, -1.0]},
+                {"n_in": 1, "n_out": 2, "A": [-2.0], "B": [1.5], "C": [1.0, 3.0],
+                 "D": [0.5, 0.0], "x0": [0.2]})
+
     def set_parameter(self, name: str, value: Any) -> None:
         super().set_parameter(name, value)
-        if name == "D":  # feedthrough only when D != 0, so a strictly proper block breaks loops
-            self.variables = dict(self.variables)
-            self.variables["y"] = Output(0.0, depends_on=("u",) if self.D != 0.0 else ())
+        if name in ("n_in", "n_out"):  # D: a scalar for 1 x 1, else n_out x n_in
+            size = self.n_in * self.n_out
+            d = Parameter(0.0, description=self.variables["D"].description) if size == 1 else \
+                Parameter((0.0,) * size, size=0, description=self.variables["D"].description)
+            d.name = "D"
+            self.variables["D"] = d
+            self.__dict__["D"] = d.start
+        if name in ("D", "n_in", "n_out"):  # feedthrough only when D != 0 (breaks loops)
+            y = self.outputs["y"]
+            direct = any(v != 0.0 for v in np.ravel(self.D))
+            self.variables["y"] = Output(y.start, size=y.size, depends_on=("u",) if direct
+                                         else ())
             self.variables["y"].name = "y"
 
+    def order(self) -> int:
+        """Number of states n (from B); ValueError naming a matrix of the wrong size."""
+        m, p = self.n_in, self.n_out
+        n = len(self.B) // m
+        if n == 0 or n * m != len(self.B):
+            raise ValueError(f"B has {len(self.B)} values, not n x n_in (n_in = {m}). Fix: give "
+                             f"B as n rows of n_in values, at least one state.")
+        sizes = {"A": n * n, "C": p * n, "D": p * m, "x0": n}
+        for name, size in sizes.items():
+            got = len(np.ravel(self.get(name)))
+            if got != size and not (name == "x0" and got == 0):
+                raise ValueError(f"{name} has {got} values but B has {n} states (expected "
+                                 f"{size}). Fix: give A as n*n values row by row, B as n x n_in, "
+                                 f"C as n_out x n, D as n_out x n_in and x0 as n values.")
+        return n
+
+    def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        try:
+            self.order()
+        except ValueError as err:
+            message, fix = str(err).split(". Fix: ")
+            return [("", message, fix)]
+        return []
+
     def initialize(self) -> None:
-        n = len(self.B)
+        n, m, p = self.order(), self.n_in, self.n_out
         self._a = np.reshape(self.A, (n, n))
-        self._b = np.reshape(self.B, (n, 1))
-        self._c = np.reshape(self.C, (1, n))
+        self._b = np.reshape(self.B, (n, m))
+        self._c = np.reshape(self.C, (p, n))
+        self._d = np.reshape(np.array(self.D, dtype=float), (p, m))
         self._h = math.nan
         self.evaluate(self.start_time)
 
@@ -146,12 +194,20 @@ class StateSpace(Component):
         if h != self._h:
             from scipy.signal import cont2discrete
 
-            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, [[self.D]]), h, method="zoh")
-            self._ad, self._bd, self._h = ad, bd[:, 0], h
-        n = len(self.B)
-        return Kernel(params=kernels.StateSpaceParams(
-                          np.ascontiguousarray(self._ad, dtype=float),
-                          np.ascontiguousarray(self._bd, dtype=float),
-                          np.ascontiguousarray(self._c[0], dtype=float), float(self.D)),
-                      state=(np.array(self.x0 or [0.0] * n, dtype=float),),
-                      evaluate=kernels.state_space_evaluate, step=kernels.state_space_step)
+            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, self._d), h, method="zoh")
+            self._ad, self._bd, self._h = ad, bd, h
+        n = len(self._a)
+        x = (np.array(self.x0 or [0.0] * n, dtype=float),)
+        ad = np.ascontiguousarray(self._ad, dtype=float)
+        if self.n_in == self.n_out == 1:
+            return Kernel(params=kernels.StateSpaceParams(
+                              ad, np.ascontiguousarray(self._bd[:, 0], dtype=float),
+                              np.ascontiguousarray(self._c[0], dtype=float), float(self.D)),
+                          state=x, evaluate=kernels.state_space_evaluate,
+                          step=kernels.state_space_step)
+        return Kernel(params=dk.StateSpaceMimoParams(
+                          ad, np.ascontiguousarray(self._bd, dtype=float),
+                          np.ascontiguousarray(self._c, dtype=float),
+                          np.ascontiguousarray(self._d, dtype=float)),
+                      state=x, evaluate=dk.state_space_mimo_evaluate,
+                      step=dk.state_space_mimo_step)

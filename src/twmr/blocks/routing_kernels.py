@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from twmr.blocks.discrete_kernels import at, put, width
+from twmr.blocks.vectors import at, divide, put, width
 from twmr.core.kernel import kernel_function
 
 #: `math` functions by name -> code (shared with c/math.c through its #define)
@@ -84,7 +84,7 @@ def product_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: NaryParams
     for i in range(width(out)):
         s = 1.0
         for j in range(len(u)):
-            s = s * at(u[j], i) if p.gains[j] > 0.0 else s / at(u[j], i)
+            s = s * at(u[j], i) if p.gains[j] > 0.0 else divide(s, at(u[j], i))
         out = put(out, i, s)
     return x, (out,)
 
@@ -153,7 +153,7 @@ def apply(fn: float, v: float) -> float:
     if fn == 12.0:
         return v * v
     if fn == 13.0:
-        return 1.0 / v if v != 0.0 else math.copysign(math.inf, v)
+        return divide(1.0, v)
     if v > 0.0:
         return 1.0
     return -1.0 if v < 0.0 else v

@@ -1,21 +1,25 @@
-/* x' = A x + B u, y = C x + D u with N_SS states (twmr.blocks.StateSpace), discretised exactly
- * for an input held over the step: exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, 1]], computed by
- * scaling and squaring of a Taylor series (expm.h). */
+/* x' = A x + B u, y = C x + D u with N_SS states, N_IN inputs and N_OUT outputs
+ * (twmr.blocks.StateSpace), discretised exactly for an input held over the step:
+ * exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, I]], computed by scaling and squaring of a Taylor
+ * series (expm.h). Matrices row by row. */
 #include <math.h>
 #include <string.h>
 #include "kernel.h"
 
-#define N1 (N_SS + 1)
+#define N1 (N_SS + N_IN)
 #define EXPM_N N1
 #include "expm.h"
 
-enum { AD = 0, BD = N_SS * N_SS, X = BD + N_SS, H_LAST = X + N_SS };  /* work values */
+enum { AD = 0, BD = N_SS * N_SS, X = BD + N_SS * N_IN, H_LAST = X + N_SS };  /* work values */
 
 static void output(Model *m) {
-    double y = 0.0;
-    int i;
-    for (i = 0; i < N_SS; i++) y += m->v[V_C + i] * m->w[X + i];
-    m->v[V_y] = y + m->v[V_D] * m->v[V_u];
+    int i, j;
+    for (i = 0; i < N_OUT; i++) {
+        double y = 0.0, du = 0.0;
+        for (j = 0; j < N_SS; j++) y += m->v[V_C + i * N_SS + j] * m->w[X + j];
+        for (j = 0; j < N_IN; j++) du += m->v[V_D + i * N_IN + j] * m->v[V_u + j];
+        m->v[V_y + i] = N_IN == 1 ? y + m->v[V_D + i] * m->v[V_u] : y + du;
+    }
 }
 
 void kernel_init(Model *m) {
@@ -35,17 +39,18 @@ void kernel_step(Model *m, double t, double h) {
         memset(M, 0, sizeof M);
         for (i = 0; i < N_SS; i++) {
             for (j = 0; j < N_SS; j++) M[i * N1 + j] = m->v[V_A + i * N_SS + j] * h;
-            M[i * N1 + N_SS] = m->v[V_B + i] * h;
+            for (j = 0; j < N_IN; j++) M[i * N1 + N_SS + j] = m->v[V_B + i * N_IN + j] * h;
         }
         expm(M, E);
         for (i = 0; i < N_SS; i++) {
             for (j = 0; j < N_SS; j++) w[AD + i * N_SS + j] = E[i * N1 + j];
-            w[BD + i] = E[i * N1 + N_SS];
+            for (j = 0; j < N_IN; j++) w[BD + i * N_IN + j] = E[i * N1 + N_SS + j];
         }
         w[H_LAST] = h;
     }
     for (i = 0; i < N_SS; i++) {
-        x[i] = w[BD + i] * m->v[V_u];
+        x[i] = 0.0;
+        for (j = 0; j < N_IN; j++) x[i] += w[BD + i * N_IN + j] * m->v[V_u + j];
         for (j = 0; j < N_SS; j++) x[i] += w[AD + i * N_SS + j] * w[X + j];
     }
     memcpy(w + X, x, sizeof x);
