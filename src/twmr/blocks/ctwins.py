@@ -115,7 +115,7 @@ TRANSPORT_DELAY = CTwin(
     C / "transport_delay.c",
     computed=lambda comp: {"TD_N": comp.get("n"), "TD_B": comp.get("buffer"),
                            "TD_STEPS": comp.get("steps")},
-    work=lambda comp: comp.get("buffer") * comp.get("n") + 1)
+    work=lambda comp: comp.get("buffer") * comp.get("n") + 2)
 ZERO_ORDER_HOLD = CTwin(C / "zero_order_hold.c", tunable=frozenset({"sample_period"}),
                         computed=lambda comp: {"N_EL": comp.get("n")})
 FIRST_ORDER = CTwin(C / "first_order.c", tunable=frozenset({"K", "T"}),

@@ -235,8 +235,8 @@ class ZeroOrderHold(Component):
 class TransportDelay(Component):
     """y(t) = u(t - delay), linear interpolation between the samples stored at the steps (exact
     for a whole number of steps; `steps` > 0 gives a delay of that many steps instead); at least
-    one step, so no direct feedthrough. y = y0 until the delay has passed. Element-wise for
-    n > 1; `buffer` samples are stored (delay <= (buffer - 1) steps)."""
+    one step, so no direct feedthrough; y = y0 while t - delay < start. Element-wise for n > 1;
+    `buffer` samples are stored (delay <= (buffer - 1) steps)."""
 
     kind = "transport_delay"
     sized_by: ClassVar[dict[str, str]] = {"u": "n", "y": "n"}
@@ -277,7 +277,7 @@ class TransportDelay(Component):
     def kernel(self, h: float) -> Kernel:
         k, frac = dk.delay_steps(self.delay, self.steps, h, self.buffer)
         buf = np.full((self.buffer, self.n), float(self.y0))
-        return Kernel(params=dk.DelayParams(k, frac), state=(buf, 0),
+        return Kernel(params=dk.DelayParams(k, frac), state=(buf, 0, 0),
                       step=dk.transport_delay_step)
 
 

@@ -89,13 +89,17 @@ def delay_steps(delay: float, steps: int, h: float, buffer: int) -> tuple[float,
 @kernel_function
 def transport_delay_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: DelayParams
                          ) -> tuple[tuple, tuple]:
-    """Store u(t) in the ring buffer x = (samples [buffer x n], index of the newest), then
-    y(t + h) = (1 - frac) s[k - 1] + frac s[k], s[j] the sample j steps before the newest."""
+    """Store u(t) in the ring buffer x = (samples [buffer x n], index of the newest, number
+    stored), then y(t + h) = (1 - frac) s[k - 1] + frac s[k], s[j] the sample j steps before
+    the newest; y0 (the initial samples) while t + h - delay is before the first sample."""
     buf = x[0].copy()
     size = buf.shape[0]
     head = (x[1] + 1) % size
+    stored = min(x[2] + 1, size)
     for i in range(buf.shape[1]):
         buf[head, i] = at(u[0], i)
+    if p.k + p.frac > stored:
+        return (buf, head, stored), y
     k = int(p.k)
     near, far = (head - k + 1) % size, (head - k) % size
     out = y[0]
@@ -104,7 +108,7 @@ def transport_delay_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: De
         if p.frac != 0.0:
             v = (1.0 - p.frac) * v + p.frac * buf[far, i]
         out = put(out, i, v)
-    return (buf, head), (out,)
+    return (buf, head, stored), (out,)
 
 
 # -- pid -------------------------------------------------------------------------------------

@@ -1,14 +1,16 @@
 /* y(t) = u(t - delay), linear interpolation between the samples of the last TD_B steps (a ring
- * buffer of TD_N elements each), or a delay of TD_STEPS > 0 steps (twmr.blocks.TransportDelay). */
+ * buffer of TD_N elements each), or a delay of TD_STEPS > 0 steps; y0 until the delay has passed
+ * (twmr.blocks.TransportDelay). */
 #include <math.h>
 #include "kernel.h"
 
-enum { HEAD = TD_B * TD_N };  /* work values: the samples row by row, then the newest's row */
+/* work values: the samples row by row, the newest's row, the number stored */
+enum { HEAD = TD_B * TD_N, STORED = HEAD + 1 };
 
 void kernel_init(Model *m) {
     int i;
     for (i = 0; i < TD_B * TD_N; i++) m->w[i] = m->v[V_y0];
-    m->w[HEAD] = 0.0;
+    m->w[HEAD] = m->w[STORED] = 0.0;
     for (i = 0; i < TD_N; i++) m->v[V_y + i] = m->v[V_y0];
 }
 
@@ -33,6 +35,8 @@ void kernel_step(Model *m, double t, double h) {
     head = ((int)w[HEAD] + 1) % TD_B;
     for (i = 0; i < TD_N; i++) w[head * TD_N + i] = m->v[V_u + i];
     w[HEAD] = head;
+    w[STORED] = w[STORED] + 1.0 < TD_B ? w[STORED] + 1.0 : TD_B;
+    if (k + frac > w[STORED]) return;  /* t + h - delay before the first sample: y0 */
     near = ((head - (int)k + 1) % TD_B + TD_B) % TD_B;
     far = ((head - (int)k) % TD_B + TD_B) % TD_B;
     for (i = 0; i < TD_N; i++) {
