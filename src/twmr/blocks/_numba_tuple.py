@@ -14,9 +14,12 @@ def _replace(t: tuple, i: int, v: float) -> tuple:
 def _replace_typed(t: Any, i: Any, v: Any) -> Any:
     """numba's tuple intrinsic for a tuple; for anything else no implementation (a typing error,
     which numba accepts in a branch pruned by `isinstance`)."""
-    if isinstance(t, types.UniTuple):
-        return lambda t, i, v: tuple_setitem(t, i, v)  # type: ignore[call-arg]
-    return None
+    if not isinstance(t, types.UniTuple):
+        return None
+
+    def replace(t: Any, i: Any, v: Any) -> Any:  # the typing function's signature
+        return tuple_setitem(t, i, v)  # type: ignore[call-arg]
+    return replace
 
 
 def setitem(t: tuple, i: int, v: float) -> tuple:

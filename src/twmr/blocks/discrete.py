@@ -86,9 +86,11 @@ class _Feedthrough(Component):
 
 
 class TransferFunction(_Feedthrough):
-    """y = num(s)/den(s) u, coefficients in descending powers, discretised for the step h by
-    `method`: 'zoh' (exact for u held over the step, the default), 'tustin' (bilinear
-    s = 2/h (z - 1)/(z + 1)), or 'discrete' (num and den are already in z at the block's step).
+    """y = num/den u, a transfer function in s (discretised) or in z.
+
+    Coefficients in descending powers, discretised for the step h by `method`: 'zoh' (exact
+    for u held over the step, the default), 'tustin' (bilinear s = 2/h (z - 1)/(z + 1)), or
+    'discrete' (num and den are already in z at the block's step).
     Proper: degree of num <= degree of den >= 1. y depends on u directly when D != 0 (a
     biproper transfer function, or any under tustin)."""
 
@@ -169,8 +171,10 @@ class TransferFunction(_Feedthrough):
 
 
 class FirstOrder(Component):
-    """T y' + y = K u (K/(T s + 1)), exact for u held over the step: y(t + h) = a y + K (1 - a) u,
-    a = exp(-h/T). Element-wise for n > 1; no direct feedthrough."""
+    """First-order lag K/(T s + 1), element-wise.
+
+    T y' + y = K u, exact for u held over the step: y(t + h) = a y + K (1 - a) u, a = exp(-h/T);
+    no direct feedthrough."""
 
     kind = "first_order"
     sized_by: ClassVar[dict[str, str]] = {"u": "n", "y": "n"}
@@ -197,8 +201,10 @@ class FirstOrder(Component):
 
 
 class ZeroOrderHold(Component):
-    """y = u(t_k) for t_k <= t < t_k + Ts, sampled at t_k = start + k Ts (Ts a whole number of
-    the block's steps). Element-wise for n > 1; y depends on u directly (at the sample instants)."""
+    """Zero-order hold at a sample period Ts, element-wise.
+
+    y = u(t_k) for t_k <= t < t_k + Ts, sampled at t_k = start + k Ts (Ts a whole number of the
+    block's steps); y depends on u directly (at the sample instants)."""
 
     kind = "zero_order_hold"
     sized_by: ClassVar[dict[str, str]] = {"u": "n", "y": "n"}
@@ -233,7 +239,9 @@ class ZeroOrderHold(Component):
 
 
 class TransportDelay(Component):
-    """y(t) = u(t - delay), linear interpolation between the samples stored at the steps (exact
+    """Transport delay y(t) = u(t - delay) of a time or of N steps, element-wise.
+
+    Linear interpolation between the samples stored at the steps (exact
     for a whole number of steps; `steps` > 0 gives a delay of that many steps instead); at least
     one step, so no direct feedthrough; y = y0 while t - delay < start. Element-wise for n > 1;
     `buffer` samples are stored (delay <= (buffer - 1) steps)."""
@@ -282,7 +290,9 @@ class TransportDelay(Component):
 
 
 class Pid(_Feedthrough):
-    """Parallel PID of the error u: y = kp e + ki/s e + kd s/(1 + s/N) e at the block's step h
+    """Discrete parallel PID with derivative filter, output limits and anti-windup.
+
+    y = kp e + ki/s e + kd s/(1 + s/N) e of the error e = u at the block's step h
     (1/s by forward Euler in the integral and the derivative filter, starting from rest; the
     filter is stable for N h < 2), the
     output limited to [y_min, y_max] when limit_output; anti-windup 'clamping' (the integral

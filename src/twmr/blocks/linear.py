@@ -17,8 +17,9 @@ from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 
 
 class Gain(Component):
-    """y = k u element by element (n_in = n_out), or y = K u for a matrix K of n_out x n_in
-    values given row by row; direct feedthrough."""
+    """y = k u (element-wise) or y = K u (a matrix).
+
+    k scalar for n_in = n_out; K of n_out x n_in values given row by row; direct feedthrough."""
 
     kind = "gain"
     sized_by: ClassVar[dict[str, str]] = {"u": "n_in", "y": "n_out"}
@@ -57,7 +58,9 @@ class Gain(Component):
 
 
 class Sum(Nary):
-    """y = s1 k1 u1 + s2 k2 u2 + s3 u3 + ... element by element, s_i the sign (+ or -) of input
+    """y = s1 k1 u1 + s2 k2 u2 + s3 u3 + ..., n inputs with signs, element-wise.
+
+    s_i is the sign (+ or -) of input
     i in `signs` (default '++': y = k1 u1 + k2 u2; k2 = -1 or signs '+-' make an error
     junction); direct feedthrough."""
 
@@ -113,8 +116,9 @@ class Delay(Component):
 
 
 class StateSpace(Component):
-    """x' = A x + B u, y = C x + D u (n states, n_in inputs, n_out outputs), discretised exactly
-    for an input held over the step (zero-order hold) for each step size.
+    """x' = A x + B u, y = C x + D u: n states, n_in inputs, n_out outputs.
+
+    Discretised exactly for an input held over the step (zero-order hold) for each step size.
 
     A is n x n values row by row, B n x n_in, C n_out x n, D n_out x n_in (a scalar for a single
     input and output). y depends on u directly only when D != 0."""

@@ -49,8 +49,9 @@ class Nary(Component):
 
 
 class Product(Nary):
-    """y = u1 op2 u2 op3 u3 ... element by element, each op '*' or '/' (`ops`, one per input,
-    the first '/' meaning 1/u1): y = ((1 op1 u1) op2 u2) ..."""
+    """Product and quotient of n inputs, element-wise.
+
+    y = ((1 op1 u1) op2 u2) ..., each op '*' or '/' (`ops`, one per input)."""
 
     kind = "product"
     OPS, ALPHABET = "ops", "*/"
@@ -69,7 +70,7 @@ class Product(Nary):
 
 
 class Mux(Component):
-    """y = (u1, u2, ..., u<n_in>) concatenated: n_in ports of `width` elements each."""
+    """y = (u1, u2, ..., u<n_in>): n_in ports of `width` elements each, concatenated."""
 
     kind = "mux"
     sizing_parameters = frozenset({"n_in", "width"})
@@ -175,8 +176,10 @@ class Selector(Component):
 
 
 class Math(Component):
-    """y = f(u) element by element, f named by `function`: abs, sqrt, exp, log, log10, sin,
-    cos, tan, asin, acos, atan, tanh, square (u^2), reciprocal (1/u), sign. Outside its domain
+    """y = f(u), f named by `function` (abs, sqrt, exp, sin, ...), element-wise.
+
+    f is one of abs, sqrt, exp, log, log10, sin, cos, tan, asin, acos, atan, tanh, square (u^2),
+    reciprocal (1/u), sign. Outside its domain
     f gives NaN (sqrt, log of a negative; asin, acos beyond 1), which the run reports."""
 
     kind = "math"
