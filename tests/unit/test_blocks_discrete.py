@@ -288,3 +288,11 @@ def _value(text: str) -> Any:
 
     return yaml.safe_load(text)
 
+
+
+def test_tustin_has_no_c_twin_and_says_what_to_do(tmp_path: Path):
+    done = subprocess.run([sys.executable, "-m", "twmr.cli", "export", "transfer_function",
+                           "--set", "method=tustin", "--out", str(tmp_path / "t.fmu")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and "Traceback" not in done.stderr
+    assert "method 'tustin' has no C kernel" in done.stderr and "--python" in done.stderr

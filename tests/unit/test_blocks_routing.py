@@ -210,3 +210,20 @@ def test_every_block_in_one_chain_compiled_is_bit_identical(tmp_path: Path, algo
     compiled = _run(path, "on", algorithm)
     assert python.shape == (1001, 24) and np.all(np.isfinite(python))
     assert np.array_equal(python, compiled), np.max(np.abs(python - compiled))
+
+
+def test_every_example_of_the_block_docs_is_accepted():
+    """docs/blocks_linear_routing.md: each example line builds its block, checked and
+    initialised."""
+    import re
+
+    import yaml
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "blocks_linear_routing.md").read_text()
+    examples = re.findall(r"```yaml\n(.*?)\n```", text, re.S)
+    assert len(examples) == 13
+    for example in examples:
+        (spec,) = yaml.safe_load(example).values()
+        with Harness(spec["kind"], parameters=spec["parameters"]) as dut:
+            assert dut.component.check(frozenset(spec["parameters"])) == []
+            dut.initialize()
