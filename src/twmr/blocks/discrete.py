@@ -61,7 +61,7 @@ class _Feedthrough(Component):
     base step, from `prepare(run)`, stands for h before the first step (`step_of`), so its
     first output is the one the compiled loop computes."""
 
-    _step = math.nan
+    _step = 0.0  #: [s] the base step; 0 without `prepare` (h = 0 is a valid limit here)
 
     def prepare(self, run: Any) -> None:
         self._step = run.step
