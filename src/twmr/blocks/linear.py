@@ -69,6 +69,8 @@ class Sum(Nary):
     k1 = Parameter(1.0)
     k2 = Parameter(1.0)
     signs = Parameter("++", type=STRING, description="'+' or '-' per input, e.g. '+-+'")
+    u1 = Input(0.0)
+    u2 = Input(0.0)
     y = Output(0.0, depends_on=("u1", "u2"))
 
     @classmethod

@@ -19,14 +19,12 @@ def _size(n: int) -> int | None:
 
 
 class Nary(Component):
-    """A block of inputs u1 .. uk, one per character of the text parameter `OPS` (its
-    `ALPHABET`), each `n` elements wide like y (element-wise)."""
+    """A block of inputs u1 .. uk (u1 and u2 declared), one per character of the text parameter
+    `OPS` (its `ALPHABET`), each `n` elements wide like y (element-wise)."""
 
     OPS: ClassVar[str] = ""
     ALPHABET: ClassVar[str] = ""
     n = Parameter(1, type=INTEGER, min=1, description="number of elements of each port")
-    u1 = Input(0.0)
-    u2 = Input(0.0)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -56,6 +54,8 @@ class Product(Nary):
     kind = "product"
     OPS, ALPHABET = "ops", "*/"
     ops = Parameter("**", type=STRING, description="'*' or '/' per input, e.g. '**/'")
+    u1 = Input(0.0)
+    u2 = Input(0.0)
     y = Output(0.0, depends_on=("u1", "u2"))
 
     @classmethod
