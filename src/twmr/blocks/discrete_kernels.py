@@ -104,7 +104,7 @@ def transport_delay_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: De
     near, far = (head - k + 1) % size, (head - k) % size
     out = y[0]
     for i in range(buf.shape[1]):
-        v = buf[near, i]
+        v = float(buf[near, i])
         if p.frac != 0.0:
             v = (1.0 - p.frac) * v + p.frac * buf[far, i]
         out = put(out, i, v)
@@ -187,7 +187,7 @@ def state_space_mimo_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: StateSp
     r = np.dot(p.c, x[0]) + np.dot(p.d, _vector(u[0], p.d.shape[1]))
     out = y[0]
     for i in range(r.shape[0]):
-        out = put(out, i, r[i])
+        out = put(out, i, float(r[i]))
     return x, (out,)
 
 

@@ -53,7 +53,8 @@ class Gain(Component):
     def kernel(self, h: float) -> Kernel:
         if not self.K:
             return Kernel(params=rk.GainParams(float(self.k)), evaluate=rk.gain_evaluate)
-        K = np.reshape(np.array(self.K, dtype=float), (self.n_out, self.n_in))
+        m = self.n_in
+        K = tuple(tuple(float(k) for k in self.K[i * m:(i + 1) * m]) for i in range(self.n_out))
         return Kernel(params=rk.GainMatrixParams(K), evaluate=rk.gain_matrix_evaluate)
 
 
@@ -82,7 +83,7 @@ class Sum(Nary):
         gains = [1.0 if c == "+" else -1.0 for c in self.signs]
         gains[0] *= self.k1
         gains[1] *= self.k2
-        return Kernel(params=rk.NaryParams(np.array(gains)), evaluate=rk.sum_evaluate)
+        return Kernel(params=rk.NaryParams(tuple(gains)), evaluate=rk.sum_evaluate)
 
 
 class Integrator(Component):

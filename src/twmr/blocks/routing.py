@@ -5,8 +5,6 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-import numpy as np
-
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.ports import numbered, resized
 from twmr.core.component import Component
@@ -64,8 +62,7 @@ class Product(Nary):
         return ({"ops": "**"}, {"ops": "*/*"}, {"ops": "/*", "n": 2})
 
     def kernel(self, h: float) -> Kernel:
-        return Kernel(params=rk.NaryParams(np.array([1.0 if c == "*" else -1.0
-                                                     for c in self.ops])),
+        return Kernel(params=rk.NaryParams(tuple(1.0 if c == "*" else -1.0 for c in self.ops)),
                       evaluate=rk.product_evaluate)
 
 
@@ -171,8 +168,8 @@ class Selector(Component):
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
-        index = np.array([min(max(i, 1), self.width) - 1 for i in self.indices], dtype=np.int64)
-        return Kernel(params=rk.SelectParams(index), evaluate=rk.selector_evaluate)
+        picks = tuple(min(max(i, 1), self.width) - 1 for i in self.indices)
+        return Kernel(params=rk.SelectParams(picks), evaluate=rk.selector_evaluate)
 
 
 class Math(Component):

@@ -6,8 +6,6 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-import numpy as np
-
 from twmr.blocks.vectors import at, divide, put, width
 from twmr.core.kernel import kernel_function
 
@@ -24,18 +22,18 @@ class GainParams(NamedTuple):
 
 
 class GainMatrixParams(NamedTuple):
-    K: np.ndarray  #: outputs x inputs
+    K: tuple  #: n_out rows of n_in floats
 
 
 class NaryParams(NamedTuple):
     """Per input i: its gain (`sum`: sign times k1, k2 or 1) or 1.0 to multiply by it, -1.0 to
     divide by it (`product`)."""
 
-    gains: np.ndarray
+    gains: tuple  #: floats
 
 
 class SelectParams(NamedTuple):
-    picks: np.ndarray  #: 0-based input element of each output element
+    picks: tuple  #: 0-based input element (int) of each output element
 
 
 class MathParams(NamedTuple):
@@ -56,10 +54,11 @@ def gain_matrix_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: GainMatrixPa
                          ) -> tuple[tuple, tuple]:
     """y_i = sum_j K_ij u_j (summed in order of j)."""
     out = y[0]
-    for i in range(p.K.shape[0]):
-        s = p.K[i, 0] * at(u[0], 0)
-        for j in range(1, p.K.shape[1]):
-            s = s + p.K[i, j] * at(u[0], j)
+    for i in range(len(p.K)):
+        row = p.K[i]
+        s = row[0] * at(u[0], 0)
+        for j in range(1, len(row)):
+            s = s + row[j] * at(u[0], j)
         out = put(out, i, s)
     return x, (out,)
 
