@@ -39,7 +39,7 @@ STEP = CTwin(C / "step.c", tunable=frozenset({"height", "time", "offset"}))
 def checked(comp: Component) -> Component:
     """`comp`, its parameters checked as `twmr check` does (CosimError for the first problem)."""
     for _key, message, fix in comp.check(frozenset()):
-        raise CosimError(f"export {comp.kind}: {message}. Fix: {fix}")
+        raise CosimError(f"export {comp.kind}: {message} Fix: {fix}")
     return comp
 
 

@@ -123,19 +123,19 @@ class TransferFunction(_Feedthrough):
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         num, den = self.num, self.den
         if self.method not in TF_METHODS:
-            return [("method", f"method '{self.method}' is not known",
+            return [("method", f"method '{self.method}' is not known.",
                      f"use one of {' | '.join(TF_METHODS)}.")]
         if len(den) < 2:
-            return [("den", f"den {list(den)} has degree 0 (a static gain)",
+            return [("den", f"den {list(den)} has degree 0 (a static gain).",
                      "give den at least two coefficients (degree >= 1), or use a gain block.")]
         if den[0] == 0.0:
-            return [("den", f"den {list(den)} has a leading zero (its degree is unclear)",
+            return [("den", f"den {list(den)} has a leading zero (its degree is unclear).",
                      "drop the leading zeros of den, highest power first.")]
         if not num:
-            return [("num", "num is empty", "give at least one coefficient.")]
+            return [("num", "num is empty.", "give at least one coefficient.")]
         if len(num) > len(den):
             return [("num", f"num {list(num)} has a higher degree ({len(num) - 1}) than "
-                     f"den ({len(den) - 1}): the transfer function is improper",
+                     f"den ({len(den) - 1}): the transfer function is improper.",
                      "make the degree of num at most that of den.")]
         return []
 
@@ -187,7 +187,7 @@ class FirstOrder(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.T <= 0.0:
-            return [("T", f"T = {self.T} s is not a positive time constant",
+            return [("T", f"T = {self.T} s is not a positive time constant.",
                      "give T > 0 (a pure gain is a gain block).")]
         return []
 
@@ -220,7 +220,7 @@ class ZeroOrderHold(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.sample_period <= 0.0:
-            return [("sample_period", f"sample_period = {self.sample_period} s is not positive",
+            return [("sample_period", f"sample_period = {self.sample_period} s is not positive.",
                      "give a sample period of at least one step.")]
         return []
 
@@ -264,11 +264,11 @@ class TransportDelay(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if "delay" in given and "steps" in given and self.steps > 0:
-            return [("steps", "both delay and steps are given",
+            return [("steps", "both delay and steps are given.",
                      "give the delay either in seconds (delay) or in steps (steps).")]
         if self.steps > self.buffer - 1:
             return [("steps", f"steps = {self.steps} does not fit a buffer of {self.buffer} "
-                     f"samples", f"give buffer >= {self.steps + 1}.")]
+                     f"samples.", f"give buffer >= {self.steps + 1}.")]
         return []
 
     def prepare(self, run: Any) -> None:
@@ -324,11 +324,11 @@ class Pid(_Feedthrough):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.antiwindup not in dk.ANTIWINDUP:
-            return [("antiwindup", f"antiwindup '{self.antiwindup}' is not known",
+            return [("antiwindup", f"antiwindup '{self.antiwindup}' is not known.",
                      f"use one of {' | '.join(dk.ANTIWINDUP)}.")]
         if self.limit_output and self.y_min > self.y_max:
             return [("y_min", f"the lower limit y_min = {self.y_min} is above the upper limit "
-                     f"y_max = {self.y_max}", "give y_min <= y_max.")]
+                     f"y_max = {self.y_max}.", "give y_min <= y_max.")]
         return []
 
     def initialize(self) -> None:

@@ -40,11 +40,11 @@ class Gain(Component):
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.K and len(self.K) != self.n_out * self.n_in:
             return [("K", f"K has {len(self.K)} values, not n_out x n_in = {self.n_out} x "
-                     f"{self.n_in}", "give K row by row, one row per output, one column per "
+                     f"{self.n_in}.", "give K row by row, one row per output, one column per "
                      "input (or set n_in and n_out to its shape).")]
         if not self.K and self.n_in != self.n_out:
             return [("K", f"a scalar gain keeps the width, but n_in = {self.n_in} and n_out = "
-                     f"{self.n_out}", "give the matrix K, or equal n_in and n_out.")]
+                     f"{self.n_out}.", "give the matrix K, or equal n_in and n_out.")]
         return []
 
     def initialize(self) -> None:
@@ -183,7 +183,7 @@ class StateSpace(Component):
         try:
             self.order()
         except ValueError as err:
-            message, fix = str(err).split(". Fix: ")
+            message, fix = str(err).split(" Fix: ")
             return [("", message, fix)]
         return []
 

@@ -160,7 +160,7 @@ class Selector(Component):
         bad = [i for i in self.indices if not 1 <= i <= self.width]
         if not self.indices or bad:
             return [("indices", f"indices {list(self.indices)} name elements outside 1 .. "
-                     f"{self.width} of the input", f"give indices from 1 to {self.width} "
+                     f"{self.width} of the input.", f"give indices from 1 to {self.width} "
                      f"(the input's width), at least one.")]
         return []
 
@@ -188,7 +188,7 @@ class Math(Component):
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.function not in rk.FUNCTIONS:
-            return [("function", f"function '{self.function}' is not known",
+            return [("function", f"function '{self.function}' is not known.",
                      f"use one of {' | '.join(rk.FUNCTIONS)}.")]
         return []
 
