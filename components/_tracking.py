@@ -83,7 +83,8 @@ def smc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: LawParams
                  ) -> tuple[TrackingState, tuple]:
     """The SMC's `evaluate`: y = (torque, error, s)."""
     tR, tL, s1, s2, e1, e2, sat = limited_law(u, p, 0.0, 0.0)
-    return TrackingState(sat), ((tR, tL), (e1, e2), (s1, s2))
+    x = x if sat == x.saturated else TrackingState(sat)
+    return x, ((tR, tL), (e1, e2), (s1, s2))
 
 
 class TrackingController(Component):

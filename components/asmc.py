@@ -30,23 +30,25 @@ def asmc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
     """`AsmcController.evaluate`: y = (torque, error, s, d_hat)."""
     dR, dL = y[3]
     tR, tL, s1, s2, e1, e2, sat = limited_law(u, p.law, dR, dL)
-    return TrackingState(sat), ((tR, tL), (e1, e2), (s1, s2), y[3])
+    x = x if sat == x.saturated else TrackingState(sat)
+    return x, ((tR, tL), (e1, e2), (s1, s2), y[3])
 
 
 @kernel_function
 def asmc_step(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
               ) -> tuple[TrackingState, tuple]:
     """`AsmcController.do_step`: d_hat by eq. (33), held while saturated (anti-windup), clamped
-    to the projection."""
-    if x.saturated == 1.0 and p.hold_saturated == 1.0:
-        return x, y
-    s1, s2 = y[2]
-    d1, d2 = y[3]
-    d1, d2 = d1 + p.eta * s1 * h, d2 + p.eta * s2 * h  # eq. (33)
-    m = p.d_hat_limit
-    if m > 0.0:
-        d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
-    return x, (y[0], y[1], y[2], (d1, d2))
+    to the projection; then the outputs at t + h with the inputs held, as its C FMU reports
+    them after fmi2DoStep (what a Jacobi master passes on)."""
+    if not (x.saturated == 1.0 and p.hold_saturated == 1.0):
+        s1, s2 = y[2]
+        d1, d2 = y[3]
+        d1, d2 = d1 + p.eta * s1 * h, d2 + p.eta * s2 * h  # eq. (33)
+        m = p.d_hat_limit
+        if m > 0.0:
+            d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
+        y = (y[0], y[1], y[2], (d1, d2))
+    return asmc_evaluate(t + h, x, y, u, p)
 
 
 class AsmcController(TrackingController):

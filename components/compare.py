@@ -5,7 +5,6 @@ x and y tracking errors over time, wheel torques, and the adaptive estimate d_ha
 """
 from __future__ import annotations
 
-import json
 import re
 import sys
 from collections.abc import Sequence
@@ -15,8 +14,9 @@ from typing import Any
 import numpy as np
 
 from twmr.components.metrics import DEFINITIONS, errors, tracking_metrics
+from twmr.core import jsonvalues
 from twmr.core.errors import CosimError
-from twmr.plots import pyplot
+from twmr.plots import legend_outside, line_style, pyplot, save
 
 METRICS = ("settling_time_x", "settling_time_y", "peak_error_x", "peak_error_y", "mse_x", "mse_y")
 UNITS = {"settling_time": "s", "peak_error": "m", "mse": "m2"}
@@ -51,57 +51,53 @@ def _columns(data: np.ndarray, port: str) -> list[str]:
 
 
 def figures(runs: dict[str, np.ndarray], out: Path) -> list[Path]:
-    """XY paths, x/y errors, torques and d_hat of every run; the PNG paths written."""
+    """XY paths with the reference, x/y errors, torques and d_hat of every run, one colour per
+    run (wheels by dash); PNG and SVG, the paths written."""
     plt = pyplot()
-    out.mkdir(parents=True, exist_ok=True)
     written = []
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
     first = next(iter(runs.values()))
     ref = _columns(first, "position")
     if ref:
-        ax.plot(first[ref[0]], first[ref[1]], "k-", lw=2, label="reference")
-    for name, data in runs.items():
+        ax.plot(first[ref[0]], first[ref[1]], color="0.55", lw=3, label="reference")
+    for i, (name, data) in enumerate(runs.items()):
         pose = _columns(data, "pose")
         if pose:
-            ax.plot(data[pose[0]], data[pose[1]], "--", label=name)
+            ax.plot(data[pose[0]], data[pose[1]], lw=1.3, label=name, **line_style(i))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    written.append(out / "xy.png")
-    fig.savefig(written[-1], dpi=110)
-    plt.close(fig)
+    legend_outside(ax)
+    ax.set_title("Paths of the robot's point M and the reference", fontsize=10)
+    written += save(fig, out / "xy.png")
     for axis, k in (("x", 1), ("y", 2)):
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        for name, data in runs.items():
+        fig, ax = plt.subplots(figsize=(7.5, 3.5))
+        for i, (name, data) in enumerate(runs.items()):
             e = errors(data)
             if e is not None:
-                ax.plot(e[0], e[k], label=name)
+                ax.plot(e[0], e[k], lw=1.1, label=name, **line_style(i))
         ax.set_xlabel("time [s]")
-        ax.set_ylabel(f"e_{axis} [m]")
+        ax.set_ylabel(f"tracking error e_{axis} [m]")
         ax.grid(True, alpha=0.3)
-        ax.legend()
-        fig.tight_layout()
-        written.append(out / f"error_{axis}.png")
-        fig.savefig(written[-1], dpi=110)
-        plt.close(fig)
-    for port, label in (("torque", "torque [N.m]"), ("d_hat", "d_hat")):
+        legend_outside(ax)
+        ax.set_title(f"Tracking error in {axis} of each run", fontsize=10)
+        written += save(fig, out / f"error_{axis}.png")
+    for port, label in (("torque", "wheel torque [N.m]"), ("d_hat", "adaptive estimate d_hat")):
         if not any(_columns(d, port) for d in runs.values()):
             continue
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        for name, data in runs.items():
-            for c in _columns(data, port):
-                ax.plot(data["time"], data[c], label=f"{name}: {c}", lw=0.8)
+        fig, ax = plt.subplots(figsize=(7.5, 3.8))
+        for i, (name, data) in enumerate(runs.items()):
+            for wheel, c in zip(("right", "left"), _columns(data, port), strict=False):
+                style = {**line_style(i), "linestyle": "-" if wheel == "right" else "--"}
+                ax.plot(data["time"], data[c], lw=0.9, label=f"{name}, {wheel} wheel", **style)
         ax.set_xlabel("time [s]")
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        written.append(out / f"{port}.png")
-        fig.savefig(written[-1], dpi=110)
-        plt.close(fig)
+        legend_outside(ax)
+        ax.set_title(f"{label[0].upper()}{label[1:].split(' [')[0]} of each run (solid: right "
+                     f"wheel, dashed: left)", fontsize=10)
+        written += save(fig, out / f"{port}.png")
     return written
 
 
@@ -119,9 +115,9 @@ def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
                              f"Fix: record the trajectory's `position` and the plant's `pose`.")
         results[name] = m
     written = figures(runs, out)
-    (out / "table.json").write_text(json.dumps(results, indent=2) + "\n")
+    (out / "table.json").write_text(jsonvalues.dumps(results, indent=2) + "\n")
     if as_json:
-        print(json.dumps(results))
+        print(jsonvalues.dumps(results))
     else:
         print(table(results))
         print(f"\nfigures: {', '.join(str(p) for p in written)}")

@@ -92,3 +92,6 @@ def _tracking_needs(columns: list[str]) -> str:
 
 
 tracking.needs = _tracking_needs  # type: ignore[attr-defined]
+#: the unit of each figure, for reports (`twmr.registry.metric_units`)
+tracking.units = {f"{name}_{axis}": unit for name, unit in  # type: ignore[attr-defined]
+                  (("settling_time", "s"), ("peak_error", "m"), ("mse", "m2")) for axis in "xy"}

@@ -21,6 +21,7 @@ values over each step (`random` is a sampled signal: its code says "held"). Ever
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +41,14 @@ def slip_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: SlipProfile) -> tup
     # the profile it hands the plant (`model`, the values of p): one evaluation for both
     muR, muL, dl, muR2, muL2, dl2, tdR, tdL = slip_at(y[3], t, pose[0], pose[1])
     return x, ((muR, muL, dl), (muR2, muL2, dl2), (tdR, tdL), y[3])
+
+
+@kernel_function
+def slip_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: SlipProfile
+              ) -> tuple[tuple, tuple]:
+    """`SlipDisturbance.do_step`: no state; the outputs at t + h with the pose held, as its C
+    FMU reports them after fmi2DoStep (what a Jacobi master passes on)."""
+    return slip_evaluate(t + h, x, y, u, p)
 
 
 class SlipDisturbance(Component):
@@ -66,12 +75,15 @@ class SlipDisturbance(Component):
     model = Output(size=DESCRIPTOR, description="the profile for the plant to evaluate itself "
                                                 "(wire it to plant.slip_model)")
 
+    #: the `random` profile's filter: its state and derivative (mu_R', mu_L', delta', tau_d)
+    state_attributes = ("_noise", "_dnoise")
+
     def initialize(self) -> None:
         if self.profile not in NAMES:
             raise ValueError(f"unknown profile '{self.profile}'; use one of {', '.join(NAMES)}")
         self._rng = np.random.default_rng(self.seed)
-        self._noise = [0.0] * 5
-        self._dnoise = [0.0] * 5
+        self._noise: tuple[float, ...] = (0.0,) * 5
+        self._dnoise: tuple[float, ...] = (0.0,) * 5
         self.model = tuple(self.params())
         self.evaluate(self.start_time)
 
@@ -87,7 +99,7 @@ class SlipDisturbance(Component):
         """The definition of every profile but `random` (a numpy Generator: Python only)."""
         if self.profile == "random":
             return None
-        return Kernel(params=self.params(), evaluate=slip_evaluate)
+        return Kernel(params=self.params(), evaluate=slip_evaluate, step=slip_step)
 
     def evaluate(self, t: float) -> None:
         if self.profile != "random":
@@ -107,7 +119,31 @@ class SlipDisturbance(Component):
         a = math.exp(-wc * h)
         gain = math.sqrt(1.0 - a * a)  # keeps the stationary variance at 1
         white = self._rng.standard_normal(5)
-        for i in range(5):
-            new = a * self._noise[i] + gain * white[i]
-            self._dnoise[i] = (new - self._noise[i]) / h
-            self._noise[i] = new
+        new = tuple(a * self._noise[i] + gain * float(white[i]) for i in range(5))
+        self._dnoise = tuple((new[i] - self._noise[i]) / h for i in range(5))
+        self._noise = new
+
+    def get_state(self) -> Any:
+        """The ports and the filter's state (`state_attributes`), then the noise generator's:
+        ``("_rng", (state, inc, has_uint32, uinteger))`` of its PCG64 bit generator, plain
+        integers, so a restored `random` run draws the same numbers again."""
+        saved = super().get_state()
+        rng = self.__dict__.get("_rng")
+        if rng is None:
+            return saved
+        s = rng.bit_generator.state
+        return (*saved, ("_rng", (int(s["state"]["state"]), int(s["state"]["inc"]),
+                                  int(s["has_uint32"]), int(s["uinteger"]))))
+
+    def set_state(self, state: Any) -> None:
+        rng = None
+        if isinstance(state, tuple) and state and isinstance(state[-1], tuple) and \
+                len(state[-1]) == 2 and state[-1][0] == "_rng":
+            state, (_, rng) = state[:-1], state[-1]
+        super().set_state(state)
+        if rng is not None:
+            value, inc, has_uint32, uinteger = rng
+            bits = np.random.PCG64()
+            bits.state = {"bit_generator": "PCG64", "state": {"state": value, "inc": inc},
+                          "has_uint32": has_uint32, "uinteger": uinteger}
+            self._rng = np.random.Generator(bits)

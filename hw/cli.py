@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
@@ -94,11 +95,15 @@ def replay(args: argparse.Namespace) -> int:
     if bad:
         print(f"{log}: {_frames(len(bad))} of the log too short for {args.protocol}, skipped "
               f"(first: {bad[0]})", file=sys.stderr)
+    first = decoded[0].time
+    print(f"{log}: {len(decoded)} values; time_s is seconds since the log's first frame, at "
+          f"{datetime.fromtimestamp(first, timezone.utc).isoformat(timespec='milliseconds')}",
+          file=sys.stderr)
     out = open(args.out, "w") if args.out else sys.stdout  # noqa: SIM115 - closed below
     try:
         out.write("time_s,direction,node,signal,value\n")
         for d in decoded:
-            out.write(f"{d.time:.6f},{d.direction},{'' if d.node is None else d.node},"
+            out.write(f"{d.time - first:.6f},{d.direction},{'' if d.node is None else d.node},"
                       f"{d.signal},{d.value:.9g}\n")
     finally:
         if out is not sys.stdout:

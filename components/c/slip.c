@@ -21,16 +21,17 @@ void kernel_eval(Model *m) {
  * evaluate itself */
 void kernel_init(Model *m) {
     double *v = m->v, *d = v + V_model;
-    int i;
     d[D_CODE] = PROFILE;
-    d[D_GAIN] = v[V_slip_gain];
-    d[D_DGAIN] = v[V_disturbance_gain];
-    for (i = 0; i < 3; i++) d[D_SLIP + i] = v[V_slip_value + i];
-    d[D_DIST] = v[V_disturbance_value];
-    d[D_DIST + 1] = v[V_disturbance_value + 1];
+    d[D_SLIP_GAIN] = v[V_slip_gain];
+    d[D_DISTURBANCE_GAIN] = v[V_disturbance_gain];
+    d[D_SLIP_R] = v[V_slip_value];
+    d[D_SLIP_L] = v[V_slip_value + 1];
+    d[D_SLIP_DELTA] = v[V_slip_value + 2];
+    d[D_DISTURBANCE_R] = v[V_disturbance_value];
+    d[D_DISTURBANCE_L] = v[V_disturbance_value + 1];
     d[D_STEP_TIME] = v[V_step_time];
-    d[D_MUD_CENTER] = v[V_mud_center];
-    d[D_MUD_CENTER + 1] = v[V_mud_center + 1];
+    d[D_MUD_X] = v[V_mud_center];
+    d[D_MUD_Y] = v[V_mud_center + 1];
     d[D_MUD_RADIUS] = v[V_mud_radius];
     d[D_PHASE] = v[V_phase];
     kernel_eval(m);

@@ -1,20 +1,17 @@
 /* The slip profile of a descriptor as components/_model.slip_at evaluates it (same order of
  * operations), shared by the C twins of the plant and of the slip block; config.h #defines the
- * codes SLIP_* from _model's constants. */
+ * codes SLIP_* from _model's constants and the index D_<FIELD> of each field of the descriptor
+ * from _model.SlipProfile (components/ctwins.py). */
 #ifndef TWMR_SLIP_PROFILE_H
 #define TWMR_SLIP_PROFILE_H
 
 #include <math.h>
 
-/* the slip profile descriptor (_model.DESCRIPTOR): the index of each of its fields */
-enum { D_CODE, D_GAIN, D_DGAIN, D_SLIP, D_DIST = D_SLIP + 3, D_STEP_TIME = D_DIST + 2,
-       D_MUD_CENTER, D_MUD_RADIUS = D_MUD_CENTER + 2, D_PHASE };
-
 /* Slip rates [m/s], slip accelerations [m/s2] and disturbance [N.m] (u[0..7]) of descriptor p
  * at time t [s] with M at (x, y) [m] (Sec. IV-A for the paper profile). The codes are compared
  * as doubles, as in Python (a code that is none of them gives no slip). */
 static void slip_at(const double *p, double t, double x, double y, double *u) {
-    double code = p[D_CODE], g = p[D_GAIN], gd = p[D_DGAIN];
+    double code = p[D_CODE], g = p[D_SLIP_GAIN], gd = p[D_DISTURBANCE_GAIN];
     int on, i;
     if (code == SLIP_PAPER) {
         double tp = t + p[D_PHASE], c = cos(tp), s = sin(tp);
@@ -24,13 +21,15 @@ static void slip_at(const double *p, double t, double x, double y, double *u) {
         return;
     }
     on = code == SLIP_CONSTANT || (code == SLIP_STEP && t >= p[D_STEP_TIME]) ||
-         (code == SLIP_MUD && hypot(x - p[D_MUD_CENTER], y - p[D_MUD_CENTER + 1])
+         (code == SLIP_MUD && hypot(x - p[D_MUD_X], y - p[D_MUD_Y])
                               <= p[D_MUD_RADIUS]);
     for (i = 0; i < 8; i++) u[i] = 0.0;
     if (on) {
-        for (i = 0; i < 3; i++) u[i] = g * p[D_SLIP + i];
-        u[6] = gd * p[D_DIST];
-        u[7] = gd * p[D_DIST + 1];
+        u[0] = g * p[D_SLIP_R];
+        u[1] = g * p[D_SLIP_L];
+        u[2] = g * p[D_SLIP_DELTA];
+        u[6] = gd * p[D_DISTURBANCE_R];
+        u[7] = gd * p[D_DISTURBANCE_L];
     }
 }
 

@@ -17,3 +17,8 @@ def __getattr__(name: str) -> Any:
 
         return getattr(api, name)
     raise AttributeError(f"module 'twmr' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    """The lazily imported names too, for tab completion."""
+    return sorted({*globals(), *__all__})

@@ -88,6 +88,12 @@ def load(source: str | Path | dict[str, Any] | ScenarioSpec,
         scenario = Scenario(source.source, source, source.base_dir, tuple(overrides))
     elif isinstance(source, dict):
         scenario = Scenario("<dict>", source, Path.cwd(), tuple(overrides))
+    elif _is_ssp(source):
+        from twmr.scenario.build import _guarded
+        from twmr.scenario.loaders import load_structure
+
+        spec = _guarded(str(source), lambda: load_structure(source))
+        scenario = Scenario(str(source), spec, spec.base_dir, tuple(overrides))
     elif isinstance(source, Path) or ("\n" not in source and (
             Path(source).suffix.lower() in (".yaml", ".yml") or Path(source).exists())):
         from twmr.scenario.yamlread import read_file
@@ -99,6 +105,15 @@ def load(source: str | Path | dict[str, Any] | ScenarioSpec,
         scenario = Scenario("<string>", source, Path.cwd(), tuple(overrides))
     scenario.system  # noqa: B018 - build now: every problem is reported at load
     return scenario
+
+
+def _is_ssp(source: str | Path) -> bool:
+    """An SSP archive, .ssd file or unpacked folder (read by `twmr.fmi.ssp`)."""
+    if isinstance(source, str) and "\n" in source:
+        return False
+    path = Path(source)
+    return path.suffix.lower() in (".ssp", ".ssd") or ".ssp#" in path.name.lower() or \
+        path.is_dir()
 
 
 def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path | None = None,

@@ -21,7 +21,6 @@ def _interrupted_at_start() -> int:
 try:
     import argparse
     import contextlib
-    import json
     import logging
     import os
     import time
@@ -102,7 +101,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if pacing:
         log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):
-        print(json.dumps(s["metrics"]))
+        from twmr.core import jsonvalues
+
+        print(jsonvalues.dumps(s["metrics"]))
     return 0
 
 
@@ -111,7 +112,8 @@ def _plots(result: Any, title: str) -> None:
 
     folder = result.folder
     if len(result):
-        plot_result(result.data, result.units, folder / "plots", title=title)
+        plot_result(result.data, result.units, folder / "plots", title=title,
+                    ports=result.summary.get("ports"))
     lateness = folder / "lateness_us.npy"
     if lateness.is_file():
         import numpy as np
@@ -124,11 +126,16 @@ def cmd_check(args: argparse.Namespace) -> int:
     from twmr.api import load
     from twmr.fmi.guard import isolation_advice
     from twmr.master.algorithm import algorithm_for
-    from twmr.scenario.listing import describe
+    from twmr.scenario.flatten import has_subsystems
+    from twmr.scenario.listing import describe, tree
 
-    system = load(Path(args.scenario), args.set).system
+    scenario = load(Path(args.scenario), args.set)
+    system = scenario.system
     algorithm = algorithm_for(system)
     print(describe(system))
+    if has_subsystems(scenario.spec):
+        print("tree (subsystems and the ports they expose):")
+        print("\n".join(tree(scenario.spec)))
     for advice in isolation_advice(system.components):
         log.warning("warning: %s", advice)
     if args.schedule:
@@ -159,7 +166,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     path = Path(args.result)
     result = read_result(path)
     out = Path(args.out) if args.out else (path if path.is_dir() else path.parent) / "plots"
-    for p in plot_result(result.data, result.units, out, title=path.stem):
+    for p in plot_result(result.data, result.units, out, title=path.stem,
+                         ports=result.summary.get("ports")):
         print(p)
     return 0
 
@@ -167,6 +175,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_inspect(args: argparse.Namespace) -> int:
     from twmr.fmi import describe_fmu, fmu_interface
 
+    if _is_ssp(Path(args.fmu)):
+        from twmr.fmi.ssp.listing import describe_ssp
+        from twmr.scenario.listing import describe
+
+        scenario = api_load(Path(args.fmu))
+        print(describe_ssp(scenario.spec))
+        print(describe(scenario.system))
+        return 0
     if args.json:
         import json
 
@@ -176,7 +192,35 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def api_load(path: Path) -> Any:
+    from twmr.api import load
+
+    return load(path)
+
+
+def _is_ssp(path: Path) -> bool:
+    from twmr.api import _is_ssp as is_ssp
+
+    return path.suffix.lower() != ".fmu" and is_ssp(path)
+
+
+def _is_scenario(args: argparse.Namespace) -> bool:
+    """`twmr export` of a whole scenario (to SSP) rather than of one kind (to an FMU)."""
+    return Path(args.kind).suffix.lower() in (".yaml", ".yml") or \
+        str(args.out or "").lower().endswith(".ssp")
+
+
 def cmd_export(args: argparse.Namespace) -> int:
+    if _is_scenario(args):
+        from twmr.fmi.ssp.write import export_ssp
+
+        out = args.out or f"{Path(args.kind).stem}.ssp"
+        print(export_ssp(args.kind, out, args.set, fmi=args.fmi, python=args.python,
+                         ssp=args.ssp or 1))
+        return 0
+    if args.ssp is not None:
+        raise CosimError("--ssp applies to a scenario exported as SSP. Fix: give a scenario "
+                         "file (twmr export SCENARIO.yaml --out X.ssp), or drop --ssp.")
     params = dict(_parse_set(s) for s in args.set)
     out = Path(args.out or f"fmus/{args.kind.rsplit(':', 1)[-1]}.fmu")  # 'file.py:Cls' -> Cls
     if args.python:
@@ -388,15 +432,20 @@ def parser() -> argparse.ArgumentParser:
     sr.add_argument("folder")
     sr.add_argument("--out", help="where the report goes (default <folder>/report)")
     sr.set_defaults(fn=cmd_sweep_report)
-    i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component")
+    i = sub.add_parser("inspect", parents=[common], help="describe an FMU as a component, or "
+                       "what an SSP is read as")
     i.add_argument("fmu")
     i.add_argument("--json", action="store_true",
                    help="print the interface (ports: name, causality, type, unit, size) as JSON")
     i.set_defaults(fn=cmd_inspect)
     e = sub.add_parser("export", parents=[common],
-                       help="export a component kind as a standalone C FMU (co-simulation)")
-    e.add_argument("kind")
-    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu)")
+                       help="export a component kind as a standalone C FMU (co-simulation), "
+                            "or a scenario as an SSP archive of FMUs")
+    e.add_argument("kind", help="a kind (-> .fmu), or a scenario file (-> .ssp)")
+    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu); for a scenario the "
+                                 ".ssp file (default <scenario name>.ssp)")
+    e.add_argument("--ssp", type=int, choices=(1, 2), default=None,
+                   help="SSP version of a scenario's archive (default 1)")
     e.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version of the FMU (default 2)")
     e.add_argument("--python", action="store_true",

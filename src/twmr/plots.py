@@ -1,12 +1,22 @@
-"""PNG plots of recorded signals: one figure per recorded port (vector elements together), and an
-XY plot for every recorded planar position (a port with 2 or 3 elements in m, m[, rad])."""
+"""Report-ready figures of recorded signals, PNG and SVG: one figure per recorded port (an axis per
+unit, elements named from the port's description), one XY figure of every recorded planar
+position (`is_planar_position`: the robot's pose and its reference), and a
+paced run's timing. The style (`COLOURS`, `line_style`, `legend_outside`, `save`) is shared by
+`twmr compare` and the sweep report."""
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+#: Okabe and Ito's colour-blind-safe palette; past 8 lines the dash pattern changes too
+COLOURS = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
+           "#F0E442")
+DASHES = ("-", "--", ":", "-.")
+STEPWISE_TYPES = ("Integer", "Boolean", "Enumeration")
 
 
 def pyplot() -> Any:  # matplotlib without a screen
@@ -16,6 +26,35 @@ def pyplot() -> Any:  # matplotlib without a screen
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def line_style(i: int) -> dict[str, Any]:
+    """Colour and dashes of the i-th line of a figure: distinct for the first 32."""
+    return {"color": COLOURS[i % len(COLOURS)], "linestyle": DASHES[i // len(COLOURS) % 4]}
+
+
+def legend_outside(ax: Any) -> None:
+    """The legend to the right of the axes, off the data."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+
+
+def save(fig: Any, path: str | Path) -> list[Path]:
+    """Write `fig` as PNG and SVG (`path` with each suffix) and close it; both paths."""
+    plt = pyplot()
+    base = Path(path).with_suffix("")
+    base.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    written = []
+    for suffix in (".png", ".svg"):
+        fig.savefig(base.with_suffix(suffix), dpi=150, bbox_inches="tight")
+        written.append(base.with_suffix(suffix))
+    plt.close(fig)
+    return written
+
+
+def axis_label(name: str, unit: str) -> str:
+    """'plant.pose [m]'; a signal without a unit has no brackets."""
+    return f"{name} [{unit}]" if unit else name
 
 
 def group_ports(names: list[str]) -> dict[str, list[str]]:
@@ -28,65 +67,144 @@ def group_ports(names: list[str]) -> dict[str, list[str]]:
     return groups
 
 
+def element_names(port: str, columns: list[str], description: str) -> list[str]:
+    """Names of a port's recorded elements: those its description lists in parentheses when
+    they match in number ('(x_M, y_M, theta)'), else the column names."""
+    found = re.search(r"\(([^()]*)\)", description or "")
+    names = [n.strip() for n in found.group(1).split(",")] if found else []
+    if len(columns) > 1 and len(names) == len(columns) and all(names):
+        return names
+    return [port] if len(columns) == 1 else columns
+
+
+def is_stepwise(values: np.ndarray, port_type: str = "") -> bool:
+    """Whether a signal is piecewise constant (drawn as steps): an integer, boolean or
+    enumeration port, or one that changes at no more than a tenth of its samples."""
+    if port_type in STEPWISE_TYPES:
+        return True
+    v = np.asarray(values, dtype=float)
+    if v.size < 3:
+        return False
+    changes = np.count_nonzero(np.diff(v))
+    return bool(0 < changes <= 0.1 * (v.size - 1))
+
+
+def is_planar_position(port: str, units: list[str]) -> bool:
+    """A pose (m, m, rad), or a position in the plane (m, m) whose name says so (`position`,
+    `pos`, `path`, `xy`, `point`): the lines of the XY figure. An error in m, m is not one."""
+    if units == ["m", "m", "rad"]:
+        return True
+    name = port.rpartition(".")[2].lower()
+    return units == ["m", "m"] and re.search(r"pos|path|xy|point", name) is not None
+
+
+def plot_result(data: np.ndarray, units: Mapping[str, str], out_dir: str | Path,
+                title: str = "", ports: Mapping[str, Mapping[str, str]] | None = None
+                ) -> list[Path]:
+    """Write the figures of a result (`result_figures`) into `out_dir`: `<port>.png/.svg` per
+    recorded port and `xy.png/.svg` when a planar position is recorded; the paths written."""
+    written: list[Path] = []
+    for name, fig in result_figures(data, units, title, ports).items():
+        written += save(fig, Path(out_dir) / f"{name}.png")
+    return written
+
+
+def result_figures(data: np.ndarray, units: Mapping[str, str], title: str = "",
+                   ports: Mapping[str, Mapping[str, str]] | None = None) -> dict[str, Any]:
+    """The matplotlib figures of a result by file name ('plant_pose', 'xy'). `ports` gives each
+    port's description and type (a run's summary holds them)."""
+    plt = pyplot()
+    ports = ports or {}
+    t = np.asarray(data["time"])
+    figures: dict[str, Any] = {}
+    planar = []
+    for port, cols in group_ports(list(data.dtype.names or ())).items():
+        info = ports.get(port, {})
+        names = dict(zip(cols, element_names(port, cols, info.get("description", "")),
+                         strict=True))
+        by_unit: dict[str, list[str]] = {}
+        for c in cols:
+            by_unit.setdefault(units.get(c, ""), []).append(c)
+        fig, axes = plt.subplots(len(by_unit), 1, sharex=True, squeeze=False,
+                                 figsize=(7.5, 2.2 + 1.6 * len(by_unit)))
+        i = 0
+        for ax, (unit, members) in zip(axes[:, 0], by_unit.items(), strict=True):
+            for c in members:
+                steps = "steps-post" if is_stepwise(data[c], info.get("type", "")) else "default"
+                ax.plot(t, data[c], label=names[c], drawstyle=steps, lw=1.2, **line_style(i))
+                i += 1
+            ax.set_ylabel(axis_label(port, unit))
+            ax.grid(True, alpha=0.3)
+            if len(cols) > 1:
+                legend_outside(ax)
+        axes[-1, 0].set_xlabel("time [s]")
+        what = f"{port}: {info['description']}" if info.get("description") else port
+        span = f" over {t[-1] - t[0]:.3g} s" if len(t) > 1 else ""
+        axes[0, 0].set_title(f"{f'{title}: ' if title else ''}{what}{span}", fontsize=10)
+        figures[port.replace(".", "_")] = fig
+        if is_planar_position(port, [units.get(c, "") for c in cols]):
+            planar.append((port, cols))
+    if planar:
+        figures["xy"] = _plot_xy(data, planar, ports, title)
+    return figures
+
+
+def _plot_xy(data: np.ndarray, planar: list[tuple[str, list[str]]],
+             ports: Mapping[str, Mapping[str, str]], title: str) -> Any:
+    """Every planar position in one XY figure, equal axes (the path with its reference)."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.5, 5.5))
+    for i, (port, cols) in enumerate(planar):
+        description = ports.get(port, {}).get("description", "")
+        label = f"{port}: {description}" if description else port
+        ax.plot(data[cols[0]], data[cols[1]], label=label, lw=1.4, **line_style(i))
+        ax.plot(data[cols[0]][:1], data[cols[1]][:1], "o", ms=4, color=line_style(i)["color"])
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    legend_outside(ax)
+    names = " and ".join(p for p, _ in planar)
+    ax.set_title(f"{f'{title}: ' if title else ''}{names} in the plane (dots: start)",
+                 fontsize=10)
+    return fig
+
+
+def duration_text(us: float) -> str:
+    """A duration [us] rounded to 3 significant digits in us, ms or s."""
+    for scale, unit in ((1e6, "s"), (1e3, "ms")):
+        if abs(us) >= scale:
+            return f"{us / scale:.3g} {unit}"
+    return f"{us:.3g} us"
+
+
 def plot_timing(lateness_us: np.ndarray, period_s: float, path: str | Path,
                 title: str = "") -> Path:
-    """A paced run's step lateness [us] over time and its histogram, the period marked."""
+    """A paced run's step lateness (release past its deadline) over time and its distribution,
+    the period marked; the PNG written (an SVG beside it)."""
     plt = pyplot()
     late = np.asarray(lateness_us, dtype=float)
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.5), gridspec_kw={"width_ratios": [2, 1]})
-    a.plot(np.arange(late.size) * period_s, late, lw=0.6)
-    a.axhline(period_s * 1e6, color="r", lw=0.8, label=f"one period ({period_s * 1e6:g} us)")
+    big = late.size and np.nanmax(np.abs(late)) >= 1e3
+    scale, unit = (1e3, "ms") if big else (1.0, "us")
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8), gridspec_kw={"width_ratios": [2, 1]})
+    a.plot(np.arange(late.size) * period_s, late / scale, lw=0.6, **line_style(0))
+    a.axhline(period_s * 1e6 / scale, lw=0.9, label=f"one period ({duration_text(period_s * 1e6)})",
+              **line_style(1))
     a.set_xlabel("time [s]")
-    a.set_ylabel("release past deadline [us]")
-    a.set_yscale("symlog", linthresh=10.0)
-    a.legend(fontsize=8)
+    a.set_ylabel(f"lateness [{unit}]")
     a.grid(True, alpha=0.3)
-    b.hist(late, bins=np.logspace(-2, max(1.0, np.log10(max(late.max(), 1.0)) + 0.1), 60))
-    b.set_xscale("log")
-    b.set_yscale("log")
-    b.set_xlabel("lateness [us]")
+    a.legend(fontsize=8, loc="upper right")
+    positive = late[late > 0]
+    if positive.size:
+        top = np.log10(max(positive.max(), 1.0)) + 0.1
+        b.hist(positive / scale, bins=np.logspace(-2, top, 60) / scale, **line_style(0))
+        b.set_xscale("log")
+        b.set_yscale("log")
+    b.set_xlabel(f"lateness [{unit}]")
+    b.set_ylabel("steps")
     b.grid(True, alpha=0.3)
-    fig.suptitle(f"{title} pacing: p99 {np.percentile(late, 99):.1f} us, max {late.max():.0f} us"
-                 .strip())
-    fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return Path(path)
-
-
-def plot_result(data: np.ndarray, units: dict[str, str], out_dir: str | Path,
-                title: str = "") -> list[Path]:
-    """Write one PNG per port (and XY plots) into `out_dir`; the paths written."""
-    plt = pyplot()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    t = np.asarray(data["time"])
-    written = []
-    for port, cols in group_ports(list(data.dtype.names or ())).items():
-        fig, ax = plt.subplots(figsize=(7, 3.5))
-        for c in cols:
-            ax.plot(t, data[c], label=f"{c} [{units.get(c, '')}]")
-        ax.set_xlabel("time [s]")
-        ax.set_title(f"{title} {port}".strip())
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        path = out / f"{port.replace('.', '_')}.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
-        if len(cols) in (2, 3) and all(units.get(c) == "m" for c in cols[:2]):
-            fig, ax = plt.subplots(figsize=(5, 5))
-            ax.plot(data[cols[0]], data[cols[1]])
-            ax.set_xlabel(f"{cols[0]} [m]")
-            ax.set_ylabel(f"{cols[1]} [m]")
-            ax.set_aspect("equal", adjustable="datalim")
-            ax.grid(True, alpha=0.3)
-            ax.set_title(f"{title} {port} (XY)".strip())
-            fig.tight_layout()
-            path = out / f"{port.replace('.', '_')}_xy.png"
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-            written.append(path)
-    return written
+    if late.size:
+        fig.suptitle(f"{f'{title}: ' if title else ''}99 % of the steps started within "
+                     f"{duration_text(float(np.percentile(late, 99)))} of their deadline; the "
+                     f"latest {duration_text(float(late.max()))}", fontsize=10)
+    return save(fig, path)[0]

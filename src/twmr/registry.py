@@ -96,6 +96,20 @@ def lookup(kind: str, base_dir: Path | None = None) -> Any:
     return _resolve(target)
 
 
+def metric_units(names: list[str]) -> dict[str, str]:
+    """The unit of each figure of the metric sets `names` that declare them (a `units` mapping
+    on the set); sets that are not installed are left out."""
+    from twmr.core.errors import CosimError
+
+    units: dict[str, str] = {}
+    for name in names:
+        try:
+            units.update(getattr(metric(name), "units", {}))
+        except (CosimError, ImportError):
+            continue
+    return units
+
+
 def metric(name: str) -> Callable[..., dict[str, Any]]:
     """The metric function registered as `name`; CosimError naming the known ones."""
     from twmr.core.errors import CosimError

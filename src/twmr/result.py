@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.core.jsonvalues import revive
 from twmr.observers.store import FILENAME as STORE
 from twmr.observers.store import read_store
 from twmr.observers.summary import FILENAME as SUMMARY
@@ -58,6 +59,28 @@ class Result:
     def __len__(self) -> int:
         return len(self.values)
 
+    def __repr__(self) -> str:
+        span = f", t = {self.time[0]:g}..{self.time[-1]:g} s" if len(self) else ""
+        return (f"<Result {self.status}: {len(self)} rows x {len(self.columns) - 1} signals"
+                f"{span}{f', in {self.folder}' if self.folder else ''}>")
+
+    def _repr_html_(self) -> str:
+        """A notebook's view: the status, the span and one row per signal with its unit and its
+        first, last, minimum and maximum values."""
+        from html import escape
+
+        rows = []
+        for j, column in enumerate(self.columns[1:], start=1):
+            v = self.values[:, j]
+            cells = [f"{x:.6g}" for x in (v[0], v[-1], np.nanmin(v), np.nanmax(v))] \
+                if len(v) and not np.isnan(v).all() else ["", "", "", ""]
+            rows.append(f"<tr><td>{escape(column)}</td><td>{escape(self.units.get(column, ''))}"
+                        f"</td>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+        head = "".join(f"<th>{h}</th>" for h in ("signal", "unit", "first", "last", "min",
+                                                 "max"))
+        return (f"<p>{escape(repr(self))}</p><table><thead><tr>{head}</tr></thead><tbody>"
+                f"{''.join(rows)}</tbody></table>")
+
     def to_pandas(self) -> Any:
         """A pandas DataFrame: column `time` [s] and one column per recorded scalar, named like
         `plant.pose[1]`; `df.attrs['units']` maps each column to its unit."""
@@ -66,10 +89,6 @@ class Result:
         df = pd.DataFrame(self.values, columns=self.columns)
         df.attrs["units"] = dict(self.units)
         return df
-
-    def __repr__(self) -> str:
-        where = f" in {self.folder}" if self.folder else ""
-        return f"<Result {len(self)} rows x {len(self.columns)} columns, {self.status}{where}>"
 
 
 def read_result(path: str | Path) -> Result:
@@ -122,6 +141,6 @@ def _siblings(path: Path) -> str:
 
 def _summary(folder: Path) -> dict[str, Any]:
     try:
-        return json.loads((folder / SUMMARY).read_text())
+        return revive(json.loads((folder / SUMMARY).read_text()))
     except (OSError, ValueError):
         return {}

@@ -62,6 +62,22 @@ def tree(folder: Path) -> dict[str, bytes]:
             if q.is_file()}
 
 
+_FIRST_SIZE: dict[Path, int] = {}
+
+
+def _grown(cwd: Path, ready: str) -> bool:
+    """A file matching `ready` exists and, for a result store (`*.arrows`), has grown since it
+    was first seen: rows were written, so the run is stepping (a loaded machine may take
+    seconds from creating the store to the first step)."""
+    for path in cwd.glob(ready):
+        if path.suffix != ".arrows":
+            return True
+        size = path.stat().st_size
+        if size > _FIRST_SIZE.setdefault(path, size):
+            return True
+    return False
+
+
 def signal_run(args: list[str], cwd: Path, ready: str, delay: float,
                signals: list[tuple[int, float]]) -> Outcome:
     """`twmr *args` in `cwd`; once a file matching the glob `ready` exists (the run is under way)
@@ -85,7 +101,7 @@ def signal_run(args: list[str], cwd: Path, ready: str, delay: float,
                             pytrace=False)
 
             deadline = time.monotonic() + 60
-            while not list(cwd.glob(ready)):
+            while not _grown(cwd, ready):
                 if proc.poll() is not None:
                     err = (io / "stderr").read_bytes().decode(errors="replace")
                     pytest.fail(f"the run ended (exit {proc.returncode}) before {ready} "
@@ -241,6 +257,6 @@ def test_signal_during_a_bench_run(cwd: Path, how: str) -> None:
     o = signal_run(["run", str(BENCH), "--out", "out", "-q", "--set",
                     f"motor.channel=sig-{uuid.uuid4().hex[:12]}-x", "--set",
                     "motor.watchdog_periods=50"], cwd,
-                   "out.partial-*/motor_frames.blf", 1.0, signals)
+                   "out.partial-*/result.arrows", 0.5, signals)
     problems = interrupted_problems(o, out, signals[0][0], previous) + bench_log_problems(out)
     assert not problems, "\n".join(problems) + "\n" + o.describe()

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.hw_bench import Paced, started
+from tests.hw_bench import WATCHDOG, Paced, started
 from twmr.components.metrics import errors, tracking_metrics
 from twmr.hw.cia402 import State
 from twmr.master import simulate
@@ -63,7 +63,8 @@ def test_paper_scenario_with_cia402_drives_is_close_to_the_simulated_motor() -> 
     swapped = text.replace("kind: motor_driver\n    parameters: {mode: ideal, torque_max: 48.0}",
                            f"kind: can_drive\n    parameters: {{protocol: cia402, "
                            f"channel: co-{uuid.uuid4().hex[:6]}, node_ids: [1, 2], "
-                           f"rated_torque: 100000, torque_limit: 48.0}}")
+                           f"rated_torque: 100000, torque_limit: 48.0, "
+                           f"watchdog_periods: {WATCHDOG}}}")
     assert swapped != text
     result = np.array(simulate(loads(swapped, source="bench.yaml")))
     a, b = tracking_metrics(native), tracking_metrics(result)

@@ -10,6 +10,7 @@ import time
 import uuid
 from pathlib import Path
 
+from tests.hw_bench import WATCHDOG
 from twmr.hw import protocol as p
 from twmr.hw.replay import Decoder, decode_log
 from twmr.result import read_result
@@ -20,7 +21,8 @@ BENCH = Path(__file__).resolve().parents[2] / "scenarios" / "bench_odrive_trajec
 def test_ctrl_c_zeroes_the_torque_disables_the_drives_and_keeps_the_results(tmp_path) -> None:
     out = tmp_path / "run"
     proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "run", str(BENCH), "--quiet",
-                             "--out", str(out), "--set", f"motor.channel={uuid.uuid4().hex}"],
+                             "--out", str(out), "--set", f"motor.channel={uuid.uuid4().hex}",
+                             "--set", f"motor.watchdog_periods={WATCHDOG}"],
                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while not list(tmp_path.glob("run.partial-*/motor_frames.blf")) and \

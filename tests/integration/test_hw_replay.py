@@ -74,5 +74,9 @@ def test_cli_writes_the_decoded_log_as_csv(bench_run, tmp_path: Path) -> None:
     assert run.returncode == 0, run.stderr
     lines = out.read_text().splitlines()
     assert lines[0] == "time_s,direction,node,signal,value"
-    assert len(lines) - 1 == len(decode_log(log, Decoder()))
+    decoded = decode_log(log, Decoder())
+    assert len(lines) - 1 == len(decoded)
+    times = [float(line.split(",")[0]) for line in lines[1:]]
+    assert times[0] == 0.0 and times[-1] == round(decoded[-1].time - decoded[0].time, 6)
+    assert "seconds since the log's first frame, at 20" in run.stderr
     assert any(",Tx,0,torque_command," in line for line in lines)

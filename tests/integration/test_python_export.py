@@ -247,3 +247,37 @@ def test_user_component_class_exports_and_runs(spec, tmp_path) -> None:
     for _ in range(10):
         expected += 0.1 * (-2.0 * expected + 1.0)
     assert float(done.stdout) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("target", ["leaky_user.py:Leaky", "lib/leaky_user.py:Leaky",
+                                    "./lib/../leaky_user.py:Leaky", "leaky_user:Leaky"])
+def test_the_twmr_command_exports_a_class_named_relative_to_the_working_folder(
+        target, tmp_path) -> None:
+    """`twmr export --python` (the installed command, whose own folder is first on its path):
+    a file path and a module name both resolve against the working folder, and the FMU runs
+    from another folder."""
+    work = tmp_path / "work"
+    (work / "lib").mkdir(parents=True)
+    for folder in (work, work / "lib"):
+        (folder / "leaky_user.py").write_text(USER_MODULE)
+    twmr = Path(sys.executable).with_name("twmr")
+    done = subprocess.run([str(twmr), "export", "--python", target, "--set", "a=2.0",
+                           "--out", "leaky.fmu"], cwd=work, capture_output=True, text=True,
+                          timeout=300, env=dict(os.environ, PYTHONPATH=""))
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert Path(done.stdout.strip()) == work / "leaky.fmu"
+    code = textwrap.dedent("""
+        import sys
+        from fmpy import simulate_fmu
+        r = simulate_fmu(sys.argv[1], stop_time=1.0, output_interval=0.1,
+                         start_values={'u': 1.0})
+        print(r['y'][-1])
+    """)
+    elsewhere = tmp_path / "run"
+    elsewhere.mkdir()
+    ran = run(code, str(work / "leaky.fmu"), cwd=elsewhere)
+    assert ran.returncode == 0, ran.stderr[-2000:]
+    expected = 0.0
+    for _ in range(10):
+        expected += 0.1 * (-2.0 * expected + 1.0)
+    assert float(ran.stdout) == pytest.approx(expected, rel=1e-12)

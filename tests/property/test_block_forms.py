@@ -1,15 +1,17 @@
 """Every registered block's three forms are one definition: for each kind with a C twin (entry-point
 group `twmr.c_kernels`) and each kind of `twmr.components` that offers a compiled kernel,
 hypothesis draws the variant (each compiled-in choice the twin supports, the order of a
-variable-size block), the Real parameters within their declared min/max, the initial states, the
-start time, the step size and a sequence of inputs, and drives
+variable-size block, the size of an element-wise one), the Real parameters within their declared
+min/max, the initial states, the start time, the step size and a sequence of inputs, and drives
 
 - the Python form: the component's own methods (`initialize`, `evaluate`, `do_step`), as the
   master's Gauss-Seidel loop calls them for one block;
 - the compiled form: its kernel functions (`Component.kernel(h)`), called the way the generated
   loop calls them;
-- the C form: the block's standalone C FMU (`twmr.fmi.cexport.export_c_fmu`, FMI 2.0, exported
-  once per variant per session) through fmpy, its parameters and initial states set through FMI.
+- the C form: the block's standalone C FMU (`twmr.fmi.cexport.export_c_fmu`, exported once per
+  variant per session) through fmpy, its parameters and initial states set through FMI: FMI 2.0
+  for every example, and the same twin exported as FMI 3.0 for the first `EXAMPLES_FMI3` (the
+  two wrappers share the twin and the instance code; FMI 3.0 checks its own calls).
 
 Python and compiled must agree bit for bit at every communication point. C must agree within
 
@@ -26,7 +28,11 @@ examples (the worst err / scale per kind): motor_driver 7.9e-16, transfer_functi
 state_space 2.6e-16 of the scale, every other kind 0. A changed operator,
 constant or index in a twin gives errors of the order of the signal itself, far above REL.
 
-A kind added to either registry is covered by this test with no edit of it.
+A kind added to either registry is covered by this test with no edit of it. A block whose
+parameters constrain each other (sorted breakpoints, a sample period that is a multiple of the
+step) offers a classmethod `example(params, h) -> params` that makes drawn parameters valid; one
+whose parameters cannot be drawn at all (coefficient lists, sizes that constrain each other, a
+sign pattern) offers `examples(h)`, parameter sets for steps of h, one of which is drawn.
 """
 from __future__ import annotations
 
@@ -47,8 +53,12 @@ from twmr.testing import Harness
 
 REL = 1e-12
 EXAMPLES = 12
+#: the sizes drawn for an element-wise block (`Component.sized_by`) whose twin names no orders
+SIZES = (1, 3)
+EXAMPLES_FMI3 = 3
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                     suppress_health_check=list(HealthCheck))
+SETTINGS_FMI3 = settings(SETTINGS, max_examples=EXAMPLES_FMI3)
 
 
 def _offers_kernel(kind: str) -> bool:
@@ -110,9 +120,12 @@ def case(draw: Any, kind: str) -> dict[str, Any]:
     h = draw(st.one_of(st.just(1e-3), st.floats(-4.0, -1.3).map(lambda e: 10.0 ** e)))
     examples = getattr(cls, "examples", None)
     example = _sized_first(cls, draw(st.sampled_from(examples(h)))) if examples else {}
-    proto = cls(kind, **example)
     twin = twin_of(kind) if kind in twins() else None
-    params: dict[str, Any] = {}
+    order = draw(st.sampled_from(twin.orders)) if twin is not None and twin.orders else None
+    sizing = {} if examples else {  # a block with examples is sized by them
+        name: order or draw(st.sampled_from(SIZES)) for name in cls.sized_by.values()}
+    proto = cls(kind, **_sized_first(cls, {**sizing, **example}))
+    params: dict[str, Any] = dict(sizing)
     if twin is not None:
         for name, choice in twin.choices.items():
             params[name] = draw(st.sampled_from(list(choice.codes)))
@@ -120,12 +133,13 @@ def case(draw: Any, kind: str) -> dict[str, Any]:
     for name, var in proto.parameters.items():
         if var.type == BOOLEAN and name not in params and not (twin and name in twin.hidden):
             params[name] = draw(st.booleans())
-    order = draw(st.sampled_from(twin.orders)) if twin is not None and twin.orders else None
     for name, var in proto.parameters.items():
         if var.type != REAL or (twin is not None and name in twin.hidden) or name in example:
             continue
         length = twin.lengths[name](order) if twin and order and name in twin.lengths else None
         params[name] = draw(_value(var, _element, length))
+    if hasattr(cls, "example"):
+        params = cls.example(params, h)
     states = {name: draw(_value(var, _signal)) for name, var in proto.outputs.items()
               if var.kind == "state"}
     n_steps = draw(st.integers(1, 25))
@@ -201,30 +215,36 @@ def _fmu_folder() -> Path:
 _FMUS: dict[tuple, Any] = {}
 
 
-def _slave(kind: str, comp: Any, params: dict[str, Any]) -> tuple[Any, list[Any]]:
-    """The FMU of `comp`'s variant (exported and loaded once per session) and its elements."""
+def _slave(kind: str, comp: Any, params: dict[str, Any], fmi: int) -> tuple[Any, list[Any]]:
+    """The FMI `fmi` FMU of `comp`'s variant (exported and loaded once per session) and its
+    elements."""
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
 
     twin = twin_of(kind)
     elems = elements(comp, twin)
     key = (kind, tuple(sorted(twin.options(comp).items())), comp.has_feedthrough,
-           tuple(e.name for e in elems))
+           tuple(e.name for e in elems), fmi)
     if key not in _FMUS:
-        path = export_c_fmu(kind, _fmu_folder() / f"{kind}_{len(_FMUS)}.fmu", params, fmi=2)
+        path = export_c_fmu(kind, _fmu_folder() / f"{kind}_{len(_FMUS)}.fmu", params, fmi=fmi)
         md = read_model_description(str(path))
-        fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
-                        modelIdentifier=md.coSimulation.modelIdentifier, instanceName=kind)
+        assert md.fmiVersion == f"{fmi}.0", md.fmiVersion
+        fmu = (FMU2Slave if fmi == 2 else FMU3Slave)(
+            guid=md.guid, unzipDirectory=extract(str(path)),
+            modelIdentifier=md.coSimulation.modelIdentifier, instanceName=kind)
         fmu.instantiate()  # one instance per variant, reset for each example
         _FMUS[key] = fmu
     return _FMUS[key], elems
 
 
-def c_form(kind: str, c: dict[str, Any]) -> np.ndarray:
-    """The same rows from the block's C FMU, every parameter and initial state set by FMI."""
+def c_form(kind: str, c: dict[str, Any], fmi: int = 2) -> np.ndarray:
+    """The same rows from the block's C FMU (FMI `fmi`), every parameter and initial state set
+    by FMI."""
     with _harness(kind, c) as dut:
         comp = dut.component
-        fmu, elems = _slave(kind, comp, c["params"])
+        fmu, elems = _slave(kind, comp, c["params"], fmi)
+        put, get = (fmu.setReal, fmu.getReal) if fmi == 2 else (fmu.setFloat64, fmu.getFloat64)
         vr = {code: [i for i, e in enumerate(elems) if e.code in code] for code in ("ft", "s")}
         ins = {name: [i for i, e in enumerate(elems) if e.port == name] for name in comp.inputs}
         outs = [i for i, e in enumerate(elems) if e.code in "os"]
@@ -235,20 +255,24 @@ def c_form(kind: str, c: dict[str, Any]) -> np.ndarray:
 
         def write(u: dict[str, Any]) -> None:
             for name, refs in ins.items():
-                fmu.setReal(refs, [float(x) for x in np.ravel(u[name])])
+                put(refs, [float(x) for x in np.ravel(u[name])])
 
         fmu.reset()
-        fmu.setupExperiment(startTime=c["start"])
+        if fmi == 2:
+            fmu.setupExperiment(startTime=c["start"])
         for code in ("ft", "s"):
             if vr[code]:
-                fmu.setReal(vr[code], [value(i) for i in vr[code]])
+                put(vr[code], [value(i) for i in vr[code]])
         write(c["inputs"][0])
-        fmu.enterInitializationMode()
+        if fmi == 2:
+            fmu.enterInitializationMode()
+        else:
+            fmu.enterInitializationMode(startTime=c["start"])
         fmu.exitInitializationMode()
         rows = []
         for n, u in enumerate(c["inputs"]):
             write(u)
-            rows.append(fmu.getReal(outs))
+            rows.append(get(outs))
             if n < len(c["inputs"]) - 1:
                 fmu.doStep(c["start"] + n * c["h"], c["h"])
         fmu.terminate()
@@ -307,6 +331,16 @@ def test_python_compiled_and_c_forms_are_equal(kind: str) -> None:
             assert_bit_identical(py, comp, names)
         if kind in twins():
             assert_within(py, c_form(kind, c), names)
+
+    check()
+
+
+@pytest.mark.parametrize("kind", sorted(twins()))
+def test_c_twins_exported_as_fmi3_equal_the_python_forms(kind: str) -> None:
+    @SETTINGS_FMI3
+    @given(case(kind))
+    def check(c: dict[str, Any]) -> None:
+        assert_within(python_form(kind, c), c_form(kind, c, fmi=3), _names(kind, c))
 
     check()
 

@@ -89,3 +89,28 @@ def test_every_error_class_round_trips_through_pickle() -> None:
 
 def test_experiment_override_in_exponent_notation_without_a_dot() -> None:
     assert twmr.load(FIXTURE, ["experiment.step=1e-3"]).system.experiment.step == 1e-3
+
+
+def test_the_package_lists_its_entry_points_and_a_result_shows_itself_in_a_notebook() -> None:
+    import html.parser
+
+    import twmr
+
+    assert {"load", "simulate", "read_result", "sweep"} <= set(dir(twmr))
+    result = twmr.simulate(twmr.load(FIXTURE))
+    assert repr(result).startswith(f"<Result completed: {len(result)} rows x ")
+
+    class Cells(html.parser.HTMLParser):
+        def __init__(self) -> None:
+            super().__init__()
+            self.cells: list[str] = []
+
+        def handle_data(self, data: str) -> None:
+            self.cells.append(data)
+
+    page = Cells()
+    page.feed(result._repr_html_())
+    y = result["plant.y"]
+    at = page.cells.index("plant.y") + (1 if result.units["plant.y"] else 0)  # its unit's cell
+    assert page.cells[at + 1:at + 5] == [f"{y[0]:.6g}", f"{y[-1]:.6g}", f"{y.min():.6g}",
+                                         f"{y.max():.6g}"]

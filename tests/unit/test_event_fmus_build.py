@@ -1,8 +1,8 @@
 """The event, type and unit test FMUs in tests/fmus/ (bounce2, bounce3, stair2, discin2, types3,
-clock3, mixed2, units2) built at test time and checked with fmpy alone (not with twmr) against
-their analytic answers: the bouncing ball's bounce times, the staircase's time events, discrete
-inputs applied in event mode (and rejected in continuous-time mode), every FMI 3.0 type fed through,
-mixed-type feedthrough and unit definitions."""
+clock3, mixed2, units2, roberts3) built at test time and checked with fmpy alone (not with twmr)
+against their analytic answers: the bouncing ball's bounce times, the staircase's time events,
+discrete inputs applied in event mode (and rejected in continuous-time mode), every FMI 3.0 type fed
+through, mixed-type feedthrough, unit definitions and Robertson's kinetics at t = 40."""
 from __future__ import annotations
 
 import math
@@ -15,8 +15,9 @@ from fmpy.validation import validate_fmu
 
 from tests.fmu_build import build_c_fmu
 
-FMI3 = {"bounce3", "types3", "clock3"}
-ALL = ["bounce2", "bounce3", "stair2", "discin2", "types3", "clock3", "mixed2", "units2"]
+FMI3 = {"bounce3", "types3", "clock3", "roberts3"}
+ALL = ["bounce2", "bounce3", "stair2", "discin2", "types3", "clock3", "mixed2", "units2",
+       "roberts3"]
 
 
 @pytest.fixture(scope="module")
@@ -362,3 +363,14 @@ def test_units2_unit_definitions(build) -> None:
                      start_values={"temp_in": -40.0, "len_in": 3.0})
     assert list(r[-1]) == [1.0, -40.0, 3.0, 1.0, 5.0]
     assert r.dtype.names == ("time", "temp_out", "len_out", "w", "plain")
+
+
+# ---- roberts3 ----------------------------------------------------------------------------------
+
+def test_roberts_matches_the_published_solution_at_40_s(build) -> None:
+    """Robertson's problem at t = 40: y1 = 0.7158271, y2 = 9.185535e-6 (Hairer & Wanner)."""
+    r = simulate_fmu(build("roberts3"), stop_time=40.0, output_interval=1.0,
+                     relative_tolerance=1e-10, output=["y1", "y2", "y3"])
+    assert r["y1"][-1] == pytest.approx(0.7158271, abs=2e-7)
+    assert r["y2"][-1] == pytest.approx(9.185535e-6, rel=1e-5)
+    np.testing.assert_allclose(r["y1"] + r["y2"] + r["y3"], 1.0, rtol=0, atol=1e-15)

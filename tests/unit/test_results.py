@@ -89,5 +89,31 @@ def test_failed_rerun_keeps_the_previous_result(tmp_path) -> None:
 
 def test_plots_are_written(run) -> None:
     paths = plot_result(run.data, run.units, run.folder / "plots")
-    assert {p.name for p in paths} == {"plant_u.png", "plant_y.png", "ctrl_y.png"}
+    assert {p.name for p in paths} == {f"{n}{s}" for n in ("plant_u", "plant_y", "ctrl_y")
+                                       for s in (".png", ".svg")}
     assert all(p.stat().st_size > 1000 for p in paths)
+    assert (run.folder / "plots" / "ctrl_y.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_summary_json_is_standard_json_and_reads_back_its_infinities(tmp_path) -> None:
+    """A strict JSON reader (no NaN/Infinity literals) takes summary.json; the strings it holds
+    for non-finite numbers read back as floats."""
+    import json
+    import math
+
+    from twmr.observers.summary import write_summary
+    from twmr.result import _summary
+
+    document = {"realtime_factor": math.inf, "signals": {"x": {"min": -math.inf,
+                                                              "rms": math.nan, "max": 2.5}}}
+    write_summary(document, tmp_path / "summary.json")
+    text = (tmp_path / "summary.json").read_text()
+
+    def refuse(name: str) -> None:
+        raise ValueError(f"non-standard JSON literal {name}")
+
+    strict = json.loads(text, parse_constant=refuse)
+    assert strict["realtime_factor"] == "Infinity" and strict["signals"]["x"]["rms"] == "NaN"
+    back = _summary(tmp_path)
+    assert back["realtime_factor"] == math.inf and back["signals"]["x"]["min"] == -math.inf
+    assert math.isnan(back["signals"]["x"]["rms"]) and back["signals"]["x"]["max"] == 2.5

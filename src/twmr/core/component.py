@@ -21,8 +21,9 @@ from __future__ import annotations
 import dataclasses
 import functools
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any, ClassVar
 
 from twmr.core.errors import ComponentError
@@ -51,8 +52,8 @@ def _frozen(value: Any) -> Any:
     return value.copy() if type(value).__name__ == "ndarray" else value
 
 
-#: attributes of a component that runs a kernel: its private state x, and the kernel in use
-_X, _RUN = "_kernel_x", "_kernel_run"
+#: attributes of a component that runs a kernel: its private state x, and its `_Calls`
+_X, _CALLS = "_kernel_x", "_kernel_calls"
 
 
 def _python(fn: Any) -> Any:
@@ -61,39 +62,73 @@ def _python(fn: Any) -> Any:
     return fn.py_func if isinstance(fn, KernelFunction) else fn
 
 
-class _Run:
-    """The kernel a component runs in Python, made for steps of `h` [s], as two functions
-    `evaluate(t)` and `step(t, h)` generated for its ports (values read from and written to the
-    component's `__dict__` by name); shared, not copied, by a saved state (it follows from the
-    parameters)."""
+class _Calls:
+    """A component's Python calls of its kernel: two functions `evaluate(t)` and `step(t, h)`,
+    generated once per instance for its ports (values read from and written to its `__dict__` by
+    name), whose globals hold the kernel in use: the kernel is made at the first call, again when
+    `step` is given another h, and after `reset()` (a new run). The functions stay the same
+    objects, so the step loop binds them once (see `_KernelMethod`)."""
 
-    def __init__(self, h: float, kernel: Kernel, comp: Component):
-        self.h = h
+    def __init__(self, comp: Component):
+        self.comp = comp
         d = comp.__dict__
 
         def ports(names: list[str]) -> str:
             return "(" + "".join(f"d[{n!r}], " for n in names) + ")"
 
         ys, us = ports(list(comp.outputs)), ports(list(comp.inputs))
-        report = getattr(kernel.sync, "__wrapped__", kernel.sync)  # the block's own sync
-        env: dict[str, Any] = {"d": d, "p": kernel.params, "report": report,
-                               "ev": _python(kernel.evaluate), "st": _python(kernel.step)}
+        env: dict[str, Any] = {"d": d, "load": self.load, "H": None, "p": None, "ev": None,
+                               "st": None, "report": None}
+        self.env = env
         lines = []
         for name, fn, args in (("evaluate", "ev", "t"), ("step", "st", "t, h")):
-            lines.append(f"def {name}({args}):")
-            if env[fn] is None:
-                lines.append("    pass")
-                continue
-            lines.append(f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)")
-            lines.append(f"    d[{_X!r}] = x")
-            if report is not None:
-                lines.append("    report(x)")
+            lines += [f"def {name}({args}):",
+                      "    if H is None: load(0.0)" if fn == "ev" else "    if h != H: load(h)",
+                      f"    if {fn} is None: return",
+                      f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)",
+                      f"    d[{_X!r}] = x",
+                      "    if report is not None: report(x)"]
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
-        self.evaluate: Callable[[float], None] = env["evaluate"]
-        self.step: Callable[[float, float], None] = env["step"]
+        self.functions: dict[str, Callable[..., None]] = {"evaluate": env["evaluate"],
+                                                          "step": env["step"]}
 
-    def __deepcopy__(self, memo: dict[int, Any]) -> _Run:
-        return self
+    def load(self, h: float) -> None:
+        """The kernel made for steps of `h` [s] (h = 0: before the first step, for `evaluate`,
+        which must not depend on it), put in the functions' globals."""
+        comp = self.comp
+        make = getattr(comp, "kernel", None)
+        k = make(h) if make is not None else None
+        if k is None:
+            raise TypeError(
+                f"component '{comp.name}' ({type(comp).__name__}) offers no kernel with these "
+                f"parameters and has no evaluate/do_step of its own. Fix: give the class "
+                f"Python methods for the parameters its kernel does not cover.")
+        self.env.update(H=h, p=k.params, ev=_python(k.evaluate), st=_python(k.step),
+                        report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
+
+    def reset(self) -> None:
+        self.env["H"] = None
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> None:
+        return None  # a copy of the component makes its own
+
+
+class _KernelMethod:
+    """`kernel_evaluate` / `kernel_do_step`: on an instance, its `_Calls` function (made on first
+    use), called directly; on the class, this object."""
+
+    def __init__(self, which: str, doc: str):
+        self.which = which
+        self.__doc__ = doc
+
+    def __get__(self, comp: Component | None, cls: type | None = None) -> Any:
+        if comp is None:
+            return self
+        try:
+            return comp.__dict__[_CALLS].functions[self.which]
+        except KeyError:
+            calls = comp.__dict__[_CALLS] = _Calls(comp)
+            return calls.functions[self.which]
 
 
 def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, float], Kernel | None]:
@@ -133,6 +168,8 @@ class Component:
     needs_realtime: ClassVar[bool] = False
     #: parameters that size other ports (FMI 3.0 structural parameters): set before the others
     sizing_parameters: frozenset[str] = frozenset()
+    #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
+    aliases: Mapping[str, str] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}
@@ -210,6 +247,11 @@ class Component:
         parameters the scenario set (the others hold their defaults)."""
         return []
 
+    def check_step(self, h: float) -> list[tuple[str, str, str]]:
+        """Problems of the parameters with communication steps of h [s] (the base step times
+        the component's step_multiple), found when the scenario is built, as `check`'s."""
+        return []
+
     def set_parameter(self, name: str, value: Any) -> None:
         """Set a parameter or a start value (input, state) before `initialize()`.
 
@@ -252,7 +294,9 @@ class Component:
         self.start_time = start
         self.stop_time = stop
         self.__dict__.pop(_X, None)  # a kernel's private state starts again from its `state`
-        self.__dict__.pop(_RUN, None)
+        calls = self.__dict__.get(_CALLS)
+        if calls is not None:
+            calls.reset()  # the kernel made again from the parameters of this run
 
     def initialize(self) -> None:
         """Compute the outputs at the start time from parameters, states and inputs."""
@@ -263,31 +307,13 @@ class Component:
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h [s] with inputs held; leave outputs at t + h."""
 
-    def _make_run(self, h: float) -> _Run:
-        make = getattr(self, "kernel", None)
-        k = make(h) if make is not None else None
-        if k is None:
-            raise TypeError(
-                f"component '{self.name}' ({type(self).__name__}) offers no kernel with these "
-                f"parameters and has no evaluate/do_step of its own. Fix: give the class "
-                f"Python methods for the parameters its kernel does not cover.")
-        run = self.__dict__[_RUN] = _Run(h, k, self)
-        return run
-
-    def kernel_evaluate(self, t: float) -> None:
-        """`evaluate` of a block that offers a kernel: its `evaluate` function on (held state,
-        outputs, inputs, parameters), the outputs written back. Before the first step the
-        kernel is made with h = 0 (the step is not known yet; evaluate must not depend on it)."""
-        run = self.__dict__.get(_RUN) or self._make_run(0.0)
-        run.evaluate(t)
-
-    def kernel_do_step(self, t: float, h: float) -> None:
-        """`do_step` of a block that offers a kernel: its `step` function from t to t + h [s]
-        (the kernel made again when h changes), the outputs written back."""
-        run = self.__dict__.get(_RUN)
-        if run is None or run.h != h:
-            run = self._make_run(h)
-        run.step(t, h)
+    kernel_evaluate = _KernelMethod("evaluate", """`evaluate(t)` of a block that offers a
+        kernel: its `evaluate` function on (held state, outputs, inputs, parameters), the
+        outputs written back. Before the first step the kernel is made with h = 0 (the step is
+        not known yet; evaluate must not depend on it).""")
+    kernel_do_step = _KernelMethod("step", """`do_step(t, h)` of a block that offers a kernel:
+        its `step` function from t to t + h [s] (the kernel made again when h changes), the
+        outputs written back.""")
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
@@ -338,6 +364,10 @@ class Component:
         return ComponentError(self.name, None, f"a {self.kind or type(self).__name__} cannot "
                               f"{what} its state (can_get_and_set_state is false). Fix: use an "
                               f"algorithm that does not roll steps back with this component.")
+
+    def why_no_state(self) -> str:
+        """Why this block cannot save its state, in a few words (for `twmr check`)."""
+        return "its can_get_and_set_state is false, as for hardware in the loop"
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}>"

@@ -26,15 +26,30 @@ from typing import Any
 class KernelFunction:
     """A kernel function (see `kernel_function`): called from Python it runs `py_func` as plain
     Python; numba code that calls it (the generated loop, another kernel function) compiles it
-    with `njit(cache=True, error_model='numpy')` on first use."""
+    with `njit(cache=True, error_model='numpy')` on first use.
+
+    Each one is an instance of a subclass of its own whose ``__call__`` is `py_func` itself, so
+    a call from Python costs what a call of `py_func` does (one kernel function calling another
+    runs at every step)."""
+
+    py_func: Callable[..., Any]
+
+    def __new__(cls, fn: Callable[..., Any]) -> KernelFunction:
+        own = type(cls.__name__, (cls,), {"__call__": staticmethod(fn), "__slots__": (),
+                                          "__module__": cls.__module__})
+        return super().__new__(own)
 
     def __init__(self, fn: Callable[..., Any]):
         functools.update_wrapper(self, fn)
         self.py_func = fn
         self._jit: Any = None
 
-    def __call__(self, *args: Any) -> Any:
+    def __call__(self, *args: Any) -> Any:  # replaced by `py_func` in each instance's class
         return self.py_func(*args)
+
+    def __reduce__(self) -> str:
+        # pickled by reference, as the module-level name it is (`functools.update_wrapper`)
+        return str(self.__qualname__)  # type: ignore[attr-defined]
 
     @property
     def jit(self) -> Any:

@@ -15,7 +15,7 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
     import fmpy
 
     from twmr.core.errors import FmuError
-    from twmr.fmi.description import ports_of, read_description
+    from twmr.fmi.description import aliases_of, ports_of, read_description
     from twmr.fmi.sources import has_binary, has_sources
 
     path = Path(path)
@@ -38,7 +38,8 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
                                       ("model_exchange", md.modelExchange)) if v is not None],
         "platforms": platforms, "runs_here": runs,
         "continuous_states": md.numberOfContinuousStates,
-        "event_indicators": md.numberOfEventIndicators, "ports": []}
+        "event_indicators": md.numberOfEventIndicators, "ports": [],
+        "aliases": aliases_of(md)}
     if md.defaultExperiment is not None:
         d = md.defaultExperiment
         out["default_experiment"] = {"start": d.startTime, "stop": d.stopTime,
@@ -54,7 +55,7 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
             "unit": list(v.unit) if isinstance(v.unit, tuple) else v.unit,
             "size": v.size, "start": start, "variability": "discrete" if p.discrete
             else "continuous", "depends_on": list(getattr(v, "depends_on", ())),
-            "description": v.description})
+            "alias_of": p.alias_of, "description": v.description})
     return out
 
 
@@ -80,9 +81,13 @@ def describe_fmu(path: str | Path) -> str:
             unit = f"({', '.join(p['unit'])})" if isinstance(p["unit"], list) else p["unit"]
             dep = f" depends_on {', '.join(p['depends_on'])}" if p["depends_on"] else ""
             fmi_type = "" if p["fmi_type"] in ("Real", p["type"]) else f" ({p['fmi_type']})"
+            alias = f" (alias of {p['alias_of']}, read only)" if p["alias_of"] else ""
             lines.append(f"  {kind:9s} {p['name']}{size} [{unit}] {p['type']}{fmi_type} = "
-                         f"{p['start']!r}{dep}"
+                         f"{p['start']!r}{dep}{alias}"
                          + (f" — {p['description']}" if p["description"] else ""))
+    if info["aliases"]:
+        lines.append("  aliases (other names of a port, never set): " + ", ".join(
+            f"{alias} = {base}" for alias, base in info["aliases"].items()))
     lines.append(f"  in a scenario: {{kind: fmu, parameters: {{path: {path}}}}}")
     return "\n".join(lines)
 

@@ -9,6 +9,11 @@ description. An FMI 3.0 array (`<Dimension>`) is a vector port of the product of
 array names `x[1]..x[n]` are grouped into a vector port `x`. Direct feedthrough comes from
 ModelStructure (an output without dependency information depends on every input, as the standard
 says).
+
+Aliases (FMI 3.0 `<Alias>`, FMI 2.0 variables of one type sharing a value reference) are one
+variable: an alias of an output or state is a read-only output reading it (in the alias's own
+display unit where the FMU defines one), an alias of an input or parameter is no port, and
+`aliases_of` names what each alias stands for, so that setting one can be refused.
 """
 from __future__ import annotations
 
@@ -56,6 +61,10 @@ class FmuPort:
     count: int
     scalar: bool
     discrete: bool
+    #: an alias (read only): the port of the variable it names
+    alias_of: str = ""
+    #: (factor, offset) of an alias shown in its own display unit: value = factor * base + offset
+    display: tuple[float, float] | None = None
 
 
 def _unreadable(path: Path, exc: Exception) -> str:
@@ -169,18 +178,28 @@ def _values(v: Any, text: str | None, type_: str, count: int, resized: bool = Fa
     return out
 
 
+def sizing_references(md: Any) -> set[int]:
+    """Value references of the structural parameters that size an array (`<Dimension
+    valueReference>`): only these must be whole numbers; the others (a Boolean `dae`) keep
+    their type."""
+    return {d.valueReference for v in md.modelVariables
+            for d in getattr(v, "dimensions", None) or [] if d.valueReference is not None}
+
+
 def structural_values(md: Any, given: dict[str, Any]) -> dict[int, int]:
-    """Value of every structural parameter by value reference: `given` by the scenario, else
-    its start."""
+    """Value of every structural parameter that sizes an array, by value reference: `given` by
+    the scenario, else its start."""
+    sizing = sizing_references(md)
     values: dict[int, int] = {}
     for v in md.modelVariables:
-        if v.causality == "structuralParameter":
+        if v.causality == "structuralParameter" and v.valueReference in sizing and \
+                getattr(v, "alias", None) is None:
             raw = given.get(v.name, v.start)
             try:
                 values[v.valueReference] = int(raw) if raw is not None else 0
             except (TypeError, ValueError):
-                raise ValueError(f"structural parameter '{v.name}' = {raw!r} is not an "
-                                 f"integer") from None
+                raise ValueError(f"structural parameter '{v.name}' = {raw!r} sizes an array "
+                                 f"but is not an integer") from None
     return values
 
 
@@ -201,6 +220,44 @@ def _size(v: Any, structural: dict[int, int]) -> int | None:
     return n
 
 
+#: FMI 2.0 value-reference spaces: variables of one space with one value reference are aliases
+_FMI2_SPACE = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
+               "Boolean": "Boolean", "String": "String"}
+
+
+def _alias_bases(md: Any) -> dict[int, Any]:
+    """The variable each alias names, by id of the alias: FMI 3.0 `<Alias>` elements (fmpy
+    adds them as variables with `alias` set), FMI 2.0 variables sharing a value reference of one
+    type (the base is the one with a port and a start value, else the first with a port)."""
+    if md.fmiVersion.startswith("3."):
+        return {id(v): v.alias for v in md.modelVariables if getattr(v, "alias", None)}
+    sets: dict[tuple[str, int], list[Any]] = {}
+    for v in md.modelVariables:
+        if v.type in _FMI2_SPACE:
+            sets.setdefault((_FMI2_SPACE[v.type], v.valueReference), []).append(v)
+    bases: dict[int, Any] = {}
+    for members in sets.values():
+        if len(members) < 2:
+            continue
+        ported = [v for v in members if _kind(v) is not None] or members
+        base = next((v for v in ported if v.start is not None), ported[0])
+        bases.update((id(v), base) for v in members if v is not base)
+    return bases
+
+
+def _port_name(v: Any) -> str:
+    m = _ARRAY.match(v.name) if not getattr(v, "dimensions", None) else None
+    return m.group(1) if m else v.name
+
+
+def aliases_of(md: Any) -> dict[str, str]:
+    """Alias name -> the name of the port it stands for, for every alias of a port (array
+    elements `y[i]` of `x[i]` as `y` -> `x`)."""
+    bases = _alias_bases(md)
+    return {_port_name(v): _port_name(base) for v in md.modelVariables
+            if (base := bases.get(id(v))) is not None and _kind(base) is not None}
+
+
 def _kind(v: Any) -> str | None:
     if v.causality == "input":
         return "input"
@@ -218,10 +275,13 @@ def ports_of(md: Any, given: dict[str, Any] | None = None
     holds the scenario's parameter values (structural parameters size the arrays)."""
     structural = structural_values(md, given or {})
     defined = unit_definitions(md)
+    bases = _alias_bases(md)
     groups: dict[tuple[str, str], list[tuple[int, Any]]] = {}
     order: list[tuple[str, str]] = []
     for v in md.modelVariables:
-        kind = _kind(v)
+        # an alias that is an output (or state) is a read-only output; otherwise it is no port
+        kind = _kind(v) if id(v) not in bases else \
+            ("alias" if _kind(v) in ("output", "state") else None)
         if kind is None or v.type not in PORT_TYPE:
             continue
         m = _ARRAY.match(v.name) if not getattr(v, "dimensions", None) else None
@@ -242,12 +302,17 @@ def ports_of(md: Any, given: dict[str, Any] | None = None
                            or len({v.type for _, v in items}) > 1):
             # not a complete 1..n array of one type: every element is its own scalar port
             for i, v in items:
-                _add(ports, variables, f"{name}_{i}", kind, [v], structural, defined)
+                _add(ports, variables, f"{name}_{i}", kind, [v], structural, defined, md)
                 port_of_var[id(v)] = f"{name}_{i}"
             continue
-        _add(ports, variables, name, kind, [v for _, v in items], structural, defined)
+        _add(ports, variables, name, kind, [v for _, v in items], structural, defined, md)
         for _, v in items:
             port_of_var[id(v)] = name
+    first = {port_of_var[id(v)]: v for v in reversed(md.modelVariables) if id(v) in port_of_var}
+    for p in ports:
+        if p.kind == "alias":
+            p.alias_of = port_of_var.get(id(bases[id(first[p.name])]), "")
+            p.kind = "output"
     inputs = [p.name for p in ports if p.kind == "input"]
     deps: dict[str, set[str]] = {}
     for unknown in getattr(md, "outputs", []) or []:
@@ -261,15 +326,44 @@ def ports_of(md: Any, given: dict[str, Any] | None = None
                 port_of_var[id(d)] for d in unknown.dependencies
                 if port_of_var.get(id(d)) in inputs)
     for p in ports:
-        if p.kind == "output":
+        if p.kind == "output" and not p.alias_of:
             var = variables[p.name]
             assert isinstance(var, Output)
             var.depends_on = tuple(sorted(deps.get(p.name, set(inputs))))
+    for p in ports:
+        if p.alias_of:
+            alias, base = variables[p.name], variables[p.alias_of]
+            assert isinstance(alias, Output)
+            factor, offset = p.display or (1.0, 0.0)
+            starts = base.start if isinstance(base.start, tuple) else (base.start,)
+            shown = starts if p.display is None else tuple(factor * x + offset for x in starts)
+            alias.start = alias.coerce(shown if isinstance(base.start, tuple) else shown[0])
+            alias.depends_on = (p.alias_of,) if base.kind == "input" else \
+                getattr(base, "depends_on", ())
     return ports, variables
 
 
+def _display(md: Any, v: Any, defined: dict[str, Unit]) -> tuple[float, float, Unit] | None:
+    """(factor, offset, unit) of an FMI 3.0 alias with a display unit of its own, defined among
+    the `<DisplayUnit>`s of its variable's unit (which has a BaseUnit): shown = factor * value +
+    offset; None when it has none."""
+    base = getattr(v, "alias", None)
+    unit = _unit(v)
+    if base is None or not v.displayUnit or v.displayUnit == base.displayUnit or \
+            unit not in defined:
+        return None
+    for u in getattr(md, "unitDefinitions", None) or []:
+        for d in u.displayUnits if u.name == unit else ():
+            if d.name == v.displayUnit and d.factor:
+                si = defined[unit]
+                shown = Unit(d.name, si.factor / d.factor, si.exponents,
+                             si.offset - si.factor * d.offset / d.factor)
+                return float(d.factor), float(d.offset), shown
+    return None
+
+
 def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: str,
-         vs: list[Any], structural: dict[int, int], defined: dict[str, Unit]) -> None:
+         vs: list[Any], structural: dict[int, int], defined: dict[str, Unit], md: Any) -> None:
     fmi_type = vs[0].type
     type_ = PORT_TYPE[fmi_type]
     size = _size(vs[0], structural) if len(vs) == 1 else None
@@ -279,14 +373,21 @@ def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: 
         starts = _values(vs[0], vs[0].start, type_, size, resized)
     else:
         starts = [_values(v, v.start, type_, 1)[0] for v in vs]
-    cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter}[kind]
+    cls = {"input": Input, "output": Output, "state": State, "parameter": Parameter,
+           "alias": Output}[kind]
     kwargs: dict[str, Any] = {"type": type_, "description": vs[0].description or ""}
+    display = _display(md, vs[0], defined) if kind == "alias" and type_ == REAL else None
     if type_ in (REAL, INTEGER):
         units = tuple(_unit(v) for v in vs) if size is None else (_unit(vs[0]),)
         kwargs["unit"] = units[0] if len(set(units)) == 1 else units
         kwargs["unit_definitions"] = defined
         low, high = _RANGE.get(fmi_type, (None, None))
         kwargs["min"], kwargs["max"] = _bound(vs[0], "min", low), _bound(vs[0], "max", high)
+        if display is not None:  # its unit is the display unit; min and max are in the base's
+            shown = display[2]
+            kwargs["unit"], kwargs["unit_definitions"] = shown.text, {**defined,
+                                                                       shown.text: shown}
+            kwargs["min"] = kwargs["max"] = None
     scalar = len(vs) == 1 and size is None
     if scalar:
         var = cls(start=starts[0], **kwargs)
@@ -298,7 +399,7 @@ def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: 
     discrete = all(v.variability in ("discrete", "fixed", "tunable") or
                    (v.type not in ("Real", "Float64", "Float32")) for v in vs)
     ports.append(FmuPort(name, kind, fmi_type, [v.valueReference for v in vs], count, scalar,
-                         discrete))
+                         discrete, display=display[:2] if display else None))
 
 
 def _bound(v: Any, which: str, default: int | None) -> Any:

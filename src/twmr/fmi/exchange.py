@@ -128,13 +128,18 @@ class Integrator:
             CVodeSVtolerances(solver.cvode_mem, self.rtol, solver.abstol)
         return solver
 
-    def saved(self) -> tuple[float, float | None]:
-        """What restoring the FMU's state needs from here: the time [s] and the next time event."""
-        return self.t, self.next_event
+    def save(self) -> tuple[float, float | None, int]:
+        """What restoring the FMU's state needs from here: the time [s], the next time event and
+        the count of events so far. The solver restarts here, as `restore` does, so the
+        continuation after a save and after a restore of it start from the FMU's state alone
+        and agree bit for bit."""
+        self._restart(self.t)
+        return self.t, self.next_event, self.events
 
-    def restore(self, saved: tuple[float, float | None]) -> None:
-        """Back to `saved` (the FMU's own state set just before); the solver restarts there."""
-        self.t, self.next_event = saved
+    def restore(self, saved: tuple[float, float | None, int]) -> None:
+        """Back to `saved` (the FMU's own state set just before); the solver restarts there, and
+        the events of the steps undone are no longer counted."""
+        self.t, self.next_event, self.events = saved
         self._restart(self.t)
 
     def restart(self) -> None:

@@ -72,7 +72,7 @@ def _user_class(spec: str | type) -> type:
                     loader_spec.loader.exec_module(mod)  # type: ignore[union-attr]
                 mod = sys.modules[mod_name]
             else:
-                mod = importlib.import_module(module)
+                mod = _import_here(module)
             cls = getattr(mod, name)
         except (ImportError, OSError, AttributeError, SyntaxError) as err:
             if isinstance(err, FileNotFoundError):
@@ -97,6 +97,20 @@ def _user_class(spec: str | type) -> type:
                          f"(__main__), which the FMU cannot import. Fix: put it in a module of "
                          f"its own and export 'module:{cls.__name__}'.")
     return cls
+
+
+def _import_here(module: str) -> Any:
+    """Module `module`, imported as ``python -m`` would from the working folder (which the
+    `twmr` command's own path does not hold)."""
+    here = os.getcwd()
+    added = here not in sys.path and "" not in sys.path
+    if added:
+        sys.path.insert(0, here)
+    try:
+        return importlib.import_module(module)
+    finally:
+        if added and here in sys.path:
+            sys.path.remove(here)
 
 
 def _shipped_module(cls: type) -> Path | None:

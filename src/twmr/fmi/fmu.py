@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError
 from twmr.fmi import guard
-from twmr.fmi.description import FmuPort, ports_of, read_description
+from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
@@ -70,6 +70,15 @@ def _text_getter(get: Callable[..., list[Any]]) -> Callable[..., list[str]]:
     return get_text
 
 
+def _shown(get: Callable[..., list[Any]], factor: float, offset: float
+           ) -> Callable[..., list[float]]:
+    """A getter of aliases in a display unit of their own: factor * value + offset."""
+    def get_shown(*args: Any) -> list[float]:
+        return [factor * v + offset for v in get(*args)]
+
+    return get_shown
+
+
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -79,7 +88,7 @@ class FmuComponent(Component):
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout", "compile", "compile_timeout")
     #: beside the ports, a saved state holds the time and whether the inputs are already set
-    state_attributes = ("_t", "_inputs_set")
+    state_attributes = ("_t", "_sent")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
@@ -115,7 +124,7 @@ class FmuComponent(Component):
         self.can_get_and_set_state = bool(iface.canGetAndSetFMUstate)
         self._serializes = bool(iface.canSerializeFMUstate)
         self._states: FmuStates | None = None
-        self._inputs_set = False
+        self._sent: tuple[Any, ...] | None = None
         self._guarded = False  # between guard.enter() in setup and guard.leave() in terminate
         self.run_folder: Path | None = None  # where the run keeps its rows (for guard messages)
         try:
@@ -125,7 +134,9 @@ class FmuComponent(Component):
                            f"modelDescription.xml. Fix: correct the FMU's model description "
                            f"(or ask its vendor).") from None
         self.sizing_parameters = frozenset(v.name for v in self.md.modelVariables
-                                           if v.causality == "structuralParameter")
+                                           if v.causality == "structuralParameter" and
+                                           getattr(v, "alias", None) is None)
+        self.aliases = aliases_of(self.md)
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
         # FMUs built by pythonfmu itself (generationTool "PythonFMU x"; not twmr's Python exports,
@@ -141,6 +152,7 @@ class FmuComponent(Component):
         self._given: set[str] = set()
         self._wired: set[str] | None = None
         self._read: set[str] | None = None
+        self._after_step_all = False  # set by prepare: Jacobi
         super().__init__(name)
         self.variables = dict(self._variables)
         for var in self.variables.values():
@@ -187,6 +199,10 @@ class FmuComponent(Component):
         return runnable(path, read_description(path, name), name, True, float(timeout))
 
     def set_parameter(self, name: str, value: Any) -> None:
+        if name in self.aliases:
+            raise ValueError(f"'{name}' is an alias of '{self.aliases[name]}' in the FMU (one "
+                             f"variable under two names, read only as '{name}'); set "
+                             f"'{self.aliases[name]}'")
         super().set_parameter(name, value)
         self._given.add(name)
         if name in self.sizing_parameters:
@@ -220,6 +236,9 @@ class FmuComponent(Component):
         self.run_folder = run.folder
         self._wired = run.wired_inputs(self.name)
         self._read = run.read_outputs(self.name)
+        # Jacobi passes on the outputs as they are after the step: the feedthrough ones too are
+        # got after doStep (at t + h with the inputs held, as the native blocks leave them)
+        self._after_step_all = getattr(run, "algorithm", "") == "jacobi"
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
@@ -315,8 +334,9 @@ class FmuComponent(Component):
             self._set_all = self._plan(inputs, 1)
         self._get_ft = self._plan([p for p in read if p.name in feedthrough], 0)
         self._get_step = self._plan([p for p in read if p.name not in feedthrough]
-                                    if self.has_feedthrough else read, 0)
-        self._inputs_set = False
+                                    if self.has_feedthrough and not self._after_step_all
+                                    else read, 0)
+        self._sent = None
         try:
             self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
@@ -326,14 +346,16 @@ class FmuComponent(Component):
         """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
         number of values, the ports [(name, scalar, count)] and a function gathering their
         values (for a setter), so each type is one call."""
-        by: dict[str, list[FmuPort]] = {}
+        by: dict[tuple[str, tuple[float, float] | None], list[FmuPort]] = {}
         for p in ports:
-            by.setdefault(_call_suffix(p.fmi_type, self.fmi3), []).append(p)
+            by.setdefault((_call_suffix(p.fmi_type, self.fmi3), p.display), []).append(p)
         plan = []
-        for ps in by.values():
+        for (_, display), ps in by.items():
             fn = self._accessors(ps[0].fmi_type)[which]
             if which == 0 and ps[0].fmi_type == "String":
                 fn = _text_getter(fn)
+            if display is not None:
+                fn = _shown(fn, *display)
             vrs = [vr for p in ps for vr in p.vrs]
             names = [(p.name, p.scalar, p.count) for p in ps]
             plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
@@ -420,9 +442,9 @@ class FmuComponent(Component):
             if self.me:
                 self._set_inputs(t)
             else:
-                for setter, vrs, _, _, gather in self._set_all:
-                    setter(vrs, gather())
-            self._inputs_set = True
+                self._sent = tuple(gather() for *_, gather in self._set_all)
+                for (setter, vrs, *_), values in zip(self._set_all, self._sent, strict=True):
+                    setter(vrs, values)
             if self._get_ft:
                 self._get(self._get_ft)
         except (FmuError, Terminated):
@@ -433,13 +455,16 @@ class FmuComponent(Component):
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         try:
-            if self._inputs_set:
-                self._inputs_set = False
-            elif self.me:
+            # the inputs as they are now: under Gauss-Seidel a block stepped since `evaluate`
+            # may have changed them (only those that changed are set again)
+            if self.me:
                 self._set_inputs(t)
             else:
-                for setter, vrs, _, _, gather in self._set_all:
-                    setter(vrs, gather())
+                sent, self._sent = self._sent, None
+                for i, (setter, vrs, _, _, gather) in enumerate(self._set_all):
+                    values = gather()
+                    if sent is None or values != sent[i]:
+                        setter(vrs, values)
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
@@ -543,8 +568,8 @@ class FmuComponent(Component):
     def get_state(self) -> Any:
         """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,
         time and step flag; for model exchange the integrator's time, next event time and last
-        inputs): plain values that pickle. For model exchange with CVODE a restore restarts the
-        solver, so a continuation agrees to the solver's tolerance, not bit for bit."""
+        inputs): plain values that pickle. For model exchange the solver restarts at a save as
+        at a restore, so a step re-run after a restore repeats the first one bit for bit."""
         if not self.can_get_and_set_state:
             raise self.no_state("save")
         if self._states is None:
@@ -556,7 +581,7 @@ class FmuComponent(Component):
         integ = self._integrator
         if integ is None:
             return ()
-        return (integ.saved(), tuple(map(tuple, self._last_cont)),
+        return (integ.save(), tuple(map(tuple, self._last_cont)),
                 tuple(map(tuple, self._last_disc)))
 
     def set_state(self, state: Any) -> None:
@@ -590,12 +615,14 @@ class FmuComponent(Component):
             self._states.release(state[0])
 
     def no_state(self, what: str) -> ComponentError:
+        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
+                        f"{self.why_no_state()}. Fix: use an algorithm that does not roll steps "
+                        f"back with this FMU, or an FMU exported with state support.")
+
+    def why_no_state(self) -> str:
         iface = "model exchange" if self.me else "co-simulation"
         attribute = "canGetAndSetFMUState" if self.fmi3 else "canGetAndSetFMUstate"
-        return FmuError(self.name, None, f"FMU '{self.path.name}' cannot {what} its state: "
-                        f"its modelDescription.xml does not declare {attribute}=\"true\" for "
-                        f"{iface}. Fix: use an algorithm that does not roll steps back with "
-                        f"this FMU, or an FMU exported with state support.")
+        return f"its modelDescription.xml does not declare {attribute}=\"true\" for {iface}"
 
     def terminate(self) -> None:
         """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""

@@ -30,7 +30,7 @@ from typing import Any
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
 from twmr.fmi.fmu import FmuComponent
-from twmr.fmi.worker import receive
+from twmr.fmi.worker import receive, send
 
 #: the longest the worker may take to start: an interpreter, fmpy, reading the FMU [s]
 START_TIMEOUT = 60.0
@@ -69,6 +69,7 @@ class IsolatedFmu(Component):
                            f"(.inf: no limit)")
         self._kwargs = kwargs
         self.can_get_and_set_state = self._desc.can_get_and_set_state
+        self.aliases = self._desc.aliases
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
         self.variables = dict(self._desc.variables)
         self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})
@@ -138,7 +139,7 @@ class IsolatedFmu(Component):
         request = pickle.dumps((method, args), pickle.HIGHEST_PROTOCOL)
         limit = self._timeout if limit is None else limit
         try:
-            conn.send_bytes(request)
+            send(conn, request)
             self._pending = True
             reply = receive(conn, self._poll, limit)
             if reply is None:
@@ -214,7 +215,8 @@ class IsolatedFmu(Component):
         self._outputs = tuple(n for n in self.outputs if read is None or n in read)
         if self._conn is None:
             self._start()
-        self._call("prepare", (run.folder, run.step, run.paced, wired, read))
+        self._call("prepare", (run.folder, run.step, run.paced, wired, read,
+                               getattr(run, "algorithm", "gauss_seidel")))
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
@@ -252,6 +254,9 @@ class IsolatedFmu(Component):
         worker, values = state
         self._call("set_state", (worker,))
         super().set_state(values)
+
+    def why_no_state(self) -> str:
+        return self._desc.why_no_state()
 
     def release_state(self, state: Any) -> None:
         if self._conn is not None:

@@ -38,6 +38,10 @@ from twmr.master.execution import RunContext
 
 #: how long a side polls for the other's message before it blocks [s]
 SPIN = 2e-4
+#: the bytes the first read of a message asks for: a step's request or reply fits many times
+CHUNK = 1 << 16
+_SIZE = struct.Struct("!i")
+_LONG_SIZE = struct.Struct("!Q")
 #: set once the worker ends on its own: the lifeline then leaves the final clean-up alone
 _ending = threading.Event()
 
@@ -59,12 +63,13 @@ class _Server:
         self.values = self.fmu.__dict__
 
     def prepare(self, folder: Any, step: float, paced: bool, wired: set[str] | None,
-                read: set[str] | None) -> None:
+                read: set[str] | None, algorithm: str = "gauss_seidel") -> None:
         """The parent's `RunContext`, narrowed to this instance's wired inputs and read outputs."""
         def pairs(ports: set[str] | None) -> frozenset[tuple[str, str]] | None:
             return None if ports is None else frozenset((self.fmu.name, p) for p in ports)
 
-        self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read)))
+        self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read),
+                                    algorithm=algorithm))
 
     def setup(self, start: float, stop: float | None) -> None:
         self.fmu.setup(start, stop)
@@ -125,15 +130,27 @@ def _milliseconds(timeout: float | None) -> int | None:
 def receive(conn: Connection, poller: select.poll, timeout: float | None) -> bytes | None:
     """One whole message on `conn` (multiprocessing.connection framing: a 4-byte big-endian
     length, or -1 and an 8-byte one), or None if it is not all there within `timeout` [s] (None:
-    no limit). EOFError if the other side closed the socket, ValueError for a bad frame."""
+    no limit). EOFError if the other side closed the socket, ValueError for a bad frame or for
+    bytes beyond the message (one call has one answer). A message already all there is read in
+    one `os.read`."""
     deadline = None if _milliseconds(timeout) is None else time.monotonic() + float(timeout or 0)
+    if not wait(poller, timeout):
+        return None
     fd = conn.fileno()
-    data = bytearray()
+    data = os.read(fd, CHUNK)
+    if not data:
+        raise EOFError
+    if len(data) > 4 and _SIZE.unpack_from(data)[0] == len(data) - 4:
+        return data[4:]
+    return _rest(fd, poller, bytearray(data), deadline)
 
+
+def _rest(fd: int, poller: select.poll, data: bytearray, deadline: float | None) -> bytes | None:
+    """The message begun by `data`, read to its end by `deadline` (`time.monotonic`), else None."""
     def fill(n: int) -> bool:
         while len(data) < n:
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
-            if not (wait(poller, left) if not data else poller.poll(_milliseconds(left))):
+            if not poller.poll(_milliseconds(left)):
                 return False
             chunk = os.read(fd, n - len(data))
             if not chunk:
@@ -143,15 +160,28 @@ def receive(conn: Connection, poller: select.poll, timeout: float | None) -> byt
 
     if not fill(4):
         return None
-    (size,) = struct.unpack("!i", data[:4])
+    (size,) = _SIZE.unpack_from(data)
     start = 4
     if size == -1:
         if not fill(12):
             return None
-        (size,), start = struct.unpack("!Q", data[4:12]), 12
+        (size,), start = _LONG_SIZE.unpack_from(data, 4), 12
     elif size < 0:
         raise ValueError(f"a message length of {size}")
+    if len(data) > start + size:
+        raise ValueError(f"{len(data) - start - size} bytes beyond a message of {size}")
     return bytes(data[start:]) if fill(start + size) else None
+
+
+def send(conn: Connection, data: bytes) -> None:
+    """`data` as one message on `conn`, in the framing `receive` reads, in one `os.write` when
+    the socket takes it whole. OSError if the other side has gone."""
+    size = len(data)
+    header = _SIZE.pack(size) if size <= 0x7FFFFFFF else _SIZE.pack(-1) + _LONG_SIZE.pack(size)
+    view = memoryview(header + data)
+    fd = conn.fileno()
+    while view:
+        view = view[os.write(fd, view):]
 
 
 def _exit_with_parent(tmp: str) -> None:
@@ -172,11 +202,12 @@ def serve(conn: Connection) -> None:
     poller = select.poll()
     poller.register(conn.fileno(), select.POLLIN)
     while True:
-        wait(poller, None)
         try:
-            call, args = pickle.loads(conn.recv_bytes())
-        except EOFError:
+            request = receive(conn, poller, None)
+        except (EOFError, ValueError, OSError):
             return
+        assert request is not None  # no time limit
+        call, args = pickle.loads(request)
         try:
             reply: tuple[int, Any] = (0, getattr(server, call)(*args))
         except CosimError as exc:
@@ -188,7 +219,7 @@ def serve(conn: Connection) -> None:
         except Exception:  # noqa: BLE001 - an error whose arguments do not pickle
             data = pickle.dumps((2, f"{type(reply[1]).__name__}: {reply[1]}"))
         try:
-            conn.send_bytes(data)
+            send(conn, data)
         except OSError:  # the parent has gone
             return
         if call == "terminate":

@@ -102,16 +102,16 @@ def admit(system: System, algorithm: Algorithm, name: str = "") -> None:
     (`Component.can_get_and_set_state`). `ScenarioError` naming the blocks and the algorithm."""
     if not algorithm.needs_state_rollback:
         return
-    unfit = [f"'{n}' ({type(c).__name__})" for n, c in system.components.items()
-             if not c.can_get_and_set_state]
+    unfit = {n: c for n, c in system.components.items() if not c.can_get_and_set_state}
     if not unfit:
         return
     label = f"'{name}'" if name else type(algorithm).__name__
-    blocks = ", ".join(unfit)
+    why = "; ".join(f"'{n}' ({type(c).__name__}) cannot save and restore its state: "
+                    f"{c.why_no_state()}" for n, c in unfit.items())
     raise ScenarioError(Problem(
         Location(system.source, 0, "experiment.algorithm"),
         f"the master algorithm {label} restores earlier component states (it needs state "
-        f"rollback), but {blocks} cannot save and restore its state "
-        f"(its can_get_and_set_state is false, as for hardware in the loop).",
-        f"use an algorithm without rollback (gauss_seidel or jacobi), or replace {blocks} by a "
-        f"simulated block that can save its state."))
+        f"rollback), but {why}.",
+        f"use an algorithm without rollback (gauss_seidel or jacobi), or replace "
+        f"{', '.join(map(repr, unfit))} by a block that can save its state (an FMU that "
+        f"declares it)."))

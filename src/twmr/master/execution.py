@@ -71,13 +71,15 @@ class RunContext:
     """What a run offers a component before `setup` (`Component.prepare`): a folder for its own
     files (None: the run writes nothing), the base step h [s], and whether steps are paced to the
     wall clock. `wired` holds the (instance, input) pairs driven by a wire and `read` the
-    (instance, output) pairs the run reads (wired or recorded); None: every port."""
+    (instance, output) pairs the run reads (wired or recorded); None: every port. `algorithm`
+    is the experiment's ('jacobi': the outputs after a step are passed on as they are)."""
 
     folder: Path | None
     step: float
     paced: bool
     wired: frozenset[tuple[str, str]] | None = None
     read: frozenset[tuple[str, str]] | None = None
+    algorithm: str = "gauss_seidel"
 
     def wired_inputs(self, instance: str) -> set[str] | None:
         """Inputs of `instance` written by the master at each step (None: all of them)."""
@@ -229,14 +231,14 @@ class Execution:
         self._wall0 = math.nan
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
-                             self.folder, self.system.source)
+                             self.folder, self.system.source, {"ports": self._recorded_ports()})
             for obs in self.observers:
                 self._write(obs.started, start)
             context = RunContext(
                 self.folder, exp.step, paced,
                 frozenset((c.dst, c.dst_port) for c in self.system.connections),
                 frozenset([(c.src, c.src_port) for c in self.system.connections]
-                          + list(self.signals)))
+                          + list(self.signals)), exp.algorithm)
             if paced:
                 # collect now, before hardware starts (a full collection stalls every thread
                 # for tens of ms), and freeze: a collection during the paced run scans only
@@ -480,6 +482,18 @@ class Execution:
                     self.system.components[name].terminate()
                 except BaseException:  # noqa: BLE001 - terminate every component whatever fails
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
+
+    def _recorded_ports(self) -> dict[str, dict[str, str]]:
+        """Description and type of each recorded port ('plant.pose'), for plots and readers."""
+        ports: dict[str, dict[str, str]] = {}
+        for column in self.columns[1:]:
+            name = column.partition("[")[0]
+            owner, _, port = name.rpartition(".")
+            var = self.system.components[owner].variables.get(port) \
+                if owner in self.system.components else None
+            if var is not None and name not in ports:
+                ports[name] = {"description": var.description, "type": var.type}
+        return ports
 
     def _catch_stop_signals(self) -> dict[int, Any]:
         """Ctrl-C, SIGTERM and SIGHUP stop the run (main thread only); once it is stopping,

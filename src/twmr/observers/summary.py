@@ -2,13 +2,13 @@
 by (NaN-safe), and `summary.json` written when the run ends."""
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from twmr.core import jsonvalues
 from twmr.observers.base import Observer, Outcome, RunStart
 
 FILENAME = "summary.json"
@@ -71,6 +71,7 @@ class SignalSummary(Observer):
             "wall_time_s": round(outcome.wall_time, 4),
             "realtime_factor": round(outcome.realtime_factor, 2),
             "units": dict(zip(run.columns, run.units, strict=False)) if run else {},
+            "ports": run.metadata.get("ports", {}) if run else {},
             "signals": self.signals(), "pacing": outcome.extra,
         }
         if run is not None and run.folder is not None:
@@ -78,5 +79,6 @@ class SignalSummary(Observer):
 
 
 def write_summary(document: dict[str, Any], path: Path) -> None:
-    """JSON with non-finite numbers kept as JSON's NaN/Infinity (Python reads them back)."""
-    path.write_text(json.dumps(document, indent=2, default=float) + "\n")
+    """Standard JSON, non-finite numbers as the strings NaN, Infinity, -Infinity
+    (`twmr.core.jsonvalues`; `twmr.read_result` reads them back as floats)."""
+    path.write_text(jsonvalues.dumps(document, indent=2) + "\n")

@@ -28,7 +28,8 @@ from twmr.core.errors import (
 from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
-from twmr.scenario.graph import describe_cycle, order, parse_end, wire
+from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
+from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
@@ -41,7 +42,7 @@ __all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schem
 MAX_STEPS = 1e9
 _NOUNS = {"Real": ("a number", "numbers"), "Integer": ("an integer", "integers"),
           "Boolean": ("true or false", "booleans")}
-_NAMED = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)")  # the port a wire's end names
+_NAMED = re.compile(r"^\s*([A-Za-z_][\w.]*)\.([A-Za-z_]\w*)")  # the port a wire's end names
 _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z1][\w./-]*)\s*$")
 
 
@@ -71,9 +72,10 @@ def scenario_spec(text: str | dict[str, Any] | ScenarioSpec, source: str = "<str
 
 
 def build_system(spec: ScenarioSpec) -> System:
-    """The System of a scenario's structure: components created and configured, wires checked,
-    order found. Raises a `CosimError` subclass listing every problem."""
-    return _guarded(spec.source, _Builder(spec).build)
+    """The System of a scenario's structure (subsystems flattened into blocks named by their
+    path, `twmr.scenario.flatten`): components created and configured, wires checked, order
+    found. Raises a `CosimError` subclass listing every problem."""
+    return _guarded(spec.source, lambda: _Builder(flatten(spec)).build())
 
 
 def _guarded(source: str, make: Any) -> Any:
@@ -93,10 +95,13 @@ def _guarded(source: str, make: Any) -> Any:
 
 
 class _Builder:
-    def __init__(self, spec: ScenarioSpec):
-        self.spec = spec
+    def __init__(self, flat: Flat):
+        self.spec = flat.spec
+        self.exposed = flat.exposed
+        self.flat_problems = flat.problems
         self.problems: list[Problem] = []
-        self.miswired: set[tuple[str, str]] = set()  # inputs of wires refused
+        self.miswired: set[tuple[str, str]] = set(flat.miswired)  # inputs of wires refused
+        self.broken: set[int] = set()  # ids of the exposures found wrong
 
     def fail_if_problems(self, kind: type[ScenarioError] = ScenarioError) -> None:
         if self.problems:
@@ -106,7 +111,11 @@ class _Builder:
     def build(self) -> System:
         comps = self.components()
         experiment = self.experiment()
+        if not self.problems:
+            self.check_steps(comps, experiment.step)
         self.fail_if_problems()
+        self.problems += self.flat_problems
+        self.check_exposed(comps)
         conns = self.connections(comps)
         self.check_drivers(comps, conns)
         self.fail_if_problems(WiringError)
@@ -157,12 +166,24 @@ class _Builder:
             self.configure(comp, name, params, "parameters", ("parameter",))
             self.configure(comp, name, spec.initial, "initial", ("state", "input"))
             given = frozenset(params) | frozenset(construction)
-            for key, message, fix in comp.check(given):
-                where = spec.parameters[key].where if key in given else spec.where
-                self.problems.append(Problem(where, f"component '{name}' ({kind}): {message}",
-                                             fix))
+            self.report(name, comp.check(given))
             comps[name] = comp
         return comps
+
+    def report(self, name: str, problems: list[tuple[str, str, str]]) -> None:
+        """`Component.check`-style problems of component `name`, each at the parameter at fault
+        when the scenario sets it."""
+        spec = self.spec.components[name]
+        for key, message, fix in problems:
+            where = spec.parameters[key].where if key in spec.parameters else spec.where
+            self.problems.append(Problem(where, f"component '{name}' ({spec.kind.value}): "
+                                         f"{message}", fix))
+
+    def check_steps(self, comps: dict[str, Component], step: float) -> None:
+        """Each component's problems with its step (the base step times its step_multiple)."""
+        for name, comp in comps.items():
+            h = step * int(self.spec.components[name].step_multiple.value)
+            self.report(name, comp.check_step(h))
 
     def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
         """The class of a component's kind, or None after adding the problem."""
@@ -176,10 +197,11 @@ class _Builder:
         except KeyError:
             self.problems.append(Problem(
                 spec.kind.where, f"component '{name}': unknown kind "
-                f"'{kind}'{suggest(kind, list(kinds()))}.",
+                f"'{kind}'{suggest(kind, [*kinds(), 'system'])}.",
                 f"use one of: {', '.join(sorted(kinds()))} (`twmr components` lists them), or "
                 f"a class of your own: 'my_block.py:MyBlock' (a file next to the scenario) or "
-                f"'package.module:MyBlock'."))
+                f"'package.module:MyBlock', or 'system' with 'parameters: {{path: file.yaml}}' "
+                f"(another scenario file as a block, docs/systems.md)."))
             return None
         except ImportError as err:
             self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
@@ -189,10 +211,24 @@ class _Builder:
 
     def configure(self, comp: Component, name: str, values: dict[str, Given[Any]],
                   section: str, allowed: tuple[str, ...]) -> None:
-        for key, given in sorted(values.items(), key=lambda kv: kv[0] not in
-                                 comp.sizing_parameters):
+        # sizing parameters first, elements ('pose[1]') after the whole values they change
+        for key, given in sorted(values.items(), key=lambda kv: (kv[0] not in
+                                 comp.sizing_parameters, "[" in kv[0])):
             loc, value = given.where, given.value
+            element = _ELEMENT_KEY.match(key)
+            if element and element["name"] in comp.variables:
+                self.configure_element(comp, name, element["name"], int(element["index"]),
+                                       given, section, allowed)
+                continue
             var = comp.variables.get(key)
+            base = comp.aliases.get(key)
+            if base is not None:
+                also = f" ('{base}' is set as well)" if base in values else ""
+                self.problems.append(Problem(loc, f"component '{name}': '{key}' is an alias of "
+                                             f"'{base}'{also}: one variable of the FMU under "
+                                             f"two names, which is set only as '{base}'.",
+                                             f"set '{base}' only (and drop '{key}')."))
+                continue
             names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:
                 what = "parameter" if section == "parameters" else "state or input"
@@ -213,9 +249,42 @@ class _Builder:
                     loc, f"component '{name}', {var.kind} '{key}' = {value!r}: {err}.",
                     f"give {_expected(var)}."))
 
+    def configure_element(self, comp: Component, name: str, key: str, index: int,
+                          given: Given[Any], section: str, allowed: tuple[str, ...]) -> None:
+        """Element `index` (1-based) of vector `key` set to the given value, the others kept."""
+        var = comp.variables[key]
+        where = f"'{name}.{key}[{index}]'"
+        if var.kind not in allowed:
+            self.problems.append(Problem(given.where, f"{where}: '{key}' is a {var.kind}; it "
+                                         f"is not set under '{section}:'.",
+                                         "set a parameter, a state or an input."))
+            return
+        current = comp.get(key)
+        if not isinstance(current, tuple) or not 1 <= index <= len(current):
+            size = len(current) if isinstance(current, tuple) else 0
+            self.problems.append(Problem(
+                given.where, f"{where}: '{name}.{key}' has "
+                f"{f'{size} elements' if size else 'no elements (a scalar)'}.",
+                f"index from 1 to {size}." if size else f"set {name}.{key}=value."))
+            return
+        try:
+            values = list(current)
+            values[index - 1] = _quantity(given.value, var, index - 1)
+            comp.set_parameter(key, values)
+        except (ValueError, TypeError, UnitError) as err:
+            self.problems.append(Problem(given.where, f"component '{name}', {where} = "
+                                         f"{given.value!r}: {err}.", "give a number."))
+
     def experiment(self) -> Experiment:
         e = self.spec.experiment
         times = {"start": e.start, "stop": e.stop, "step": e.step}
+        if e.stop.value is None or e.step.value is None:
+            self.problems.append(Problem(e.where, f"{self.spec.source} has no 'experiment:' "
+                                         f"(it is a subsystem: it exposes ports), so it does not "
+                                         f"run on its own.", "include it from a scenario with "
+                                         "'kind: system', or give it 'experiment: {stop: ..., "
+                                         "step: ...}'."))
+            return Experiment()
         start, stop, step = (float(g.value) for g in times.values())
         bad = [k for k, v in (("start", start), ("stop", stop), ("step", step))
                if not math.isfinite(v)]
@@ -249,6 +318,53 @@ class _Builder:
                                          f"'twmr.algorithms' entry points)."))
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value)
 
+    def check_exposed(self, comps: dict[str, Component]) -> None:
+        """Every exposed port names an inner port of its side, with a declared unit that
+        converts to the inner port's (one per element when a list)."""
+        for ex in self.exposed:
+            where, kind = ex.via.exposure.port.where, "input" if ex.side == "dst" else "output"
+            what = f"exposed {kind} '{ex.via.path}' ({ex.via.exposure.port.value})"
+            found: list[Problem] = []
+            var = find_port(comps, ex.end, where, found)
+            if var is not None and (var.kind == "input") != (kind == "input"):
+                other = "outputs" if kind == "input" else "inputs"
+                found.append(Problem(where, f"'{ex.end.text}' is {_article(var.kind)} "
+                                     f"{var.kind}, not an {kind}.",
+                                     f"expose it under '{other}:', or name an {kind} here."))
+            elif var is not None and ex.via.exposure.unit is not None:
+                found += self.exposed_units(ex, var, ex.via.exposure.unit)
+            for p in found:
+                self.problems.append(Problem(p.location, f"{what}: {p.message}", p.hint))
+            if found:
+                self.broken.add(id(ex.via.exposure))
+
+    def exposed_units(self, ex: Exposed, var: Any, unit: Given[Any]) -> list[Problem]:
+        """The problems of an exposed port's declared `unit` (one, or one per element) against
+        the inner port's."""
+        where = unit.where
+        elements = ex.end.index if ex.end.index is not None else tuple(range(var.width))
+        if isinstance(unit.value, list) and len(unit.value) != len(elements):
+            return [Problem(where, f"{len(unit.value)} unit(s) declared for "
+                            f"{len(elements)} element(s) of '{ex.end.text}'.",
+                            f"give one unit for all, or a list of {len(elements)}.")]
+        problems: list[Problem] = []
+        for k, i in enumerate(elements):
+            inner, outer = var.element_unit(i), ex.via.unit(k)
+            if not inner or inner == outer:
+                continue
+            a, b = known_unit(outer), known_unit(inner, var.unit_definitions)
+            try:
+                if a is None or b is None:
+                    raise UnitError(outer)
+                conversion(a, b)
+            except UnitError:
+                problems.append(Problem(where, f"declared unit '{outer}' (element {k + 1}) "
+                                        f"cannot be converted to '{inner}' of "
+                                        f"'{ex.end.text}'.", f"declare '{inner}' or a unit of "
+                                        f"the same quantity."))
+                break
+        return problems
+
     def connections(self, comps: dict[str, Component]) -> list[Connection]:
         conns: list[Connection] = []
         for given in self.spec.connections:
@@ -265,7 +381,12 @@ class _Builder:
                 if named:  # reported; its input is not reported again as unconnected
                     self.miswired.add((named.group(1), named.group(2)))
                 continue
-            made = wire(comps, src, dst, loc, self.problems)
+            src_via, dst_via = (given.src_via, given.dst_via) if isinstance(given, Wire) \
+                else ((), ())
+            if any(id(v.exposure) in self.broken for v in (*src_via, *dst_via)):
+                self.miswired.add((dst.comp, dst.port))  # reported where it is exposed
+                continue
+            made = wire(comps, src, dst, loc, self.problems, src_via, dst_via)
             if not made:  # reported; its input is not reported again as unconnected
                 self.miswired.add((dst.comp, dst.port))
             conns += made
@@ -284,28 +405,49 @@ class _Builder:
                         f"'{first}' ({first.location}) and by '{c}'.",
                         "keep one wire per input (add a `sum` block to combine signals)."))
                 driven[key] = c
-        opened: set[tuple[str, str]] = set()
-        for given in self.spec.open:
-            text = str(given.value)
-            owner, _, port = text.partition(".")
-            var = comps[owner].variables.get(port) if owner in comps else None
-            if var is None or var.kind != "input":
-                inputs = list(comps[owner].inputs) if owner in comps else []
-                self.problems.append(Problem(given.where, f"'{text}' in 'open:' is not an input"
-                                             f"{suggest(port, inputs)}.",
-                                             "list inputs as component.input."))
-                continue
-            opened.add((owner, port))
+        opened = self.opened(comps)
         for name, comp in comps.items():
             for port, var in comp.inputs.items():
-                missing = [j for j in range(var.width) if (name, port, j) not in driven]
-                if missing and (name, port) not in opened | self.miswired and not var.optional:
+                missing = [j for j in range(var.width) if (name, port, j) not in driven
+                           and (name, port, j) not in opened]
+                if missing and (name, port) not in self.miswired and not var.optional:
                     which = "" if len(missing) == var.width else \
                         f" (elements {', '.join(str(j + 1) for j in missing)})"
                     self.problems.append(Problem(
                         self.spec.components[name].where, f"input '{name}.{port}'{which} is not "
                         f"connected.", f"wire an output to it ('x.y -> {name}.{port}'), or list "
-                        f"'{name}.{port}' under 'open:' to keep its start value {var.start!r}."))
+                        f"'{name}.{port}' under 'open:' to keep its start value "
+                        f"{comp.get(port)!r}."))
+
+    def opened(self, comps: dict[str, Component]) -> set[tuple[str, str, int]]:
+        """The input elements `open:` keeps at their start values: entries `comp.input`,
+        wildcards (`ft.*`, `*.u`) and elements (`lag.u[3]`, `lag.u[1,3]`)."""
+        opened: set[tuple[str, str, int]] = set()
+        for given in self.spec.open:
+            text = str(given.value).strip()
+            m = _OPEN.match(text)
+            pattern, chosen = (m["pattern"], m["elements"]) if m else (text, None)
+            matched = [(n, p, v) for n, c in comps.items() for p, v in c.inputs.items()
+                       if fnmatch.fnmatchcase(f"{n}.{p}", pattern)]
+            if not matched:
+                owner, _, port = pattern.rpartition(".")
+                inputs = list(comps[owner].inputs) if owner in comps else []
+                self.problems.append(Problem(given.where, f"'{text}' in 'open:' is no input"
+                                             f"{suggest(port, inputs)}.",
+                                             "list inputs as component.input, with wildcards "
+                                             "(ft.*) or elements (lag.u[3]) if needed."))
+                continue
+            for n, p, v in matched:
+                indices = range(v.width) if chosen is None else \
+                    [int(i) - 1 for i in chosen.split(",")]
+                bad = [i + 1 for i in indices if not 0 <= i < v.width]
+                if bad:
+                    self.problems.append(Problem(given.where, f"'{text}' in 'open:': '{n}.{p}' "
+                                                 f"has {v.width} element(s), not {bad[0]}.",
+                                                 f"index from 1 to {v.width}."))
+                    continue
+                opened |= {(n, p, i) for i in indices}
+        return opened
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record
@@ -327,6 +469,10 @@ class _Builder:
                                                  "('ctrl.*')."))
                 chosen += [h for h in hits if h not in chosen]
         return RecordSpec(tuple(chosen), int(spec.decimation.value))
+
+
+_OPEN = re.compile(r"^(?P<pattern>[^\[\]]+?)\s*(?:\[(?P<elements>[\d,\s]+)\])?$")
+_ELEMENT_KEY = re.compile(r"^(?P<name>\w+)\[(?P<index>\d+)\]$")
 
 
 def _value(value: Any, var: Any) -> Any:
@@ -354,6 +500,10 @@ def _quantity(value: Any, var: Any, index: int) -> Any:
                          f"converted to; give a plain number")
     gain, offset = conversion(m.group(2), unit)
     return float(m.group(1)) * gain + offset
+
+
+def _article(word: str) -> str:
+    return "an" if word[0] in "aeiou" else "a"
 
 
 def _file_of(cls: type) -> Path | None:

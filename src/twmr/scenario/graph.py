@@ -14,7 +14,9 @@ import heapq
 import itertools
 import logging
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
 from twmr.core.errors import Location, Problem, UnitError
@@ -23,11 +25,15 @@ from twmr.core.units import conversion, known_unit
 from twmr.registry import suggest
 from twmr.scenario.system import Connection
 
+if TYPE_CHECKING:
+    from twmr.scenario.flatten import Via
+
 log = logging.getLogger("twmr")
 
 #: the most elements one end of a wire may select
 MAX_SELECTED = 1_000_000
-_END = re.compile(r"^\s*([A-Za-z_]\w*)\.([A-Za-z_][\w]*)\s*(\[\s*([0-9:,\s]+)\s*\])?\s*$")
+_END = re.compile(r"^\s*([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)\.([A-Za-z_]\w*)\s*"
+                  r"(\[\s*([0-9:,\s]+)\s*\])?\s*$")
 
 
 @dataclass(frozen=True)
@@ -41,7 +47,8 @@ class End:
 
 
 def parse_end(text: str) -> End:
-    """'plant.pose[1:2]' -> End('plant', 'pose', (0, 1)). ValueError with a plain message."""
+    """'plant.pose[1:2]' -> End('plant', 'pose', (0, 1)); the last dot separates the port
+    ('robot.plant.pose' -> End('robot.plant', 'pose', None)). ValueError with a plain message."""
     m = _END.match(text)
     if not m:
         raise ValueError(f"'{text.strip()}' is not of the form component.port or "
@@ -74,8 +81,17 @@ def find_port(comps: dict[str, Component], end: End, loc: Location,
                                 f"use one of: {', '.join(comps)}."))
         return None
     var = comp.variables.get(end.port)
+    if var is None and end.port in comp.aliases:
+        base = comp.aliases[end.port]
+        parameter = getattr(comp.variables.get(base), "kind", "") == "parameter"
+        problems.append(Problem(loc, f"'{end.comp}.{end.port}' is an alias of "
+                                f"{'parameter ' if parameter else ''}'{end.comp}.{base}' (one "
+                                f"variable of the FMU under two names), not a port.",
+                                f"set '{base}' under 'parameters:' (parameters are not wired)."
+                                if parameter else f"wire '{end.comp}.{base}'."))
+        return None
     if var is None or var.kind == "parameter":
-        ports = [n for n, v in comp.variables.items() if v.kind in ("input", "output")]
+        ports = [n for n, v in comp.variables.items() if v.kind in ("input", "output", "state")]
         problems.append(Problem(loc, f"component '{end.comp}' ({type(comp).__name__}) has no port "
                                 f"'{end.port}'{suggest(end.port, ports)}.",
                                 f"its ports are: {', '.join(ports)}."))
@@ -88,9 +104,57 @@ def find_port(comps: dict[str, Component], end: End, loc: Location,
     return var
 
 
+@dataclass(frozen=True)
+class _Node:
+    """One unit on a wire's way: an end's element, or an exposed port's declared unit."""
+
+    unit: str
+    definitions: dict[str, Any] | None
+    port: str
+    element: int
+    end: End | None = None
+
+
+def _leg(x: _Node, y: _Node, comps: dict[str, Component], loc: Location,
+         problems: list[Problem], unitless: list[str]) -> tuple[float, float] | None:
+    """(gain, offset) from unit `x` to unit `y`, or None after adding the problem."""
+    su, du = x.unit, y.unit
+    if not su or not du:  # unspecified on one side: no check, no scale
+        for node, unit, other in ((x, su, du), (y, du, su)):
+            if node.end is not None and not unit and other and \
+                    not getattr(comps[node.end.comp], "generic_units", True):
+                unitless.append(f"'{node.port}' declares no unit but is wired to '{other}'")
+        return 1.0, 0.0
+    ua, ub = known_unit(su, x.definitions), known_unit(du, y.definitions)
+    if ua is None or ub is None:
+        if su == du:  # the same unit, though not one we can convert: pass as is
+            return 1.0, 0.0
+        unknown = [f"'{u}' ('{n.port}')" for u, n, k in ((su, x, ua), (du, y, ub)) if k is None]
+        problems.append(Problem(
+            loc, f"unit mismatch: '{x.port}' element {x.element + 1} is in '{su}' and "
+            f"'{y.port}' element {y.element + 1} in '{du}', and {' and '.join(unknown)} "
+            f"is neither a Modelica unit nor defined with a BaseUnit in the FMU's "
+            f"UnitDefinitions, so no conversion between them is known.",
+            "use the same unit string at both ends, or give the unit a BaseUnit in the FMU's "
+            "UnitDefinitions."))
+        return None
+    try:
+        return conversion(ua, ub)
+    except UnitError:
+        problems.append(Problem(
+            loc, f"unit mismatch: '{x.port}' element {x.element + 1} is in '{su}' but "
+            f"'{y.port}' element {y.element + 1} expects '{du}'; these units measure "
+            f"different quantities.", "connect a port that measures the same quantity, or "
+            "fix the unit declared by one of the components."))
+        return None
+
+
 def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
-         problems: list[Problem]) -> list[Connection]:
-    """Checked Connection(s) for one wire (split per element when units need per-element gains)."""
+         problems: list[Problem], src_via: Sequence[Via] = (), dst_via: Sequence[Via] = ()
+         ) -> list[Connection]:
+    """Checked Connection(s) for one wire (split per element when units need per-element gains);
+    the units declared by the exposed ports it passes through (`src_via` innermost first,
+    `dst_via` outermost first, `twmr.scenario.flatten`) are steps of its conversion."""
     a = find_port(comps, src, loc, problems)
     b = find_port(comps, dst, loc, problems)
     if a is None or b is None:
@@ -119,39 +183,19 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
         return []
     gains = []
     unitless: list[str] = []
-    for i, j in zip(sidx, didx, strict=False):
-        su, du = a.element_unit(i), b.element_unit(j)
-        if not su or not du:  # unspecified on one side: no check, no scale
-            for end, unit, other in ((src, su, du), (dst, du, su)):
-                if not unit and other and not getattr(comps[end.comp], "generic_units", True):
-                    unitless.append(f"'{end.comp}.{end.port}' declares no unit but is wired to "
-                                    f"'{other}'")
-            gains.append((1.0, 0.0))
-            continue
-        ua, ub = known_unit(su, a.unit_definitions), known_unit(du, b.unit_definitions)
-        if ua is None or ub is None:
-            if su == du:  # the same unit, though not one we can convert: pass as is
-                gains.append((1.0, 0.0))
-                continue
-            unknown = [f"'{u}' ('{e.comp}.{e.port}')" for u, e, k in
-                       ((su, src, ua), (du, dst, ub)) if k is None]
-            problems.append(Problem(
-                loc, f"unit mismatch: '{src.comp}.{src.port}' element {i + 1} is in '{su}' and "
-                f"'{dst.comp}.{dst.port}' element {j + 1} in '{du}', and {' and '.join(unknown)} "
-                f"is neither a Modelica unit nor defined with a BaseUnit in the FMU's "
-                f"UnitDefinitions, so no conversion between them is known.",
-                "use the same unit string at both ends, or give the unit a BaseUnit in the FMU's "
-                "UnitDefinitions."))
+    for k, (i, j) in enumerate(zip(sidx, didx, strict=False)):
+        nodes = [_Node(a.element_unit(i), a.unit_definitions, f"{src.comp}.{src.port}", i, src),
+                 *(_Node(v.unit(k), None, v.path, v.element(k)) for v in (*src_via, *dst_via)
+                   if v.unit(k)),
+                 _Node(b.element_unit(j), b.unit_definitions, f"{dst.comp}.{dst.port}", j, dst)]
+        found = [_leg(x, y, comps, loc, problems, unitless) for x, y in itertools.pairwise(nodes)]
+        legs = [leg for leg in found if leg is not None]
+        if len(legs) != len(found):
             return []
-        try:
-            gains.append(conversion(ua, ub))
-        except UnitError:
-            problems.append(Problem(
-                loc, f"unit mismatch: '{src.comp}.{src.port}' element {i + 1} is in '{su}' but "
-                f"'{dst.comp}.{dst.port}' element {j + 1} expects '{du}'; these units measure "
-                f"different quantities.", "connect a port that measures the same quantity, or "
-                "fix the unit declared by one of the components."))
-            return []
+        g, o = legs[0]
+        for lg, lo in legs[1:]:
+            g, o = lg * g, lg * o + lo
+        gains.append((g, o))
     if unitless:
         log.warning("%s: %s; the value passes unconverted. Fix: check both ends measure the "
                     "same quantity in the same unit.", loc, "; ".join(dict.fromkeys(unitless)))

@@ -1,4 +1,5 @@
-"""Text for `twmr check` (a built System) and `twmr components` (the known kinds)."""
+"""Text for `twmr check` (a built System, the tree of subsystems) and `twmr components` (the
+known kinds)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,6 +7,7 @@ from pathlib import Path
 from twmr.core.component import Component
 from twmr.registry import kinds, lookup
 from twmr.scenario.kinds import KindError
+from twmr.scenario.structure import Exposure, ScenarioSpec
 from twmr.scenario.system import System
 
 
@@ -33,7 +35,8 @@ def describe(system: System) -> str:
         driven.add((c.dst, c.dst_port))
     unwired = [(n, p, v) for n, comp in system.components.items()
                for p, v in comp.inputs.items() if (n, p) not in driven]
-    opened = [f"{n}.{p} = {v.start!r}" for n, p, v in unwired if not v.optional]
+    opened = [f"{n}.{p} = {system.components[n].get(p)!r}" for n, p, v in unwired
+              if not v.optional]
     if opened:
         lines.append("open inputs (start values): " + ", ".join(opened))
     optional = [f"{n}.{p}" for n, p, v in unwired if v.optional]
@@ -42,6 +45,30 @@ def describe(system: System) -> str:
     rec = ", ".join(f"{n}.{p}" for n, p in system.record.signals)
     lines.append(f"recorded every {system.record.decimation} step(s): {rec}")
     return "\n".join(lines)
+
+
+def tree(spec: ScenarioSpec, indent: str = "  ") -> list[str]:
+    """The components of `spec` as a tree: each block with its kind, each subsystem with its
+    file, the ports it exposes and its own components below it."""
+    lines: list[str] = []
+    for name, comp in spec.components.items():
+        if comp.system is None:
+            lines.append(f"{indent}{name}: {comp.kind.value}")
+            continue
+        inner = comp.system
+        lines.append(f"{indent}{name}: system {inner.source}")
+        lines += [f"{indent}  input  {_exposed(e)} -> {e.port.value}"
+                  for e in inner.inputs.values()]
+        lines += [f"{indent}  output {_exposed(e)} <- {e.port.value}"
+                  for e in inner.outputs.values()]
+        lines += tree(inner, indent + "  ")
+    return lines
+
+
+def _exposed(e: Exposure) -> str:
+    unit = e.unit.value if e.unit is not None else None
+    text = ", ".join(unit) if isinstance(unit, list) else unit
+    return f"{e.name} [{text}]" if text else e.name
 
 
 def _kind_text(name: str, cls: type[Component]) -> list[str]:

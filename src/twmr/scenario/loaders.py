@@ -2,7 +2,8 @@
 
 `load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `read_structure(source)`
 reads YAML text or a dict of the same shape. A YAML value's location is its file, line and key
-path; a dict's is its key path. Another format (SSP) adds its loader to `LOADERS`.
+path; a dict's is its key path. SSP (`.ssp`, `.ssd`, an unpacked folder) is read by
+`twmr.fmi.ssp`.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from twmr.registry import suggest
 from twmr.scenario.structure import (
     ComponentSpec,
     ExperimentSpec,
+    Exposure,
     Given,
     RecordingSpec,
     ScenarioSpec,
@@ -75,29 +77,43 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
                                     "'components:' and 'experiment:'.",
                                     "see docs/contracts.md for the format."))
     problems = schema_problems(data, lines.at)
+    if "experiment" not in data and not data.keys() & {"inputs", "outputs"}:
+        problems.append(Problem(Location(source, 1), "'experiment' is a required property.",
+                                "add 'experiment: {stop: ..., step: ...}' (only a subsystem "
+                                "file, one that exposes inputs: or outputs:, may leave it out)."))
     if problems:
         raise ScenarioError(problems)
     at = lines.at
 
     def given(*path: Any, default: Any = None) -> Given[Any]:
         node: Any = data
-        for key in path:
-            node = node.get(key, default) if isinstance(node, dict) else node[key]
+        for i, key in enumerate(path):
+            missing = default if i == len(path) - 1 else None  # a section may be left out
+            node = node.get(key, missing) if isinstance(node, dict) else \
+                missing if node is None else node[key]
         return Given(node, at(*path))
 
     comps = {}
     for name, spec in data["components"].items():
         where = ("components", name)
+        kind = given(*where, "kind")
+        parameters = {k: given(*where, "parameters", k) for k in spec.get("parameters") or {}}
+        initial = {k: given(*where, "initial", k) for k in spec.get("initial") or {}}
+        inner = None
+        if kind.value == "system":
+            from twmr.scenario.include import subsystem
+
+            inner = subsystem(name, parameters, initial, at(*where), source, base_dir)
+            parameters, initial = {k: v for k, v in parameters.items() if k == "path"}, {}
         comps[name] = ComponentSpec(
-            name, given(*where, "kind"),
-            {k: given(*where, "parameters", k) for k in spec.get("parameters") or {}},
-            {k: given(*where, "initial", k) for k in spec.get("initial") or {}},
-            given(*where, "step_multiple", default=1), at(*where),
-            spec.get("description", ""))
+            name, kind, parameters, initial, given(*where, "step_multiple", default=1),
+            at(*where), spec.get("description", ""), inner)
     e = ("experiment",)
     experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),
                                 given(*e, "step"), given(*e, "algorithm", default="gauss_seidel"),
                                 given(*e, "realtime"), at(*e))
+    exposed = {side: {n: _exposure(n, data[side][n], at, side) for n in data.get(side) or {}}
+               for side in ("inputs", "outputs")}
     rec = data.get("record") or {}
     signals = None if rec.get("signals") is None else tuple(
         given("record", "signals", i) for i in range(len(rec["signals"])))
@@ -108,7 +124,15 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         tuple(given("connections", i) for i in range(len(data.get("connections") or []))),
         tuple(given("open", i) for i in range(len(data.get("open") or []))),
         experiment, record, data.get("description", ""),
-        {key: at(key) for key in data})
+        {key: at(key) for key in data}, exposed["inputs"], exposed["outputs"])
+
+
+def _exposure(name: str, value: Any, at: At, side: str) -> Exposure:
+    """An exposed port as written: 'comp.port' or {port: 'comp.port', unit: ...}."""
+    if isinstance(value, str):
+        return Exposure(name, Given(value, at(side, name)), None, at(side, name))
+    unit = Given(value["unit"], at(side, name, "unit")) if "unit" in value else None
+    return Exposure(name, Given(value["port"], at(side, name, "port")), unit, at(side, name))
 
 
 def read_structure(source: str | dict[str, Any], name: str = "<string>",
@@ -126,12 +150,22 @@ def load_yaml(path: Path) -> ScenarioSpec:
     return read_structure(read_file(path), str(path), path.resolve().parent)
 
 
+def load_ssp(path: Path) -> ScenarioSpec:
+    """The structure of an SSP archive, folder or .ssd file (`twmr.fmi.ssp`)."""
+    from twmr.fmi.ssp import load_ssp as load
+
+    return load(path)
+
+
 #: a loader by file suffix: path -> ScenarioSpec
-LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml}
+LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml,
+                                                      ".ssp": load_ssp, ".ssd": load_ssp}
 
 
 def load_structure(path: str | Path) -> ScenarioSpec:
     """The structure of the scenario file at `path`, by the loader of its suffix (YAML for an
-    unknown one)."""
+    unknown one); a folder holding SystemStructure.ssd is an unpacked SSP."""
     path = Path(path)
+    if path.is_dir():
+        return load_ssp(path)
     return LOADERS.get(path.suffix.lower(), load_yaml)(path)

@@ -2,8 +2,11 @@
 `twmr.load`) replaces the scenario's, located at its `--set` text.
 
 `comp.name=value` sets a parameter (or the initial value of an input or state) or the
-component's `step_multiple`; `experiment.name=value` an experiment setting. Values are YAML
-scalars or flow lists; each is checked against the same JSON Schema as the file's values.
+component's `step_multiple`; `experiment.name=value` an experiment setting. A block inside a
+subsystem is named by its path: `robot.plant.scale=2` (the last dot separates the name);
+`assign` is the same for values an including file sets (`parameters: {plant.scale: 2}`).
+Values are YAML scalars or flow lists; each is checked against the same JSON Schema as the
+file's values.
 """
 from __future__ import annotations
 
@@ -53,8 +56,9 @@ def _parse(text: str, key: str, value: str, loc: Location, problems: list[Proble
 def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSpec:
     loc = Location("--set", 0, text)
     key, sep, value = text.partition("=")
-    comp, dot, name = key.strip().partition(".")
-    if not sep or not dot or not name:
+    path, name = _split(spec, key.strip())
+    comp = ".".join(path)
+    if not sep or not path or not name or not comp:
         problems.append(Problem(loc, f"cannot read the override '{text}'.", _FORM))
         return spec
     ok, parsed = _parse(text, key.strip(), value, loc, problems)
@@ -75,21 +79,68 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
         changes: dict[str, Any] = {name: Given(parsed, loc)}
         return dataclasses.replace(spec, experiment=dataclasses.replace(spec.experiment,
                                                                         **changes))
-    target = spec.components.get(comp)
+    return assign(spec, path, name, Given(parsed, loc), problems)
+
+
+def assign(spec: ScenarioSpec, path: Sequence[str], name: str, value: Given[Any],
+           problems: list[Problem], outer: str = "") -> ScenarioSpec:
+    """`spec` with `name` of the component at `path` (instance names, outermost first: a block
+    inside subsystems) set to `value`, or unchanged after adding the problem. `outer` is the
+    dotted path of `spec` itself inside the scenario ('' at the top)."""
+    loc = value.where
+    head, full = path[0], ".".join((*([outer] if outer else []), *path))
+    target = spec.components.get(head)
     if target is None:
-        problems.append(Problem(loc, f"no component '{comp}'{suggest(comp, list(spec.components))}"
-                                f".", "use a component name of the scenario, or 'experiment'."))
+        inside = f" in the subsystem '{outer}' ({spec.source})" if outer else ""
+        problems.append(Problem(loc, f"no component '{head}'{inside}"
+                                f"{suggest(head, list(spec.components))}.",
+                                f"use one of: {', '.join(spec.components)}"
+                                f"{'' if outer else ', or experiment'}."))
         return spec
-    if name == "step_multiple":
+    here = f"{outer}.{head}" if outer else head
+    if len(path) > 1:
+        if target.system is None:
+            problems.append(Problem(loc, f"'{here}' ({target.kind.value}) is a block, not a "
+                                    f"subsystem, so '{full}.{name}' names nothing.",
+                                    f"write {here}.{path[1]}=value."))
+            return spec
+        changed = dataclasses.replace(target, system=assign(target.system, path[1:], name,
+                                                            value, problems, here))
+    elif name == "step_multiple":
         part = schema()["properties"]["components"]["additionalProperties"]["properties"]
-        found = schema_problems(parsed, lambda *_: loc, ("components", comp, "step_multiple"),
-                                part["step_multiple"])
+        found = schema_problems(value.value, lambda *_: loc,
+                                ("components", head, "step_multiple"), part["step_multiple"])
         problems += found
-        changed = target if found else dataclasses.replace(target,
-                                                           step_multiple=Given(parsed, loc))
+        changed = target if found else dataclasses.replace(target, step_multiple=value)
+    elif target.system is not None:
+        blocks = ", ".join(f"{here}.{b}" for b in target.system.components)
+        problems.append(Problem(loc, f"'{here}' is a subsystem ({target.system.source}); "
+                                f"'{name}' is not one of its values.",
+                                f"set a value of one of its blocks ({blocks}): "
+                                f"{here}.<block>.{name}=value."))
+        return spec
     else:
-        changed = _set_value(spec, target, name, Given(parsed, loc))
-    return dataclasses.replace(spec, components={**spec.components, comp: changed})
+        changed = _set_value(spec, target, name, value)
+    return dataclasses.replace(spec, components={**spec.components, head: changed})
+
+
+def _split(spec: ScenarioSpec, key: str) -> tuple[list[str], str]:
+    """(instance path, value name) of 'comp.name': the longest instance name the scenario has
+    (a flattened SSP system's 'sub.comp'; an FMU's dotted names such as 'Add1.gain.k' stay
+    whole), through subsystems ('robot.plant.scale'); the text before the last dot when no
+    instance matches (the error names it)."""
+    parts = key.split(".")
+    for i in range(len(parts) - 1, 0, -1):
+        head = ".".join(parts[:i])
+        target = spec.components.get(head)
+        if target is None:
+            continue
+        if target.system is not None and i < len(parts) - 1:
+            inner, name = _split(target.system, ".".join(parts[i:]))
+            return [head, *inner], name
+        return [head], ".".join(parts[i:])
+    comp, _, name = key.rpartition(".")
+    return (comp.split(".") if comp else []), name
 
 
 def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
@@ -97,7 +148,7 @@ def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
     """`comp` with `name` set under 'initial' (an input or state of its kind) or 'parameters'."""
     section = "parameters"
     try:
-        var = lookup(comp.kind.value, spec.base_dir).declared().get(name)
+        var = lookup(comp.kind.value, spec.base_dir).declared().get(name.partition("[")[0])
         if var is not None and var.kind in ("state", "input"):
             section = "initial"
     except Exception:  # noqa: BLE001 - a kind that does not load is reported by the builder

@@ -6,6 +6,11 @@ file and line and the key path; the `--set` text for an override; the key path a
 dict). The YAML and dict loaders (`twmr.scenario.loaders`) make it, `--set` overrides
 (`twmr.scenario.overrides`) replace values in it, and `twmr.scenario.build` turns it into a
 `System`.
+
+A component of kind `system` holds the structure of the scenario file it includes
+(`ComponentSpec.system`); a file used as a subsystem names the ports it exposes (`inputs`,
+`outputs`: `Exposure`). `twmr.scenario.flatten` turns the nesting into the flat, dotted-name
+structure the builder reads.
 """
 from __future__ import annotations
 
@@ -39,6 +44,19 @@ class ComponentSpec:
     step_multiple: Given[int]
     where: Location
     description: str = ""
+    system: ScenarioSpec | None = None
+
+
+@dataclass(frozen=True)
+class Exposure:
+    """A port a subsystem file exposes under `name`: the inner end (`comp.port`, an element
+    selection allowed) and the declared unit (one text for every element, a list per element,
+    or None: the inner port's)."""
+
+    name: str
+    port: Given[str]
+    unit: Given[Any] | None
+    where: Location
 
 
 @dataclass(frozen=True)
@@ -67,7 +85,9 @@ class RecordingSpec:
 @dataclass(frozen=True)
 class ScenarioSpec:
     """A whole scenario as loaded: components in the order written, wires
-    ('src.output -> dst.input' texts), inputs left open, the experiment and what to record.
+    ('src.output -> dst.input' texts), inputs left open, the experiment and what to record, and
+    the ports it exposes when used as a subsystem (the experiment's stop and step are None in a
+    subsystem file written without one).
     `base_dir` is the folder relative paths (FMUs, user block files) resolve against;
     `sections` locates the top-level keys ('components', 'connections', ...)."""
 
@@ -80,6 +100,8 @@ class ScenarioSpec:
     record: RecordingSpec
     description: str = ""
     sections: dict[str, Location] = field(default_factory=dict)
+    inputs: dict[str, Exposure] = field(default_factory=dict)
+    outputs: dict[str, Exposure] = field(default_factory=dict)
 
     def at(self, section: str) -> Location:
         """Where a top-level section is (the file alone when it is not written)."""

@@ -78,7 +78,7 @@ def _check_names(scenario: Any, varies: list[Vary]) -> None:
     comps = scenario.system.components
     for v in varies:
         key, index = v.target
-        comp, _, param = key.partition(".")
+        comp, _, param = key.rpartition(".")
         if comp == "experiment":
             known = ["start", "stop", "step", "algorithm", "realtime"]
         elif comp in comps:
@@ -104,7 +104,7 @@ def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
         key, index = v.target
         if index is None:
             continue
-        comp, _, param = key.partition(".")
+        comp, _, param = key.rpartition(".")
         value = comps[comp].get(param)  # the name is known: _check_names ran first
         if not isinstance(value, tuple) or index >= len(value):
             size = len(value) if isinstance(value, tuple) else "a scalar"

@@ -41,7 +41,10 @@ def sweep_report(folder: str | Path, out: str | Path | None = None) -> list[Path
     summary.write_text(_summary(folder, frame, info, note, specs, params, values),
                        encoding="utf-8")
     plotted = {m: v for m, v in values.items() if v.size}
-    return [summary, *_plots(frame, params, plotted, target)]
+    from twmr.registry import metric_units
+
+    units = metric_units([str(m) for m in info.get("metrics") or []])
+    return [summary, *_plots(frame, params, plotted, target, units)]
 
 
 def _read_table(folder: Path) -> Any:
@@ -207,49 +210,51 @@ def _positions(column: Any) -> tuple[np.ndarray, list[str] | None]:
     return x, labels
 
 
-def _plots(frame: Any, params: list[str], values: dict[str, np.ndarray],
-           target: Path) -> list[Path]:
-    """The PNGs of the metrics that have a finite value; the paths written."""
+def _plots(frame: Any, params: list[str], values: dict[str, np.ndarray], target: Path,
+           units: dict[str, str]) -> list[Path]:
+    """The figures (PNG and SVG) of the metrics that have a finite value, each axis with the
+    metric's unit when its set declares one; the PNG paths written."""
     if not values:
         return []
     import pandas as pd
 
-    from twmr.plots import pyplot
+    from twmr.plots import axis_label, legend_outside, line_style, pyplot, save
 
     plt = pyplot()
     written = []
 
-    def save(fig: Any, name: str) -> None:
-        fig.tight_layout()
-        path = target / name
-        fig.savefig(path, dpi=100)
-        plt.close(fig)
-        written.append(path)
+    def keep(fig: Any, name: str) -> None:
+        written.append(save(fig, target / name)[0])
+
+    def label(name: str) -> str:
+        return axis_label(name, units.get(name, ""))
 
     fig, axes = _grid(plt, len(values), 2.6, 3.4)
     for ax, (name, v) in zip(axes, values.items(), strict=False):
         ax.boxplot(v, widths=0.5)
         ax.set_xticks([])
         ax.set_title(name, fontsize=9)
-        ax.set_ylabel(name)
+        ax.set_ylabel(label(name))
         ax.grid(True, axis="y", alpha=0.3)
-    fig.suptitle("Metrics over the ok runs")
-    save(fig, "metrics_boxplot.png")
+    fig.suptitle(f"Each metric over the {len(next(iter(values.values())))} ok runs")
+    keep(fig, "metrics_boxplot.png")
 
     for name, v in values.items():
-        fig, ax = plt.subplots(figsize=(6, 3.6))
-        ax.hist(v, bins=min(30, max(5, math.ceil(math.sqrt(v.size)))), color="tab:blue",
-                alpha=0.8)
+        fig, ax = plt.subplots(figsize=(7, 3.6))
+        ax.hist(v, bins=min(30, max(5, math.ceil(math.sqrt(v.size)))), alpha=0.85,
+                color=line_style(0)["color"])
         p5, p50, p95 = np.percentile(v, [5, 50, 95])
-        ax.axvline(p50, color="k", lw=1.2, label=f"median {p50:.4g}")
-        for p, label in ((p5, "5 %"), (p95, "95 %")):
-            ax.axvline(p, color="k", lw=0.8, ls="--", label=f"{label} {p:.4g}")
-        ax.set_xlabel(name)
+        unit = f" {units[name]}" if units.get(name) else ""
+        ax.axvline(p50, color="k", lw=1.2, label=f"median {p50:.3g}{unit}")
+        for p, text in ((p5, "5 %"), (p95, "95 %")):
+            ax.axvline(p, color="k", lw=0.8, ls="--", label=f"{text} {p:.3g}{unit}")
+        ax.set_xlabel(label(name))
         ax.set_ylabel("ok runs")
-        ax.set_title(f"{name}: {v.size} ok runs")
-        ax.legend(fontsize=8)
+        ax.set_title(f"{name} over {v.size} ok runs: median {p50:.3g}{unit}, 90 % between "
+                     f"{p5:.3g} and {p95:.3g}{unit}", fontsize=9)
+        legend_outside(ax)
         ax.grid(True, alpha=0.3)
-        save(fig, f"hist_{_safe(name)}.png")
+        keep(fig, f"hist_{_safe(name)}.png")
 
     if not params:
         return written
@@ -265,20 +270,22 @@ def _plots(frame: Any, params: list[str], values: dict[str, np.ndarray],
                 x = x + jitter
                 ax.set_xticks(range(len(labels)), labels)
             shown = ok & np.isfinite(x) & np.isfinite(y)
-            ax.scatter(x[shown], y[shown], s=16, alpha=0.7, label=f"ok ({int(shown.sum())})")
+            ax.scatter(x[shown], y[shown], s=16, alpha=0.7, label=f"ok ({int(shown.sum())})",
+                       color=line_style(0)["color"])
             lost = ~ok & np.isfinite(x)
             if lost.any():
                 bottom, top = ax.get_ylim()
-                ax.plot(x[lost], np.full(int(lost.sum()), bottom), "rx", ms=8, mew=1.5,
-                        clip_on=False, label=f"failed ({int(lost.sum())})")
+                ax.plot(x[lost], np.full(int(lost.sum()), bottom), "x", ms=8, mew=1.5,
+                        clip_on=False, label=f"failed ({int(lost.sum())})",
+                        color=line_style(1)["color"])
                 ax.set_ylim(bottom, top)
             ax.set_xlabel(p)
-            ax.set_ylabel(name)
-            ax.set_title(f"{name} vs {p}", fontsize=9)
+            ax.set_ylabel(label(name))
+            ax.set_title(f"{name} against {p}", fontsize=9)
             ax.legend(fontsize=7)
             ax.grid(True, alpha=0.3)
         fig.suptitle(f"{name} against the varied parameters")
-        save(fig, f"scatter_{_safe(name)}.png")
+        keep(fig, f"scatter_{_safe(name)}.png")
     return written
 
 

@@ -32,7 +32,7 @@ from twmr.core.errors import CosimError
 METHODS = ("random", "lhs", "grid")
 #: the most runs one sweep makes (and the longest grid axis): its table is built in memory
 MAX_RUNS = 100_000
-_NAME = re.compile(r"^([A-Za-z_][\w-]*)\.([A-Za-z_]\w*)(?:\[(\d+)\])?$")
+_NAME = re.compile(r"^([A-Za-z_][\w-]*(?:\.[A-Za-z_]\w*)*)\.([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 
 
 class SweepError(CosimError):

@@ -6,8 +6,10 @@
  * At an event with h <= 0 and v <= 0: h := 0, v := -e v, bounces += 1; a rebound speed below
  * V_REST (1e-3 m/s) puts the ball at rest (h = v = 0, derivatives 0, z held at 1: no chattering).
  * Co-simulation: RK4 substeps of at most H_INT, exact here; a ground crossing inside a substep is
- * the root of the same quadratic and gets the same bounce rule. */
+ * the root of the same quadratic and gets the same bounce rule.
+ * The FMU state (both interfaces) is the model's part of the instance, up to `cs`, as bytes. */
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,8 +24,9 @@ typedef enum { M_INSTANTIATED, M_INIT, M_EVENT, M_CONT, M_STEP, M_TERMINATED } M
 
 typedef struct {
     double h, v, g, e, time;
-    int bounces, rest, cs;
+    int bounces, rest;
     Mode mode;
+    int cs; /* from here on the instance's own, not part of a saved state */
     fmi3InstanceEnvironment env;
     fmi3LogMessageCallback log;
 } Inst;
@@ -221,4 +224,28 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     advance(i, h);
     *eventNeeded = fmi3False; *terminate = fmi3False; *early = fmi3False; *last = t + h;
     return fmi3OK;
+}
+
+/* FMU state: the model's values up to `cs` (not the instance's interface or callbacks) */
+#define STATE_SIZE offsetof(Inst, cs)
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
+    void *st = *s ? *s : malloc(STATE_SIZE); /* a state given back is reused */
+    if (!st) return fail((Inst *)c, "fmi3GetFMUState: out of memory");
+    memcpy(st, c, STATE_SIZE); *s = st; return fmi3OK;
+}
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) {
+    if (!s) return fail((Inst *)c, "fmi3SetFMUState: no state");
+    memcpy(c, s, STATE_SIZE); return fmi3OK;
+}
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) { free(*s); *s = NULL; return fmi3OK; }
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState s, size_t *n) { *n = STATE_SIZE; return fmi3OK; }
+fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState s, fmi3Byte b[], size_t n) {
+    if (!s || n != STATE_SIZE) return fail((Inst *)c, "fmi3SerializeFMUState: wrong size");
+    memcpy(b, s, STATE_SIZE); return fmi3OK;
+}
+fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte b[], size_t n, fmi3FMUState *s) {
+    if (n != STATE_SIZE) return fail((Inst *)c, "fmi3DeserializeFMUState: wrong size");
+    void *st = *s ? *s : malloc(STATE_SIZE);
+    if (!st) return fail((Inst *)c, "fmi3DeserializeFMUState: out of memory");
+    memcpy(st, b, STATE_SIZE); *s = st; return fmi3OK;
 }

@@ -34,7 +34,7 @@ COMMON = ("kernel.h", "instance.h", "instance.c")
 HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
            3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
 
-__all__ = ["C_DIR", "CTwin", "export_c_fmu", "twin_of", "twins"]
+__all__ = ["C_DIR", "CTwin", "export_c_fmu", "twin_of", "twins", "write_c_fmu"]
 
 
 def _platform(fmi: int) -> tuple[str, str]:
@@ -73,7 +73,13 @@ def export_c_fmu(kind: str, out_path: str | Path, parameters: dict[str, Any] | N
     kind `kind`, the `parameters` given as start values; returns the path."""
     if fmi not in (2, 3):
         raise CosimError(f"FMI version {fmi!r} is not exported. Fix: use --fmi 2 or --fmi 3.")
-    comp = _component(kind, dict(parameters or {}))
+    return write_c_fmu(_component(kind, dict(parameters or {})), kind, out_path, fmi)
+
+
+def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2) -> Path:
+    """Build `out_path` (.fmu) of the configured component `comp` of the native kind `kind`
+    (its parameters, initial states and input start values as the FMU's start values); the
+    path. CosimError for a variant the kind's C twin does not support."""
     twin = twin_of(kind)
     options = twin.options(comp)  # refuses unsupported variants before anything is written
     twin.fill_empty(comp)

@@ -37,7 +37,8 @@ class CTwin:
     one is exported as n zeros) and `orders` the orders a test exercises; `work(comp)` the number
     of work values, `hidden` the parameters not exported, `pinned(comp)` the parameters whose
     export value decides the FMU's structure (its feedthrough): their min and max are that
-    value; `computed(comp)` further #defines derived from the parameters."""
+    value; `sizes(comp)` further constants #defined from the instance (its tables' lengths, a
+    sign pattern as a C initialiser)."""
 
     source: Path
     headers: tuple[Path, ...] = ()
@@ -51,8 +52,7 @@ class CTwin:
     work: Callable[[Component], int] = field(default=lambda comp: 1)
     hidden: frozenset[str] = frozenset()
     pinned: Callable[[Component], frozenset[str]] = field(default=lambda comp: frozenset())
-    #: #defines that follow from `comp`'s parameters (sizes, a sign pattern as a C initialiser)
-    computed: Callable[[Component], Mapping[str, int | str]] = field(default=lambda comp: {})
+    sizes: Callable[[Component], Mapping[str, int | str]] = field(default=lambda comp: {})
 
     def options(self, comp: Component) -> dict[str, int | str]:
         """The #defines of `comp`'s variant; CosimError for a value the twin does not support."""
@@ -67,7 +67,7 @@ class CTwin:
             out[choice.define] = choice.codes[value]
         if self.order is not None:
             out[self.order_define] = self.order(comp)
-        out.update(self.computed(comp))
+        out.update(self.sizes(comp))
         return out
 
     def fill_empty(self, comp: Component) -> None:

@@ -104,7 +104,7 @@ static const char LOADER[] =
 "        top = (err.name or '').split('.')[0]\n"
 "        if top in ('twmr', 'pythonfmu'):\n"
 "            raise ModuleNotFoundError(\n"
-"                f'this FMU needs Python with twmr-cosim installed (pip install twmr-cosim); '\n"
+"                f'this FMU needs Python with twmr-cosim installed (pip install -e . in a checkout of twmr-cosim); '\n"
 "                f\"the FMU's Python is {sys.executable} (it cannot import {err.name!r})\",\n"
 "                name=err.name) from None\n"
 "        raise ModuleNotFoundError(\n"

@@ -1,0 +1,135 @@
+"""MCAP export (`--format mcap`, `result.mcap`): the robotics log format Foxglove, PlotJuggler,
+rerun and rosbag2 read.
+
+- One channel per component, topic `/<component>` (a subsystem's `robot.plant` is
+  `/robot/plant`), JSON messages (`message_encoding: json`) described by a JSON Schema
+  (`encoding: jsonschema`) whose properties are the component's recorded ports: a scalar is a
+  number, a vector an array of numbers, each with its unit in `unit` and `description`.
+- One message per recorded sample on every channel; log and publish times are the simulated time
+  in integer nanoseconds (`round(t * 1e9)`), so a run from t = 0 starts at 0 ns; the field
+  `time_s` holds that time [s] exactly.
+- A vector recorded whole is an array; elements recorded alone are fields `pose[2]`.
+- Non-finite values, which JSON has no number for, are the strings "NaN", "Infinity" and
+  "-Infinity" (each property's schema admits them).
+- A `twmr.columns` metadata record holds the recorded column names and units in their order, so
+  `read` gives back the columns of `result.arrows` exactly (JSON numbers round-trip float64).
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twmr.core.jsonvalues import NON_FINITE, number
+from twmr.observers.writers import ResultFormat
+
+_ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
+METADATA = "twmr.columns"
+
+
+def _split(column: str) -> tuple[str, str, int | None]:
+    """'robot.plant.pose[2]' -> ('robot.plant', 'pose', 1); 'ctrl.k' -> ('ctrl', 'k', None)."""
+    owner, _, port = column.rpartition(".")
+    match = _ELEMENT.match(port)
+    if match:
+        return owner, match["port"], int(match["index"]) - 1
+    return owner, port, None
+
+
+def _number(v: float) -> float | str:
+    return number(float(v))
+
+
+def _value(v: Any) -> float:
+    return NON_FINITE[v] if isinstance(v, str) else float(v)
+
+
+class Mcap(ResultFormat):
+    """`result.mcap`: one JSON channel per component (see the module's docstring)."""
+
+    suffix = ".mcap"
+
+    def write(self, path: Path, columns: list[str], units: list[str],
+              values: np.ndarray) -> list[Path]:
+        from mcap.writer import Writer
+
+        # component -> port -> [(column index, element index or None)]
+        layout: dict[str, dict[str, list[tuple[int, int | None]]]] = {}
+        unit_of: dict[tuple[str, str], str] = {}
+        for j, column in enumerate(columns[1:], start=1):
+            owner, port, index = _split(column)
+            layout.setdefault(owner, {}).setdefault(port, []).append((j, index))
+            unit_of.setdefault((owner, port), units[j])
+        for ports in layout.values():  # a vector not recorded whole: its elements one by one
+            for port, elements in list(ports.items()):
+                if elements[0][1] is not None and [i for _, i in elements] != list(
+                        range(len(elements))):
+                    del ports[port]
+                    ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
+        number = {"type": ["number", "string"], "description": "a number; non-finite values "
+                  "are the strings NaN, Infinity, -Infinity"}
+        with open(path, "wb") as stream:
+            writer = Writer(stream)
+            writer.start(profile="", library="twmr-cosim")
+            writer.add_metadata(METADATA, {"columns": json.dumps(columns),
+                                           "units": json.dumps(units)})
+            channels = []
+            for owner, ports in layout.items():
+                properties: dict[str, Any] = {"time_s": {"type": "number", "unit": "s",
+                                                         "description": "simulated time [s]"}}
+                for port, elements in ports.items():
+                    unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
+                    text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
+                    if elements[0][1] is None:
+                        properties[port] = {**number, "unit": unit, "description": text}
+                    else:
+                        properties[port] = {"type": "array", "items": number, "unit": unit,
+                                            "description": text}
+                schema = {"title": owner, "type": "object", "properties": properties}
+                schema_id = writer.register_schema(owner, "jsonschema",
+                                                   json.dumps(schema).encode())
+                channel = writer.register_channel(f"/{owner.replace('.', '/')}", "json",
+                                                  schema_id, {"component": owner})
+                channels.append((channel, ports))
+            for sequence, row in enumerate(values):
+                stamp = round(float(row[0]) * 1e9)
+                for channel, ports in channels:
+                    message: dict[str, Any] = {"time_s": float(row[0])}
+                    message.update({port: _number(row[elements[0][0]]) if elements[0][1] is None
+                                    else [_number(row[j]) for j, _ in elements]
+                                    for port, elements in ports.items()})
+                    writer.add_message(channel, log_time=stamp, publish_time=stamp,
+                                       sequence=sequence, data=json.dumps(message).encode())
+            writer.finish()
+        return []
+
+    def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        from mcap.reader import make_reader
+
+        with open(path, "rb") as stream:
+            reader = make_reader(stream)
+            meta = next((m for m in reader.iter_metadata() if m.name == METADATA), None)
+            if meta is None:
+                raise ValueError(f"{path}: no '{METADATA}' metadata record: not an MCAP file "
+                                 f"written by twmr")
+            columns, units = json.loads(meta.metadata["columns"]), json.loads(
+                meta.metadata["units"])
+            where = {c: j for j, c in enumerate(columns)}
+            rows: dict[int, np.ndarray] = {}
+            for _schema, channel, message in reader.iter_messages(log_time_order=False):
+                owner = channel.metadata.get("component", channel.topic.lstrip("/"))
+                row = rows.setdefault(message.sequence, np.full(len(columns), np.nan))
+                fields = json.loads(message.data)
+                row[0] = fields.pop("time_s", message.log_time / 1e9)
+                for port, value in fields.items():
+                    if isinstance(value, list):
+                        for i, v in enumerate(value):
+                            row[where[f"{owner}.{port}[{i + 1}]"]] = _value(v)
+                    else:
+                        row[where[f"{owner}.{port}"]] = _value(value)
+        values = np.array([rows[k] for k in sorted(rows)]) if rows \
+            else np.zeros((0, len(columns)))
+        return columns, units, values

@@ -1,0 +1,80 @@
+"""`--format mcap`: one JSON channel per component, one message per recorded row on each, times in
+integer nanoseconds; read with the `mcap` package's own reader, and back by `twmr.read_result`
+equal to `result.arrows`."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from mcap.reader import make_reader
+
+import twmr
+from twmr.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPER = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+
+
+def _run(tmp_path: Path, record: list[str] | None = None) -> Path:
+    scenario = PAPER
+    if record is not None:  # the paper scenario, recording `record` only
+        import yaml
+
+        data = yaml.safe_load(PAPER.read_text())
+        data["record"] = {"signals": record}
+        scenario = tmp_path / PAPER.name
+        scenario.write_text(yaml.safe_dump(data))
+        for fmu in PAPER.parent.glob("*.fmu"):
+            (tmp_path / fmu.name).symlink_to(fmu)
+    out = tmp_path / "run"
+    assert main(["run", str(scenario), "--out", str(out), "--format", "mcap", "-q",
+                 "--set", "experiment.stop=0.5"]) == 0
+    return out
+
+
+def test_channels_messages_and_times_as_an_mcap_reader_sees_them(tmp_path: Path) -> None:
+    out = _run(tmp_path)
+    stored = twmr.read_result(out)
+    owners = sorted({c.rpartition(".")[0] for c in stored.columns[1:]})
+    with open(out / "result.mcap", "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        topics = {ch.topic: ch for ch in summary.channels.values()}
+        assert sorted(topics) == [f"/{o}" for o in owners]
+        counts = summary.statistics.channel_message_counts
+        assert set(counts.values()) == {len(stored.values)}
+        plant = next(ch for ch in topics.values() if ch.topic == "/plant")
+        schema = json.loads(summary.schemas[plant.schema_id].data)
+        assert schema["properties"]["pose"]["type"] == "array"
+        assert schema["properties"]["pose"]["unit"] == "m" or "m" in \
+            schema["properties"]["pose"]["description"]
+        times, poses = [], []
+        for _s, _c, message in reader.iter_messages(topics=["/plant"]):
+            fields = json.loads(message.data)
+            times.append(message.log_time)
+            poses.append(fields["pose"])
+    t = stored.values[:, 0]
+    assert times == [round(v * 1e9) for v in t]
+    assert isinstance(times[0], int) and times[1] - times[0] == round((t[1] - t[0]) * 1e9)
+    cols = [stored.columns.index(f"plant.pose[{i}]") for i in (1, 2, 3)]
+    assert np.array_equal(np.array(poses), stored.values[:, cols])
+
+
+def test_read_back_equals_the_store_and_non_finite_values_survive(tmp_path: Path) -> None:
+    out = _run(tmp_path, ["plant.pose", "ctrl.*"])
+    stored = twmr.read_result(out)
+    back = twmr.read_result(out / "result.mcap")
+    assert back.columns == stored.columns and back.units == stored.units
+    assert np.array_equal(back.values, stored.values)
+    from twmr.observers.mcap_format import Mcap
+
+    values = np.array([[0.0, np.inf, np.nan], [0.5, -np.inf, 1.0]])
+    path = tmp_path / "odd.mcap"
+    Mcap().write(path, ["time", "a.x", "a.v[2]"], ["s", "m", ""], values)
+    columns, units, got = Mcap().read(path)
+    assert columns == ["time", "a.x", "a.v[2]"] and units == ["s", "m", ""]
+    assert np.array_equal(got, values, equal_nan=True)
+    with open(path, "rb") as f:
+        raw = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages()]
+    assert raw[0] == {"time_s": 0.0, "x": "Infinity", "v[2]": "NaN"}
