@@ -103,7 +103,7 @@ def test_a_class_object_exports_like_its_kind(tmp_path) -> None:
 
     md = read_model_description(str(export_component(Gain, tmp_path / "g.fmu", {"k": 2.0})))
     assert md.coSimulation.modelIdentifier == "Gain"
-    assert {v.name for v in md.modelVariables} == {"k", "u", "y"}
+    assert {v.name for v in md.modelVariables} == {"k", "n_in", "n_out", "u", "y"}
 
 
 def test_no_c_compiler_is_a_clear_error(tmp_path, monkeypatch) -> None:

@@ -1,6 +1,6 @@
 """The definitions of the engine's blocks: their parameter tables and kernel functions
-(`twmr.core.kernel`). Plain Python in a Python run (numba stays unloaded); compiled by numba when
-the compiled loop calls them."""
+(`twmr.core.kernel`; gain and sum are in `twmr.blocks.routing_kernels`). Plain Python in a
+Python run (numba stays unloaded); compiled by numba when the compiled loop calls them."""
 from __future__ import annotations
 
 import math
@@ -9,15 +9,6 @@ from typing import NamedTuple
 import numpy as np
 
 from twmr.core.kernel import kernel_function
-
-
-class GainParams(NamedTuple):
-    k: float
-
-
-class SumParams(NamedTuple):
-    k1: float
-    k2: float
 
 
 class IntegratorParams(NamedTuple):
@@ -44,18 +35,6 @@ class StateSpaceParams(NamedTuple):
     b_d: np.ndarray  #: n
     c: np.ndarray  #: n
     d: float
-
-
-@kernel_function
-def gain_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: GainParams) -> tuple[tuple, tuple]:
-    """y = k u."""
-    return x, (p.k * u[0],)
-
-
-@kernel_function
-def sum_evaluate(t: float, x: tuple, y: tuple, u: tuple, p: SumParams) -> tuple[tuple, tuple]:
-    """y = k1 u1 + k2 u2."""
-    return x, (p.k1 * u[0] + p.k2 * u[1],)
 
 
 @kernel_function

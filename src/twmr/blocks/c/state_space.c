@@ -1,57 +1,25 @@
-/* x' = A x + B u, y = C x + D u with N_SS states (twmr.blocks.StateSpace), discretised exactly
- * for an input held over the step: exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, 1]], computed by
- * scaling and squaring of a Taylor series (to double precision for the matrices a block holds). */
+/* x' = A x + B u, y = C x + D u with N_SS states, N_IN inputs and N_OUT outputs
+ * (twmr.blocks.StateSpace), discretised exactly for an input held over the step:
+ * exp([[A, B], [0, 0]] h) = [[A_d, B_d], [0, I]], computed by scaling and squaring of a Taylor
+ * series (expm.h). Matrices row by row. */
 #include <math.h>
 #include <string.h>
 #include "kernel.h"
 
-#define N1 (N_SS + 1)
-enum { AD = 0, BD = N_SS * N_SS, X = BD + N_SS, H_LAST = X + N_SS };  /* work values */
+#define N1 (N_SS + N_IN)
+#define EXPM_N N1
+#include "expm.h"
 
-static void matmul(const double *a, const double *b, double *out) {
-    double r[N1 * N1];
-    int i, j, k;
-    for (i = 0; i < N1; i++)
-        for (j = 0; j < N1; j++) {
-            double s = 0.0;
-            for (k = 0; k < N1; k++) s += a[i * N1 + k] * b[k * N1 + j];
-            r[i * N1 + j] = s;
-        }
-    memcpy(out, r, sizeof r);
-}
-
-/* E = exp(M) of the augmented (N_SS + 1) square matrix M */
-static void expm(const double *M, double *E) {
-    double S[N1 * N1], T[N1 * N1], norm = 0.0;
-    int i, j, q, squarings = 0;
-    for (i = 0; i < N1; i++) {  /* infinity norm */
-        double row = 0.0;
-        for (j = 0; j < N1; j++) row += fabs(M[i * N1 + j]);
-        norm = fmax(norm, row);
-    }
-    while (norm > 0.125) {
-        norm /= 2.0;
-        squarings++;
-    }
-    for (i = 0; i < N1 * N1; i++) S[i] = ldexp(M[i], -squarings);
-    memset(E, 0, sizeof S);
-    memset(T, 0, sizeof T);
-    for (i = 0; i < N1; i++) E[i * N1 + i] = T[i * N1 + i] = 1.0;
-    for (q = 1; q <= 18; q++) {  /* ||S|| <= 1/8: the term 18 is below 1e-35 */
-        matmul(T, S, T);
-        for (i = 0; i < N1 * N1; i++) {
-            T[i] /= q;
-            E[i] += T[i];
-        }
-    }
-    for (i = 0; i < squarings; i++) matmul(E, E, E);
-}
+enum { AD = 0, BD = N_SS * N_SS, X = BD + N_SS * N_IN, H_LAST = X + N_SS };  /* work values */
 
 static void output(Model *m) {
-    double y = 0.0;
-    int i;
-    for (i = 0; i < N_SS; i++) y += m->v[V_C + i] * m->w[X + i];
-    m->v[V_y] = y + m->v[V_D] * m->v[V_u];
+    int i, j;
+    for (i = 0; i < N_OUT; i++) {
+        double y = 0.0, du = 0.0;
+        for (j = 0; j < N_SS; j++) y += m->v[V_C + i * N_SS + j] * m->w[X + j];
+        for (j = 0; j < N_IN; j++) du += m->v[V_D + i * N_IN + j] * m->v[V_u + j];
+        m->v[V_y + i] = N_IN == 1 ? y + m->v[V_D + i] * m->v[V_u] : y + du;
+    }
 }
 
 void kernel_init(Model *m) {
@@ -71,17 +39,18 @@ void kernel_step(Model *m, double t, double h) {
         memset(M, 0, sizeof M);
         for (i = 0; i < N_SS; i++) {
             for (j = 0; j < N_SS; j++) M[i * N1 + j] = m->v[V_A + i * N_SS + j] * h;
-            M[i * N1 + N_SS] = m->v[V_B + i] * h;
+            for (j = 0; j < N_IN; j++) M[i * N1 + N_SS + j] = m->v[V_B + i * N_IN + j] * h;
         }
         expm(M, E);
         for (i = 0; i < N_SS; i++) {
             for (j = 0; j < N_SS; j++) w[AD + i * N_SS + j] = E[i * N1 + j];
-            w[BD + i] = E[i * N1 + N_SS];
+            for (j = 0; j < N_IN; j++) w[BD + i * N_IN + j] = E[i * N1 + N_SS + j];
         }
         w[H_LAST] = h;
     }
     for (i = 0; i < N_SS; i++) {
-        x[i] = w[BD + i] * m->v[V_u];
+        x[i] = 0.0;
+        for (j = 0; j < N_IN; j++) x[i] += w[BD + i * N_IN + j] * m->v[V_u + j];
         for (j = 0; j < N_SS; j++) x[i] += w[AD + i * N_SS + j] * w[X + j];
     }
     memcpy(w + X, x, sizeof x);

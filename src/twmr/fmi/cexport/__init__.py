@@ -53,7 +53,8 @@ def _component(kind: str, parameters: dict[str, Any]) -> Any:
         raise CosimError(f"{err.args[0]}. Fix: `twmr components` lists the kinds.") from None
     twin_of(kind)
     comp = cls(kind)
-    for key, value in parameters.items():
+    for key, value in sorted(parameters.items(), key=lambda kv: kv[0] not in
+                             comp.sizing_parameters):
         if key not in comp.parameters:
             raise CosimError(f"export {kind}: {key!r} is not a parameter of the kind (it has "
                              f"{', '.join(comp.parameters)}). Fix: `twmr components` lists "

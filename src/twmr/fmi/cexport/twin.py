@@ -37,7 +37,8 @@ class CTwin:
     one is exported as n zeros) and `orders` the orders a test exercises; `work(comp)` the number
     of work values, `hidden` the parameters not exported, `pinned(comp)` the parameters whose
     export value decides the FMU's structure (its feedthrough): their min and max are that
-    value; `sizes(comp)` further constants #defined from the instance (its tables' lengths)."""
+    value; `sizes(comp)` further constants #defined from the instance (its tables' lengths, a
+    sign pattern as a C initialiser)."""
 
     source: Path
     headers: tuple[Path, ...] = ()
@@ -51,11 +52,11 @@ class CTwin:
     work: Callable[[Component], int] = field(default=lambda comp: 1)
     hidden: frozenset[str] = frozenset()
     pinned: Callable[[Component], frozenset[str]] = field(default=lambda comp: frozenset())
-    sizes: Callable[[Component], Mapping[str, int]] = field(default=lambda comp: {})
+    sizes: Callable[[Component], Mapping[str, int | str]] = field(default=lambda comp: {})
 
-    def options(self, comp: Component) -> dict[str, int]:
+    def options(self, comp: Component) -> dict[str, int | str]:
         """The #defines of `comp`'s variant; CosimError for a value the twin does not support."""
-        out = dict(self.defines)
+        out: dict[str, int | str] = dict(self.defines)
         for name, choice in self.choices.items():
             value = comp.get(name)
             if value not in choice.codes:
