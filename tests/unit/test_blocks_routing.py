@@ -213,13 +213,14 @@ def test_every_block_in_one_chain_compiled_is_bit_identical(tmp_path: Path, algo
 
 
 def test_every_example_of_the_block_docs_is_accepted():
-    """docs/blocks_linear_routing.md: each example line builds its block, checked and
-    initialised."""
+    """docs/blocks.md, its discrete, linear and routing sections: each example line builds its
+    block, checked and initialised."""
     import re
 
     import yaml
 
-    text = (Path(__file__).resolve().parents[2] / "docs" / "blocks_linear_routing.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "blocks.md").read_text()
+    text = text[text.index("## Discrete and linear"):]
     examples = re.findall(r"```yaml\n(.*?)\n```", text, re.S)
     assert len(examples) == 13
     for example in examples:
