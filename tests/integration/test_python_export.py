@@ -193,7 +193,8 @@ def test_python_host_without_twmr_gets_a_clear_message(fmus, tmp_path) -> None:
     done = run(LOGGED, str(fmus["asmc"]), env=env, cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "LOG fmi2Instantiate failed: this FMU needs Python with twmr-cosim installed (pip " \
-           f"install twmr-cosim); the FMU's Python is {sys.executable}" in done.stdout
+           f"install -e . in a checkout of twmr-cosim); the FMU's Python is {sys.executable}" \
+        in done.stdout
     assert "FAILED" in done.stdout
 
 

@@ -199,7 +199,7 @@ def _resolve(spec: ScenarioSpec, prefix: str, end: End, side: Side, loc: Locatio
              out: _Flat) -> tuple[End, tuple[Via, ...]] | None:
     """(the flat end, the exposed ports passed through) of a wire's end written in `spec`, or
     None after adding the problem."""
-    if "." in end.comp:
+    if "." in end.comp and end.comp not in spec.components:  # (a flat 'sub.comp' is a block)
         owner = end.comp.split(".")[0]
         out.problems.append(Problem(loc, f"'{end.text}' reaches inside the subsystem "
                                     f"'{prefix}{owner}': a wire names a block of its own file, "
