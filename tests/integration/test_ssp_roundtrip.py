@@ -17,7 +17,7 @@ pytest.importorskip("twmr.fmi.ssp.read", reason="the SSP import (twmr.fmi.ssp.re
 
 
 @pytest.mark.parametrize("algorithm", ["gauss_seidel", "jacobi"])
-@pytest.mark.parametrize("path", r.PAPER, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", r.WITH_SENSORS, ids=lambda p: p.stem)
 def test_the_ssp_runs_as_the_yaml_it_came_from(path, algorithm, tmp_path) -> None:
     import twmr
 
