@@ -1,7 +1,7 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
-`twmr.load`, `twmr.simulate`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see `twmr.api`); imported on
-first use, so `import twmr` stays light.
+`twmr.load`, `twmr.simulate`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see `twmr.api`);
+imported on first use, so `import twmr` stays light.
 """
 from __future__ import annotations
 

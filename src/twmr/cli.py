@@ -1,5 +1,5 @@
-"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | inspect | export,
-plus the subcommands installed packages register (`twmr.commands` entry points: compare,
+"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | inspect |
+export, plus the subcommands installed packages register (`twmr.commands` entry points: compare,
 emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`

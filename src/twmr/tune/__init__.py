@@ -6,8 +6,14 @@ import sys
 import types
 from typing import Any
 
-from twmr.tune.objective import (Constraint, Expression, Param, TuneError, parse_constraint,
-                                 parse_param)
+from twmr.tune.objective import (
+    Constraint,
+    Expression,
+    Param,
+    TuneError,
+    parse_constraint,
+    parse_param,
+)
 from twmr.tune.study import TuneOutcome, TuneSpec, tune
 
 __all__ = ["Constraint", "Expression", "Param", "TuneError", "TuneOutcome", "TuneSpec",

@@ -48,8 +48,7 @@ class Param:
 
     def distribution(self) -> Any:
         """The Optuna distribution of this range."""
-        from optuna.distributions import (CategoricalDistribution, FloatDistribution,
-                                          IntDistribution)
+        from optuna.distributions import CategoricalDistribution, FloatDistribution, IntDistribution
 
         if self.kind == "values":
             return CategoricalDistribution(list(self.args))

@@ -25,13 +25,19 @@ from typing import IO, Any
 
 import numpy as np
 
-from twmr.sweeps.engine import check_names, close_client, dask_client, overrides_of, \
-    vector_bases
+from twmr.sweeps.engine import check_names, close_client, dask_client, overrides_of, vector_bases
 from twmr.sweeps.folder import append_row, release_lock, take_lock
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepSpec, Vary, run_id
-from twmr.tune.objective import (Constraint, Expression, Param, TuneError, aggregate,
-                                 check_aggregate, unknown_names)
+from twmr.tune.objective import (
+    Constraint,
+    Expression,
+    Param,
+    TuneError,
+    aggregate,
+    check_aggregate,
+    unknown_names,
+)
 
 log = logging.getLogger("twmr.tune")
 DESCRIPTION, JOURNAL = "tune.json", "trials.jsonl"
@@ -149,11 +155,6 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
         if left > 0:
             if workers != 1 or scheduler:
                 client, cluster = dask_client(workers, scheduler)
-            if progress:
-                from tqdm import tqdm
-
-                bar = tqdm(total=spec.trials, initial=len(outcome.trials), unit="trial",
-                           dynamic_ncols=True, desc="tune")
             journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
             for _ in range(left):
                 trial = study.ask({p.name: p.distribution() for p in spec.params})
@@ -163,6 +164,11 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
                 outcome.trials.append(row)
                 outcome.runs.extend(runs)
                 outcome.ran += 1
+                if progress and bar is None:  # after the first trial: its figures are checked
+                    from tqdm import tqdm
+
+                    bar = tqdm(total=spec.trials, initial=len(outcome.trials) - 1,
+                               unit="trial", dynamic_ncols=True, desc="tune")
                 if bar is not None:
                     best = _best(outcome.trials)
                     bar.set_postfix(best=f"{best['objective']:.4g}" if best else "-",
@@ -255,19 +261,15 @@ def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
     from optuna.trial import TrialState, create_trial
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    constrained = bool(spec.constraints)
-    sampler = optuna.samplers.TPESampler(
-        seed=spec.seed + len(done),
-        constraints_func=(lambda t: t.user_attrs["constraints"]) if constrained else None)
+    sampler = optuna.samplers.TPESampler(seed=spec.seed + len(done))
     study = optuna.create_study(direction="minimize", sampler=sampler)
     dists = {p.name: p.distribution() for p in spec.params}
     for row in done:
         ok = row["status"] != "failed" and math.isfinite(row["objective"])
-        attrs = {"constraints": [row[f"violation_{i}"] for i in range(len(spec.constraints))]}
         study.add_trial(create_trial(
             params={p.name: row[p.name] for p in spec.params}, distributions=dists,
-            value=row["objective"] if ok else None, system_attrs=attrs if ok else {},
-            user_attrs=attrs if ok else {},
+            value=row["objective"] if ok else None,
+            constraints=_constraints(row, len(spec.constraints)) if ok else None,
             state=TrialState.COMPLETE if ok else TrialState.FAIL))
     return study
 
@@ -325,8 +327,14 @@ def _tell(study: Any, trial: Any, row: dict[str, Any]) -> None:
         study.tell(trial, state=TrialState.FAIL)
         return
     n = sum(1 for key in row if key.startswith("violation_"))
-    trial.set_user_attr("constraints", [row[f"violation_{i}"] for i in range(n)])
+    for name, value in _constraints(row, n).items():
+        trial.set_constraint(name, value)
     study.tell(trial, row["objective"])
+
+
+def _constraints(row: dict[str, Any], n: int) -> dict[str, float]:
+    """A trial's constraint values for Optuna (<= 0: held)."""
+    return {f"violation_{i}": float(row[f"violation_{i}"]) for i in range(n)}
 
 
 def _best(trials: list[dict[str, Any]]) -> dict[str, Any] | None:
