@@ -328,14 +328,17 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        workers=args.workers, scheduler=args.scheduler,
                        progress=not args.quiet)
     best = outcome.best
+    if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
+        from twmr.tune import TuneError
+
+        raise TuneError(f"every trial failed; the first's error: {outcome.trials[0]['error']} "
+                        f"(all are in {outcome.folder}/realisations.parquet)")
+    names = [p.partition("=")[0].strip() for p in args.param]
+    found = "no feasible trial" if best is None else (
+        f"best trial {best['trial']}: objective {best['objective']:.6g} (spread "
+        f"{best['spread']:.3g}) at " + ", ".join(f"{n}={best[n]}" for n in names))
     log.info("tune: %d trial(s) run now, %d in all; %s -> %s/", outcome.ran,
-             len(outcome.trials), "no feasible trial" if best is None else
-             f"best trial {best['trial']}: objective {best['objective']:.6g} (spread "
-             f"{best['spread']:.3g}) at " + ", ".join(f"{p.split('=')[0]}={best[p.split('=')[0]]:g}"
-                                                       if isinstance(best[p.split('=')[0]], float)
-                                                       else f"{p.split('=')[0]}="
-                                                       f"{best[p.split('=')[0]]}"
-                                                       for p in args.param), outcome.folder)
+             len(outcome.trials), found, outcome.folder)
     return 0
 
 

@@ -129,3 +129,40 @@ def test_bad_input_is_one_paragraph(tmp_path, capsys, extra, expected):
     err = capsys.readouterr().err
     assert expected in err and "Fix:" in err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_ctrl_c_keeps_the_finished_trials(tmp_path, monkeypatch):
+    from twmr.sweeps.run import execute
+    from twmr.tune import study
+
+    calls = []
+
+    def interrupted(task):
+        calls.append(task)
+        if len(calls) == 8:  # the 2nd run of the 3rd trial
+            raise KeyboardInterrupt
+        return execute(task)
+
+    monkeypatch.setattr(study, "execute", interrupted)
+    params = ["ctrl.k=log:0.3:30", "ref.time=0.05:0.3"]
+    options = {"vary": [HEIGHT], "realisations": 3, "metrics": ["signals"],
+               "out": tmp_path / "tune"}
+    with pytest.raises(KeyboardInterrupt):
+        twmr.tune(LOOP, params, OBJECTIVE, trials=6, **options)
+    trials = pd.read_parquet(tmp_path / "tune" / "trials.parquet")
+    assert list(trials["trial"]) == [0, 1]
+    assert len(pd.read_parquet(tmp_path / "tune" / "realisations.parquet")) == 6
+    monkeypatch.setattr(study, "execute", execute)
+    outcome = twmr.tune(LOOP, params, OBJECTIVE, trials=6, **options)
+    assert outcome.ran == 4 and len(outcome.trials) == 6
+    assert list(pd.read_parquet(tmp_path / "tune" / "trials.parquet")["ctrl.k"][:2]) == \
+        list(trials["ctrl.k"])
+    assert (tmp_path / "tune" / "report" / "importance.png").exists()
+
+
+def test_a_refused_objective_does_not_lock_the_folder_to_it(tmp_path):
+    options = {"vary": [HEIGHT], "realisations": 3, "metrics": ["signals"],
+               "out": tmp_path / "tune"}
+    with pytest.raises(SweepError, match="'ms_err_z' is not a figure"):
+        twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], "ms_err_z", trials=2, **options)
+    assert twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], OBJECTIVE, trials=2, **options).ran == 2

@@ -2,11 +2,12 @@
 `--objective EXPR` (an expression of a run's metric figures, aggregated over the realisations)
 and `--constraint "EXPR<=BOUND"` (held by every realisation).
 
-SPEC: ``LO:HI`` (uniform), ``log:LO:HI`` (log-uniform, 0 < LO), ``int:LO:HI`` (whole numbers)
-or ``values:A,B,C`` (a choice). EXPR: numbers, metric figure names (e.g. ``mse_x`` of the
-`tracking` set, ``ms_err_y`` of the `signals` set), ``+ - * / **``, and ``abs sqrt log exp min
-max``. The aggregate over the N realisations is ``mean``, ``median``, ``max`` or ``qP`` (the
-P-quantile, e.g. ``q0.9``); the spread is the realisations' standard deviation.
+SPEC: ``LO:HI`` or ``uniform:LO:HI``, ``log:LO:HI`` (log-uniform, 0 < LO), ``int:LO:HI``
+(whole numbers) or ``values:A,B,C`` (a choice). EXPR: numbers, metric figure names (e.g.
+``mse_x`` of the `tracking` set, ``ms_err_y`` of the `signals` set), ``+ - * / **``, and
+``abs sqrt log exp min max``. The aggregate over the N realisations is ``mean``, ``median``,
+``max`` or ``qP`` (the P-quantile, e.g. ``q0.9``); the spread is the realisations' standard
+deviation.
 """
 from __future__ import annotations
 
@@ -78,7 +79,9 @@ def parse_param(text: str) -> Param:
     if spec.startswith("values:"):
         return Param(name, "values", parse_vary(f"{name}={spec}", f"--param {text!r}:").args)
     kind, parts = "float", spec.split(":")
-    if parts[0] in ("log", "int"):
+    if parts[0] == "uniform":
+        parts = parts[1:]
+    elif parts[0] in ("log", "int"):
         kind, parts = parts[0], parts[1:]
     try:
         if len(parts) != 2:

@@ -4,7 +4,8 @@ runs), its objective an aggregate of a metric expression over them.
 
 Folder `DIR` (locked while the tune runs, as a sweep's folder):
 - `tune.json`: what the study is (scenario hash, params, objective, realisations...); a second
-  tune into the folder must be the same study, and continues it up to `trials` in all;
+  tune into a folder holding trials must be the same study, and continues it up to `trials` in
+  all;
 - `trials.jsonl`: one line per finished trial, flushed (Ctrl-C or a kill keeps every finished
   trial; the trial being run is dropped);
 - `trials.parquet` (a row per trial: parameters, objective, spread, status, violations) and
@@ -208,7 +209,8 @@ def _open_folder(folder: Path, described: dict[str, Any]) -> IO[str]:
     lock = take_lock(folder, "tune")
     try:
         path = folder / DESCRIPTION
-        if path.exists():
+        journal = folder / JOURNAL
+        if path.exists() and journal.exists() and journal.stat().st_size > 0:
             try:
                 before = json.loads(path.read_text(encoding="utf-8"))
             except ValueError:
