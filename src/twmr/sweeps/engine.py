@@ -259,7 +259,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 row = future.result()
             else:  # the worker died under it (several times) or the task was lost
                 row = {"run_id": task.run_id, "sample": task.sample, **task.values,
-                       "status": "failed", "error": _lost(future.exception()),
+                       "status": "failed", "error": lost_error(future.exception()),
                        "wall_time_s": math.nan, "step_time_s": math.nan, "worker": ""}
             row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
             outcome.rows.append(row)  # first: the table at the end is written from these
@@ -299,7 +299,7 @@ def close_client(client: Any, cluster: Any, futures: list[Any]) -> None:
         log.debug("closing the Dask cluster failed", exc_info=True)
 
 
-def _lost(exc: BaseException | None) -> str:
+def lost_error(exc: BaseException | None) -> str:
     """The error of a run whose worker process died under it."""
     if type(exc).__name__ == "KilledWorker":
         return ("the worker process running it died each time it was tried (a crash inside "

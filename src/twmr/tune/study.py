@@ -26,7 +26,14 @@ from typing import IO, Any
 
 import numpy as np
 
-from twmr.sweeps.engine import check_names, close_client, dask_client, overrides_of, vector_bases
+from twmr.sweeps.engine import (
+    check_names,
+    close_client,
+    dask_client,
+    lost_error,
+    overrides_of,
+    vector_bases,
+)
 from twmr.sweeps.folder import append_row, release_lock, take_lock
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepSpec, Vary, run_id
@@ -292,7 +299,14 @@ def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any]
     else:
         futures = client.map(execute, tasks, pure=False,
                              key=[f"trial{trial.number}-{t.sample}-{t.run_id}" for t in tasks])
-        runs = client.gather(futures)
+        from dask.distributed import wait
+
+        wait(futures)
+        runs = [f.result() if f.status == "finished" else
+                {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
+                 "error": lost_error(f.exception()), "wall_time_s": math.nan,
+                 "step_time_s": math.nan, "worker": ""}
+                for f, t in zip(futures, tasks, strict=True)]
     ok = [r for r in runs if r["status"] == "ok"]
     names = [*spec.objective.names, *(n for c in spec.constraints for n in c.expression.names)]
     for r in ok:
