@@ -31,7 +31,8 @@ def tune_report(folder: Path, out: Path | None = None) -> list[Path]:
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for i, (status, group) in enumerate(trials.groupby("status", sort=True)):
         ax.errorbar(group["trial"], group["objective"], yerr=group["spread"], fmt="o", ms=3,
-                    capsize=2, label=f"trials ({status})", **line_style(i + 1))
+                    capsize=2, linestyle="none", color=line_style(i + 1)["color"],
+                    label=f"trials ({status}), ± spread")
     ok = trials[trials["status"] == "ok"].sort_values("trial")
     if len(ok):
         ax.step(ok["trial"], np.minimum.accumulate(ok["objective"].to_numpy()), where="post",
@@ -70,6 +71,7 @@ def _importance(params: list, ok: object) -> dict[str, float]:
     rows = ok.to_dict("records")  # type: ignore[attr-defined]
     if len(params) < 2 or len(rows) < 4:
         return {}
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(direction="minimize")
     dists = {p.name: p.distribution() for p in params}
     for row in rows:
