@@ -166,3 +166,18 @@ def test_a_refused_objective_does_not_lock_the_folder_to_it(tmp_path):
     with pytest.raises(SweepError, match="'ms_err_z' is not a figure"):
         twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], "ms_err_z", trials=2, **options)
     assert twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], OBJECTIVE, trials=2, **options).ran == 2
+
+
+def test_the_command_writes_the_study(tmp_path):
+    import twmr.tune  # the package: `twmr.tune(...)` still tunes
+
+    assert callable(twmr.tune)
+    out = tmp_path / "cli"
+    assert main(["tune", LOOP, "--param", "ctrl.k=log:0.3:30", "--objective", OBJECTIVE,
+                 "--metrics", "signals", "--vary", HEIGHT, "--realisations", "2",
+                 "--trials", "3", "--out", str(out), "-q"]) == 0
+    assert {p.name for p in out.iterdir()} >= {"tune.json", "trials.parquet", "best.yaml",
+                                              "realisations.parquet", "report"}
+    best = pd.read_parquet(out / "trials.parquet").sort_values("objective").iloc[0]
+    k = twmr.load(out / "best.yaml").system.components["ctrl"].get("k")
+    assert k == pytest.approx(best["ctrl.k"])
