@@ -28,7 +28,7 @@ from twmr.result import Result, read_result
 from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import System
 
-__all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep"]
+__all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep", "tune"]
 log = logging.getLogger("twmr.run")
 
 
@@ -309,3 +309,37 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
                                                                    "scenario")
     return run_sweep(spec, folder, workers=workers, scheduler=scheduler,
                      keep_signals=keep_signals, dashboard=dashboard, progress=progress)
+
+
+def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective: str, *,
+         vary: dict[str, str] | Sequence[str] = (), realisations: int = 1, trials: int = 30,
+         seed: int = 0, aggregate: str = "mean", constraints: Sequence[str] = (),
+         metrics: Sequence[str] = ("tracking",), overrides: Sequence[str] = (),
+         method: str = "random", out: str | Path | None = None, workers: int | None = 1,
+         scheduler: str | None = None, report: bool = True, progress: bool = False) -> Any:
+    """Tune `params` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC LO:HI, log:LO:HI, int:LO:HI or
+    values:A,B,C) of `scenario` to minimise `aggregate` (mean, median, max, qP) of the metric
+    expression `objective` over `realisations` runs drawn once from `vary` and `seed` (the same
+    for every trial), subject to `constraints` ('EXPR<=BOUND' in every realisation), in
+    `trials` Optuna TPE trials in all (a folder holding fewer continues). `workers` 1 runs in
+    this process; more on local Dask workers on 127.0.0.1. Writes `out` (default
+    tunes/<scenario name>): trials.parquet, realisations.parquet, best.yaml, report/. Returns a
+    `twmr.tune.TuneOutcome`."""
+    from twmr.sweeps import parse_vary
+    from twmr.tune import Expression, TuneSpec, parse_constraint, parse_param
+    from twmr.tune import tune as run_tune
+    from twmr.tune.report import tune_report
+
+    def texts(given: dict[str, str] | Sequence[str]) -> list[str]:
+        return [f"{k}={v}" for k, v in given.items()] if isinstance(given, dict) else list(given)
+
+    spec = TuneSpec(str(scenario), [parse_param(t) for t in texts(params)],
+                    Expression(objective), [parse_vary(t) for t in texts(vary)], realisations,
+                    trials, seed, aggregate, [parse_constraint(c) for c in constraints],
+                    list(metrics), list(overrides), method)
+    folder = Path(out) if out is not None else Path("tunes") / (Path(str(scenario)).stem or
+                                                                  "scenario")
+    outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, progress=progress)
+    if report and outcome.trials:
+        tune_report(outcome.folder)
+    return outcome

@@ -1,5 +1,5 @@
-"""`twmr` command line: run | check | sweep | sweep-report | components | plot | inspect | export,
-plus the subcommands installed packages register (`twmr.commands` entry points: compare,
+"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | inspect |
+export, plus the subcommands installed packages register (`twmr.commands` entry points: compare,
 emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
@@ -317,6 +317,31 @@ def _is_sweep_file(path: Path) -> bool:
     return isinstance(data, dict) and "vary" in data
 
 
+def cmd_tune(args: argparse.Namespace) -> int:
+    from twmr import api
+
+    metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()] or ["tracking"]
+    outcome = api.tune(args.scenario, args.param, args.objective, vary=args.vary,
+                       realisations=args.realisations, trials=args.trials, seed=args.seed,
+                       aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
+                       overrides=args.set, method=args.method, out=args.out,
+                       workers=args.workers, scheduler=args.scheduler,
+                       progress=not args.quiet)
+    best = outcome.best
+    if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
+        from twmr.tune import TuneError
+
+        raise TuneError(f"every trial failed; the first's error: {outcome.trials[0]['error']} "
+                        f"(all are in {outcome.folder}/realisations.parquet)")
+    names = [p.partition("=")[0].strip() for p in args.param]
+    found = "no feasible trial" if best is None else (
+        f"best trial {best['trial']}: objective {best['objective']:.6g} (spread "
+        f"{best['spread']:.3g}) at " + ", ".join(f"{n}={best[n]}" for n in names))
+    log.info("tune: %d trial(s) run now, %d in all; %s -> %s/", outcome.ran,
+             len(outcome.trials), found, outcome.folder)
+    return 0
+
+
 def cmd_sweep_report(args: argparse.Namespace) -> int:
     from twmr.sweeps.report import sweep_report
 
@@ -427,6 +452,37 @@ def parser() -> argparse.ArgumentParser:
                     help="keep each run's signals in <out>/runs/<run id>/")
     with_set(sw)
     sw.set_defaults(fn=cmd_sweep)
+    tu = sub.add_parser("tune", parents=[common],
+                        help="tune a scenario's parameters over fixed realisations (Optuna)")
+    tu.add_argument("scenario")
+    tu.add_argument("--param", action="append", default=[], metavar="NAME=SPEC",
+                    help="a tuned override and its range: LO:HI, log:LO:HI, int:LO:HI or "
+                         "values:A,B,C (repeatable)")
+    tu.add_argument("--objective", required=True, metavar="EXPR",
+                    help="expression of metric figures to minimise, e.g. 'mse_x + mse_y'")
+    tu.add_argument("--aggregate", default="mean",
+                    help="over the realisations: mean (default), median, max or qP (e.g. q0.9)")
+    tu.add_argument("--constraint", action="append", default=[], metavar="EXPR<=BOUND",
+                    help="to hold in every realisation, e.g. 'peak_error_x<=0.2' (repeatable)")
+    tu.add_argument("--vary", action="append", default=[], metavar="NAME=SPEC",
+                    help="what differs between realisations, as in `twmr sweep` (repeatable)")
+    tu.add_argument("--realisations", type=int, default=1,
+                    help="runs per trial, drawn once from --seed (default 1)")
+    tu.add_argument("--method", choices=("random", "lhs"), default="random",
+                    help="how the realisations are drawn")
+    tu.add_argument("--trials", type=int, default=30,
+                    help="trials of the study in all (a folder holding fewer continues)")
+    tu.add_argument("--seed", type=int, default=0, help="seed of the draws and the sampler")
+    tu.add_argument("--metrics", action="append", default=[], metavar="NAME",
+                    help="metric sets per run (default tracking; e.g. signals); repeatable")
+    tune_where = tu.add_mutually_exclusive_group()
+    tune_where.add_argument("--workers", type=int, default=1,
+                            help="1 (default): runs in this process; more: local Dask workers")
+    tune_where.add_argument("--scheduler", metavar="ADDRESS",
+                            help="an existing Dask cluster you trust (it runs code here)")
+    tu.add_argument("--out", help="the tune's folder (default tunes/<scenario name>)")
+    with_set(tu)
+    tu.set_defaults(fn=cmd_tune)
     sr = sub.add_parser("sweep-report", parents=[common],
                         help="summary table and plots of a sweep folder")
     sr.add_argument("folder")

@@ -36,3 +36,16 @@ def test_mse_and_column_lookup() -> None:
     m = tracking_metrics(data)
     assert m["mse_x"] == pytest.approx(1.0)
     assert m["mse_y"] == pytest.approx((0 + 1 + 4 + 9 + 16) / 5)
+
+
+def test_signals_figures_of_a_sine() -> None:
+    from twmr.components.metrics import signals
+    from twmr.result import Result
+
+    t = np.linspace(0.0, 2.0, 2001)
+    y = 3.0 * np.sin(2 * np.pi * t)  # whole periods: mean square A^2 / 2
+    figures = signals(Result(["time", "plant.pose[1]"], ["s", "m"], np.column_stack([t, y])))
+    assert figures["ms_plant_pose_1"] == pytest.approx(4.5, rel=1e-3)
+    assert figures["peak_plant_pose_1"] == pytest.approx(3.0, rel=1e-6)
+    assert figures["final_plant_pose_1"] == pytest.approx(0.0, abs=1e-12)
+    assert set(figures) == {"ms_plant_pose_1", "peak_plant_pose_1", "final_plant_pose_1"}

@@ -55,7 +55,7 @@ class SweepOutcome:
         return pd.DataFrame(self.rows)
 
 
-def _overrides(values: dict[str, Any], varies: list[Vary], base: dict[str, Any]) -> list[str]:
+def overrides_of(values: dict[str, Any], varies: list[Vary], base: dict[str, Any]) -> list[str]:
     """`comp.param=value` texts for one run; elements of one vector are merged into it."""
     out: dict[str, Any] = {}
     for v in varies:
@@ -70,7 +70,7 @@ def _overrides(values: dict[str, Any], varies: list[Vary], base: dict[str, Any])
     return [f"{k}={json.dumps(v)}" for k, v in out.items()]
 
 
-def _check_names(scenario: Any, varies: list[Vary]) -> None:
+def check_names(scenario: Any, varies: list[Vary], option: str = "--vary") -> None:
     """Every NAME is an override of this scenario (its values are each run's business: a value
     out of range fails that run only)."""
     from twmr.registry import suggest
@@ -85,18 +85,18 @@ def _check_names(scenario: Any, varies: list[Vary]) -> None:
             known = ["step_multiple"] + [n for n, var in comps[comp].variables.items()
                                          if var.kind in ("parameter", "state", "input")]
         else:
-            raise SweepError(f"--vary {v.name}: the scenario has no component '{comp}'"
+            raise SweepError(f"{option} {v.name}: the scenario has no component '{comp}'"
                              f"{suggest(comp, list(comps))}. Fix: use one of "
                              f"{', '.join(comps)}, or 'experiment'.")
         if param not in known:
-            raise SweepError(f"--vary {v.name}: '{comp}' has no parameter, state or input "
+            raise SweepError(f"{option} {v.name}: '{comp}' has no parameter, state or input "
                              f"'{param}'{suggest(param, known)}. Fix: use one of "
                              f"{', '.join(known)}.")
         if index is not None and comp == "experiment":
-            raise SweepError(f"--vary {v.name}: experiment settings have no elements.")
+            raise SweepError(f"{option} {v.name}: experiment settings have no elements.")
 
 
-def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
+def vector_bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
     """The scenario's own value of every vector an element of which is varied."""
     comps = scenario.system.components
     bases: dict[str, Any] = {}
@@ -105,7 +105,7 @@ def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
         if index is None:
             continue
         comp, _, param = key.rpartition(".")
-        value = comps[comp].get(param)  # the name is known: _check_names ran first
+        value = comps[comp].get(param)  # the name is known: check_names ran first
         if not isinstance(value, tuple) or index >= len(value):
             size = len(value) if isinstance(value, tuple) else "a scalar"
             raise SweepError(f"--vary {v.name}: '{key}' has {size} element(s); element "
@@ -114,7 +114,7 @@ def _bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
     return bases
 
 
-def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
+def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = False
             ) -> tuple[Any, Any]:
     """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
     dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
@@ -154,7 +154,7 @@ def _client(workers: int | None, scheduler: str | None, dashboard: bool = False
             from twmr.master.execution import held_signals
 
             with held_signals():
-                _close(None, cluster, [])
+                close_client(None, cluster, [])
         raise
 
 
@@ -198,8 +198,8 @@ def sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None,
     scenario = load(spec.scenario, list(spec.fixed))
     for advice in isolation_advice(scenario.system.components):
         log.warning("warning: %s", advice)
-    _check_names(scenario, spec.vary)
-    bases = _bases(scenario, spec.vary)
+    check_names(scenario, spec.vary)
+    bases = vector_bases(scenario, spec.vary)
     folder = Path(out).resolve()  # absolute: workers on a shared file system write there
     content = scenario.content if isinstance(scenario.content, str) else \
         json.dumps(scenario.content, sort_keys=True)
@@ -226,7 +226,7 @@ def _tasks(spec: SweepSpec, scenario: Any, content: str, bases: dict[str, Any],
             continue  # done before, or the same overrides drawn twice: the same run
         done_ids.add(rid)
         keep = str(place.path / "runs" / rid) if keep_signals else None
-        tasks.append(RunTask(rid, i, values, [*spec.fixed, *_overrides(values, spec.vary, bases)],
+        tasks.append(RunTask(rid, i, values, [*spec.fixed, *overrides_of(values, spec.vary, bases)],
                              scenario.source, content, str(scenario.base_dir),
                              list(spec.metrics), keep))
     return tasks
@@ -243,7 +243,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
     futures: list[Any] = []
     client = cluster = bar = journal = None
     try:
-        client, cluster = _client(workers, scheduler, dashboard)
+        client, cluster = dask_client(workers, scheduler, dashboard)
         if progress:
             from tqdm import tqdm
 
@@ -259,7 +259,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 row = future.result()
             else:  # the worker died under it (several times) or the task was lost
                 row = {"run_id": task.run_id, "sample": task.sample, **task.values,
-                       "status": "failed", "error": _lost(future.exception()),
+                       "status": "failed", "error": lost_error(future.exception()),
                        "wall_time_s": math.nan, "step_time_s": math.nan, "worker": ""}
             row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
             outcome.rows.append(row)  # first: the table at the end is written from these
@@ -281,11 +281,11 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 bar.close()
             if journal is not None:
                 journal.close()
-            _close(client, cluster, futures)
+            close_client(client, cluster, futures)
             write_table(outcome.rows, folder)
 
 
-def _close(client: Any, cluster: Any, futures: list[Any]) -> None:
+def close_client(client: Any, cluster: Any, futures: list[Any]) -> None:
     """Stop the runs left, then the client and the local cluster, without a word (what Dask
     says while it is torn down after Ctrl-C is not the user's business)."""
     try:
@@ -299,7 +299,7 @@ def _close(client: Any, cluster: Any, futures: list[Any]) -> None:
         log.debug("closing the Dask cluster failed", exc_info=True)
 
 
-def _lost(exc: BaseException | None) -> str:
+def lost_error(exc: BaseException | None) -> str:
     """The error of a run whose worker process died under it."""
     if type(exc).__name__ == "KilledWorker":
         return ("the worker process running it died each time it was tried (a crash inside "

@@ -95,34 +95,12 @@ class SweepFolder:
         """Release the lock (its record emptied: a clean end)."""
         if self._lock is None:
             return
-        with contextlib.suppress(OSError):
-            self._lock.truncate(0)
-            self._lock.flush()
-        self._lock.close()
+        release_lock(self._lock)
         self._lock = None
 
     # -- the lock ------------------------------------------------------------------------------
     def _take_lock(self) -> None:
-        lock = open(self.path / LOCK, "a+", encoding="utf-8")  # noqa: SIM115 - held until close
-        try:
-            fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = _holder(lock)
-            lock.close()
-            raise SweepError(f"{self.path} is in use by another sweep ({holder}); two sweeps "
-                             f"writing one folder would lose each other's rows. Fix: wait for "
-                             f"it to end, or give another --out.") from None
-        left = _holder(lock)
-        if left:
-            log.warning("taking over the lock of %s left by a sweep that no longer runs (%s)",
-                        self.path, left)
-        started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        lock.seek(0)
-        lock.truncate(0)
-        lock.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
-                               "started": started}) + "\n")
-        lock.flush()
-        self._lock = lock
+        self._lock = take_lock(self.path, "sweep")
 
     # -- identity ------------------------------------------------------------------------------
     def _refuse_foreign(self) -> None:
@@ -225,6 +203,39 @@ class SweepFolder:
         at = f"{where}:{line}" if line else str(where)
         raise SweepError(f"{at}: not a row written by `twmr sweep` (each has a run_id and a "
                          f"status). Fix: give another --out, or move that file aside.")
+
+
+def take_lock(path: Path, what: str) -> IO[str]:
+    """Hold `path/.lock` (`flock`, released by the kernel when the process dies) with a record
+    of the holder; a SweepError naming the holder when another `what` (sweep, tune) has it."""
+    lock = open(path / LOCK, "a+", encoding="utf-8")  # noqa: SIM115 - held by the caller
+    try:
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        holder = _holder(lock)
+        lock.close()
+        raise SweepError(f"{path} is in use by another {what} ({holder}); two of them "
+                         f"writing one folder would lose each other's rows. Fix: wait for "
+                         f"it to end, or give another --out.") from None
+    left = _holder(lock)
+    if left:
+        log.warning("taking over the lock of %s left by a %s that no longer runs (%s)",
+                    path, what, left)
+    started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    lock.seek(0)
+    lock.truncate(0)
+    lock.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(),
+                           "started": started}) + "\n")
+    lock.flush()
+    return lock
+
+
+def release_lock(lock: IO[str]) -> None:
+    """Release a lock of `take_lock`, its record emptied (a clean end)."""
+    with contextlib.suppress(OSError):
+        lock.truncate(0)
+        lock.flush()
+    lock.close()
 
 
 def append_row(journal: IO[str], row: dict[str, Any]) -> None:

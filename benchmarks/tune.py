@@ -1,0 +1,62 @@
+"""Tune throughput: runs (evaluations) per minute of `twmr.tune` on the paper scenario, with 1
+worker (in this process) and 2 (a local Dask cluster), against `twmr.sweep` of as many runs of
+the same scenario.
+
+The scenario is `scenarios/paper_trajectory1_asmc.yaml` (30 s, step 1 ms). The tune searches
+`ctrl.eta=log:0.01:10` and `ctrl.phi=0.05:1` for `mse_x + mse_y` (tracking) over `--realisations`
+draws of `slip.phase=uniform:0:5`, `--trials` trials; the sweep runs trials x realisations draws
+of `slip.phase=uniform:0:5` (the same cost per run: one scenario, one phase each). Each call
+goes into a fresh temporary folder; its wall time includes the scenario check and, with 2
+workers, the cluster's start-up and close. A first untimed 1-run sweep warms the numba cache.
+Figures: `tune_runs_per_min_W`, `sweep_runs_per_min_W`, `ratio_W` = tune / sweep (target
+>= 0.9). A tune's trials run one after another, so its parallelism is at most the realisations.
+
+    python benchmarks/tune.py [--trials 10] [--realisations 4]
+
+Prints one JSON object.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import twmr
+
+SCENARIO = "scenarios/paper_trajectory1_asmc.yaml"
+PHASE = "slip.phase=uniform:0:5"
+
+
+def timed(call) -> float:  # type: ignore[no-untyped-def]
+    t0 = time.perf_counter()
+    call()
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--trials", type=int, default=10)
+    p.add_argument("--realisations", type=int, default=4)
+    args = p.parse_args()
+    runs = args.trials * args.realisations
+    figures: dict[str, float] = {"runs": runs}
+    with tempfile.TemporaryDirectory() as tmp:
+        twmr.sweep(SCENARIO, [PHASE], samples=1, workers=1, out=Path(tmp) / "warm")
+        for workers in (1, 2):
+            tune_s = timed(lambda w=workers: twmr.tune(
+                SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
+                vary=[PHASE], realisations=args.realisations, trials=args.trials,
+                metrics=["tracking"], workers=w, report=False, out=Path(tmp) / f"tune{w}"))
+            sweep_s = timed(lambda w=workers: twmr.sweep(
+                SCENARIO, [PHASE], samples=runs, seed=1, workers=w, metrics=["tracking"],
+                out=Path(tmp) / f"sweep{w}"))
+            figures[f"tune_runs_per_min_{workers}"] = round(60 * runs / tune_s, 1)
+            figures[f"sweep_runs_per_min_{workers}"] = round(60 * runs / sweep_s, 1)
+            figures[f"ratio_{workers}"] = round(sweep_s / tune_s, 3)
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()

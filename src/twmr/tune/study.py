@@ -1,0 +1,406 @@
+"""`tune`: an Optuna study (TPE, seeded) over a scenario's parameters, each trial the scenario run
+over the same N realisations (common random numbers: drawn once from `seed` as a sweep draws its
+runs), its objective an aggregate of a metric expression over them.
+
+Folder `DIR` (locked while the tune runs, as a sweep's folder):
+- `tune.json`: what the study is (scenario hash, params, objective, realisations...); a second
+  tune into a folder holding trials must be the same study, and continues it up to `trials` in
+  all;
+- `trials.jsonl`: one line per finished trial, flushed (Ctrl-C or a kill keeps every finished
+  trial; the trial being run is dropped);
+- `trials.parquet` (a row per trial: parameters, objective, spread, status, violations) and
+  `realisations.parquet` (a row per run), written at the end, also after Ctrl-C;
+- `best.yaml`: the scenario with the best feasible trial's parameters set; `report/`.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from twmr.sweeps.engine import (
+    check_names,
+    close_client,
+    dask_client,
+    lost_error,
+    overrides_of,
+    vector_bases,
+)
+from twmr.sweeps.folder import append_row, release_lock, take_lock
+from twmr.sweeps.run import RunTask, execute
+from twmr.sweeps.spec import SweepSpec, Vary, run_id
+from twmr.tune.objective import (
+    Constraint,
+    Expression,
+    Param,
+    TuneError,
+    aggregate,
+    check_aggregate,
+    unknown_names,
+)
+
+log = logging.getLogger("twmr.tune")
+DESCRIPTION, JOURNAL = "tune.json", "trials.jsonl"
+TRIALS, REALISATIONS, BEST = "trials.parquet", "realisations.parquet", "best.yaml"
+_OURS = {DESCRIPTION, JOURNAL, TRIALS, REALISATIONS, BEST, ".lock", "report"}
+
+
+@dataclass
+class TuneSpec:
+    """A whole tune: the scenario, the searched parameters, the objective and its aggregate,
+    the constraints, the realisations (varied overrides, how many, their seed)."""
+
+    scenario: str
+    params: list[Param]
+    objective: Expression
+    vary: list[Vary] = field(default_factory=list)
+    realisations: int = 1
+    trials: int = 30
+    seed: int = 0
+    aggregate: str = "mean"
+    constraints: list[Constraint] = field(default_factory=list)
+    metrics: list[str] = field(default_factory=list)
+    fixed: list[str] = field(default_factory=list)
+    method: str = "random"
+
+    def check(self) -> None:
+        """TuneError when the tune is ill-formed."""
+        if not self.params:
+            raise TuneError("nothing to tune. Fix: give at least one --param NAME=SPEC.")
+        names = [p.name for p in self.params]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise TuneError(f"--param {', '.join(twice)} given twice. Fix: give each once.")
+        clash = sorted(set(names) & {v.name for v in self.vary})
+        if clash:
+            raise TuneError(f"{clash[0]} is both tuned (--param) and varied (--vary). Fix: "
+                            f"give it in one of them.")
+        for what, n in (("--trials", self.trials), ("--realisations", self.realisations)):
+            if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+                raise TuneError(f"{what} {n!r} is not a positive whole number. Fix: give "
+                                f"e.g. {what} 10.")
+        if not self.vary and self.realisations != 1:
+            raise TuneError(f"--realisations {self.realisations} without --vary: every "
+                            f"realisation would be the same run. Fix: give --vary NAME=SPEC "
+                            f"(what differs between realisations), or --realisations 1.")
+        if not self.metrics:
+            raise TuneError("no metric set. Fix: give --metrics NAME (e.g. tracking, signals).")
+        check_aggregate(self.aggregate)
+
+    def table(self) -> list[dict[str, Any]]:
+        """The realisations: one {NAME: value} each, the same for every trial and every call."""
+        if not self.vary:
+            return [{}]
+        return SweepSpec(self.scenario, self.vary, self.realisations, self.method,
+                         self.seed).samples_table()
+
+    def described(self, content: str) -> dict[str, Any]:
+        """What identifies the study (everything but the number of trials)."""
+        return {"scenario": self.scenario,
+                "scenario_sha256": hashlib.sha256(content.encode()).hexdigest(),
+                "params": {p.name: p.text for p in self.params},
+                "objective": self.objective.text, "aggregate": self.aggregate,
+                "constraints": [c.text for c in self.constraints],
+                "vary": {v.name: v.text for v in self.vary}, "realisations": self.realisations,
+                "method": self.method, "seed": self.seed, "metrics": list(self.metrics),
+                "set": list(self.fixed)}
+
+
+@dataclass
+class TuneOutcome:
+    """What a tune did: every trial's row (earlier calls' included), the runs' rows, how many
+    trials ran now, the best feasible trial's row (None if there is none), the folder."""
+
+    trials: list[dict[str, Any]]
+    runs: list[dict[str, Any]]
+    ran: int
+    folder: Path
+    best: dict[str, Any] | None = None
+    interrupted: bool = False
+
+    def frame(self) -> Any:
+        import pandas as pd
+
+        return pd.DataFrame(self.trials)
+
+
+def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
+         scheduler: str | None = None, progress: bool = False) -> TuneOutcome:
+    """Run the study `spec` into folder `out` (see the module's docstring): `workers` 1 runs in
+    this process; more (or None: one per core) on a local Dask cluster on 127.0.0.1, or the
+    trusted cluster at `scheduler`."""
+    from twmr.api import load
+
+    spec.check()
+    table = spec.table()
+    scenario = load(spec.scenario, list(spec.fixed))
+    check_names(scenario, [p.as_vary() for p in spec.params], "--param")
+    check_names(scenario, spec.vary)
+    bases = vector_bases(scenario, spec.vary)
+    from twmr.registry import metric
+
+    for name in spec.metrics:
+        metric(name)
+    content = scenario.content if isinstance(scenario.content, str) else \
+        json.dumps(scenario.content, sort_keys=True, default=str)
+    folder = Path(out).resolve()
+    described = spec.described(content)
+    lock = _open_folder(folder, described)
+    journal: IO[str] | None = None
+    client = cluster = bar = None
+    outcome = TuneOutcome(*_read_journal(folder), 0, folder)
+    try:
+        study = _study(spec, outcome.trials)
+        left = spec.trials - len(outcome.trials)
+        if left > 0:
+            if workers != 1 or scheduler:
+                client, cluster = dask_client(workers, scheduler)
+            journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
+            for _ in range(left):
+                trial = study.ask({p.name: p.distribution() for p in spec.params})
+                row, runs = _evaluate(spec, scenario, content, bases, table, trial, client)
+                _tell(study, trial, row)
+                append_row(journal, {"trial": row, "runs": runs})
+                outcome.trials.append(row)
+                outcome.runs.extend(runs)
+                outcome.ran += 1
+                if progress and bar is None:  # after the first trial: its figures are checked
+                    from tqdm import tqdm
+
+                    bar = tqdm(total=spec.trials, initial=len(outcome.trials) - 1,
+                               unit="trial", dynamic_ncols=True, desc="tune")
+                if bar is not None:
+                    best = _best(outcome.trials)
+                    bar.set_postfix(best=f"{best['objective']:.4g}" if best else "-",
+                                    refresh=False)
+                    bar.update(1)
+    except KeyboardInterrupt as stop:
+        outcome.interrupted = True
+        stop.partial_results = folder  # type: ignore[attr-defined]  # shown by the CLI
+        raise
+    finally:
+        from twmr.master.execution import held_signals
+
+        with held_signals():
+            if bar is not None:
+                bar.close()
+            if journal is not None:
+                journal.close()
+            close_client(client, cluster, [])
+            outcome.best = _best(outcome.trials)
+            _write(outcome, spec, scenario)
+            release_lock(lock)
+    return outcome
+
+
+def _open_folder(folder: Path, described: dict[str, Any]) -> IO[str]:
+    """Lock `folder` (created if needed) after checking it holds only this study's files."""
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        raise TuneError(f"{folder} is not a folder. Fix: give a new or empty folder as --out.")
+    if folder.exists():
+        foreign = sorted(e.name for e in folder.iterdir() if e.name not in _OURS and
+                         not e.name.startswith("."))
+        if foreign:
+            raise TuneError(f"{folder} holds files that are not a tune's ({', '.join(foreign[:3])}"
+                            f"); a tune would write among them. Fix: give a new or empty "
+                            f"folder as --out.")
+    folder.mkdir(parents=True, exist_ok=True)
+    lock = take_lock(folder, "tune")
+    try:
+        path = folder / DESCRIPTION
+        journal = folder / JOURNAL
+        if path.exists() and journal.exists() and journal.stat().st_size > 0:
+            try:
+                before = json.loads(path.read_text(encoding="utf-8"))
+            except ValueError:
+                before = None
+            if not isinstance(before, dict):
+                raise TuneError(f"{path} is not a description written by `twmr tune`. Fix: give "
+                                f"another --out.")
+            for key, value in described.items():
+                if before.get(key) != value:
+                    raise TuneError(f"{folder} holds another study ({key}: {before.get(key)!r}, "
+                                    f"now {value!r}); its trials would be mixed with these. "
+                                    f"Fix: give another --out, or the same {key} as before.")
+        partial = folder / f".{DESCRIPTION}.{os.getpid()}.tmp"
+        partial.write_text(json.dumps(described, indent=2) + "\n")
+        os.replace(partial, path)
+    except BaseException:
+        release_lock(lock)
+        raise
+    return lock
+
+
+def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The trials and runs already done (the journal's last line may be cut short by a kill)."""
+    path = folder / JOURNAL
+    trials: list[dict[str, Any]] = []
+    runs: list[dict[str, Any]] = []
+    if not path.exists():
+        return trials, runs
+    lines = path.read_text(encoding="utf-8", errors="replace").split("\n")
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            entry = json.loads(line)
+            trial, trial_runs = entry["trial"], entry["runs"]
+        except (ValueError, KeyError, TypeError):
+            if number >= len(lines) - 1:
+                continue
+            raise TuneError(f"{path}:{number}: not a line written by `twmr tune`. Fix: give "
+                            f"another --out.") from None
+        trials.append(trial)
+        runs.extend(trial_runs)
+    return trials, runs
+
+
+def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
+    """An Optuna study in memory holding the finished trials; its TPE sampler seeded from the
+    seed and their number, so a resumed tune goes on reproducibly."""
+    import optuna
+    from optuna.trial import TrialState, create_trial
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    sampler = optuna.samplers.TPESampler(seed=spec.seed + len(done))
+    study = optuna.create_study(direction="minimize", sampler=sampler)
+    dists = {p.name: p.distribution() for p in spec.params}
+    for row in done:
+        ok = row["status"] != "failed" and math.isfinite(row["objective"])
+        study.add_trial(create_trial(
+            params={p.name: row[p.name] for p in spec.params}, distributions=dists,
+            value=row["objective"] if ok else None,
+            constraints=_constraints(row, len(spec.constraints)) if ok else None,
+            state=TrialState.COMPLETE if ok else TrialState.FAIL))
+    return study
+
+
+def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any],
+              table: list[dict[str, Any]], trial: Any, client: Any
+              ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """One trial: the scenario with its parameters over every realisation; its row and the runs'
+    rows (in realisation order)."""
+    t0 = time.perf_counter()
+    params = {p.name: trial.params[p.name] for p in spec.params}
+    fixed = [*spec.fixed, *(f"{k}={json.dumps(v)}" for k, v in params.items())]
+    tasks = [RunTask(run_id(values, fixed), i, values,
+                     [*fixed, *overrides_of(values, spec.vary, bases)], scenario.source, content,
+                     str(scenario.base_dir), list(spec.metrics)) for i, values in enumerate(table)]
+    if client is None:
+        runs = [execute(t) for t in tasks]
+    else:
+        futures = client.map(execute, tasks, pure=False,
+                             key=[f"trial{trial.number}-{t.sample}-{t.run_id}" for t in tasks])
+        from dask.distributed import wait
+
+        wait(futures)
+        runs = [f.result() if f.status == "finished" else
+                {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
+                 "error": lost_error(f.exception()), "wall_time_s": math.nan,
+                 "step_time_s": math.nan, "worker": ""}
+                for f, t in zip(futures, tasks, strict=True)]
+    ok = [r for r in runs if r["status"] == "ok"]
+    names = [*spec.objective.names, *(n for c in spec.constraints for n in c.expression.names)]
+    for r in ok:
+        problem = unknown_names(names, r, spec.metrics)
+        if problem:
+            raise TuneError(f"--objective/--constraint: {problem}")
+    for r in runs:
+        r["trial"] = trial.number
+        r["value"] = spec.objective.value(r) if r["status"] == "ok" else math.nan
+    values = np.array([r["value"] for r in runs])
+    row: dict[str, Any] = {"trial": trial.number, **params, "objective": math.nan,
+                           "spread": math.nan, "status": "failed", "runs_ok": len(ok),
+                           "error": next((r["error"] for r in runs if r["status"] != "ok"), "")}
+    if len(ok) == len(runs) and np.all(np.isfinite(values)):
+        row["objective"] = aggregate(values, spec.aggregate)
+        row["spread"] = float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
+        row["status"] = "ok"
+    elif len(ok) == len(runs):
+        row["error"] = f"the objective is not a finite number in {np.sum(~np.isfinite(values))} " \
+                       f"realisation(s)"
+    for i, c in enumerate(spec.constraints):
+        held = np.array([c.expression.value(r) for r in ok]) if ok else np.array([math.inf])
+        row[f"violation_{i}"] = c.violation(held) if np.all(np.isfinite(held)) else math.inf
+        if row["status"] == "ok" and row[f"violation_{i}"] > 0:
+            row["status"] = "infeasible"
+    row["wall_time_s"] = time.perf_counter() - t0
+    return row, runs
+
+
+def _tell(study: Any, trial: Any, row: dict[str, Any]) -> None:
+    from optuna.trial import TrialState
+
+    if row["status"] == "failed":
+        study.tell(trial, state=TrialState.FAIL)
+        return
+    n = sum(1 for key in row if key.startswith("violation_"))
+    for name, value in _constraints(row, n).items():
+        trial.set_constraint(name, value)
+    study.tell(trial, row["objective"])
+
+
+def _constraints(row: dict[str, Any], n: int) -> dict[str, float]:
+    """A trial's constraint values for Optuna (<= 0: held)."""
+    return {f"violation_{i}": float(row[f"violation_{i}"]) for i in range(n)}
+
+
+def _best(trials: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """The feasible trial of the lowest objective (the first of equals)."""
+    ok = [t for t in trials if t["status"] == "ok"]
+    return min(ok, key=lambda t: t["objective"]) if ok else None
+
+
+def _write(outcome: TuneOutcome, spec: TuneSpec, scenario: Any) -> None:
+    """trials.parquet, realisations.parquet (written whole, then renamed) and best.yaml."""
+    import pandas as pd
+
+    folder = outcome.folder
+    for rows, name in ((outcome.trials, TRIALS), (outcome.runs, REALISATIONS)):
+        if not rows:
+            continue
+        partial = folder / f".{name}.{os.getpid()}.part"
+        pd.DataFrame(rows).to_parquet(partial, index=False)
+        os.replace(partial, folder / name)
+    if outcome.best is not None:
+        text = best_yaml(scenario, spec, outcome.best)
+        if text is not None:
+            partial = folder / f".{BEST}.{os.getpid()}.tmp"
+            partial.write_text(text, encoding="utf-8")
+            os.replace(partial, folder / BEST)
+
+
+def best_yaml(scenario: Any, spec: TuneSpec, best: dict[str, Any]) -> str | None:
+    """The scenario's YAML with the best trial's parameters (and the --set overrides) set; None
+    for a scenario that is no YAML text (an SSP)."""
+    import yaml
+
+    if not isinstance(scenario.content, str):
+        log.warning("best.yaml not written: %s is not a YAML scenario; the best parameters are "
+                    "in %s", scenario.source, TRIALS)
+        return None
+    data = yaml.safe_load(scenario.content)
+    settings = [(s.partition("=")[0], yaml.safe_load(s.partition("=")[2])) for s in spec.fixed]
+    settings += [(p.name, best[p.name]) for p in spec.params]
+    for name, value in settings:
+        comp, _, param = name.strip().rpartition(".")
+        if comp == "experiment":
+            data.setdefault("experiment", {})[param] = value
+        elif param == "step_multiple":
+            data["components"][comp][param] = value
+        else:
+            entry = data["components"][comp]
+            entry.setdefault("parameters", {})[param] = value
+    head = (f"# {scenario.source} tuned by `twmr tune`: trial {best['trial']}, {spec.aggregate} "
+            f"of {spec.objective.text} over {spec.realisations} realisation(s) = "
+            f"{best['objective']:.6g} (spread {best['spread']:.3g})\n"
+            f"# relative paths in it are relative to {scenario.base_dir}\n")
+    return head + yaml.safe_dump(data, sort_keys=False)
