@@ -40,3 +40,18 @@ def test_the_ssp_runs_as_the_yaml_it_came_from(path, algorithm, tmp_path) -> Non
     np.testing.assert_array_equal(back["time"].to_numpy(), ours["time"])
     for col in common:
         assert r.worst(back[col].to_numpy(), ours[col], ours[col]) <= 1e-12, col
+
+
+def test_a_scenario_with_subsystems_exports_flat_and_runs_as_its_yaml(tmp_path) -> None:
+    """scenarios/nested/paper_trajectory1_asmc.yaml (the robot as a subsystem): each inner block
+    is one element named by its path ('robot__plant'); the SSP's rows equal the YAML's."""
+    import twmr
+
+    nested = r.ROOT / "scenarios" / "nested" / "paper_trajectory1_asmc.yaml"
+    ssp = export_ssp(nested, tmp_path / "nested.ssp", ["experiment.stop=0.5"])
+    ours = twmr.simulate(twmr.load(nested, ["experiment.stop=0.5"]), formats=())
+    theirs = twmr.simulate(twmr.load(str(ssp)), formats=())
+    at = [int(round(t / 0.001)) for t in ours.time]
+    for column in ours.columns[1:]:
+        assert np.array_equal(ours[column], theirs[column.replace("robot.", "robot__")][at]), \
+            column

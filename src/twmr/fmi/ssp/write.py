@@ -50,6 +50,7 @@ def export_ssp(scenario: str | Path, out: str | Path, overrides: Sequence[str] =
     through the Python route); the path. Raises a `CosimError` (ScenarioError for a bad
     scenario) naming what cannot be exported; `out` is written only when all of it could be."""
     from twmr.scenario.build import build_system, scenario_spec
+    from twmr.scenario.flatten import flatten
     from twmr.scenario.loaders import load_structure
 
     if ssp not in (1, 2):
@@ -61,15 +62,16 @@ def export_ssp(scenario: str | Path, out: str | Path, overrides: Sequence[str] =
         raise CosimError(f"export: '{target}' does not end in .ssp. Fix: give --out X.ssp.")
     spec = scenario_spec(load_structure(scenario), overrides=overrides)
     system = build_system(spec)
+    spec = flatten(spec).spec  # subsystems as their blocks, named by path ('robot.plant')
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="twmr-ssp-") as tmp:
         blocks = block_fmus(system, spec, Path(tmp), fmi, python)
         set_name = _name(spec)
         entries: dict[str, bytes] = {"SystemStructure.ssd": ssd(system, spec, blocks, ssp)}
         for name, block in blocks.items():
-            entries[f"resources/{name}.fmu"] = block.path.read_bytes()
+            entries[f"resources/{element_name(name)}.fmu"] = block.path.read_bytes()
             if block.values:
-                entries[f"resources/{name}.ssv"] = ssv(set_name, block, ssp)
+                entries[f"resources/{element_name(name)}.ssv"] = ssv(set_name, block, ssp)
         partial = target.with_name(f".{target.name}.{os.getpid()}.partial")
         try:
             with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
@@ -79,6 +81,13 @@ def export_ssp(scenario: str | Path, out: str | Path, overrides: Sequence[str] =
         finally:
             partial.unlink(missing_ok=True)
     return target.resolve()
+
+
+def element_name(instance: str) -> str:
+    """The SSP element of an instance: a block inside subsystems ('robot.plant') is one
+    element of the flat system, its path joined by '__' ('robot__plant'; SSP names are
+    identifiers)."""
+    return instance.replace(".", "__")
 
 
 def _name(spec: ScenarioSpec) -> str:
@@ -154,8 +163,8 @@ def system_element(name: str, system: System, blocks: dict[str, BlockFmu], units
 def component_element(block: BlockFmu, units: set[str], ssp: int = 1) -> ET.Element:
     """The ssd:Component of one block: its FMU, connectors, parameter binding."""
     comp = ET.Element(_q(SSD, "Component"), {
-        "name": block.name, "type": "application/x-fmu-sharedlibrary",
-        "source": f"resources/{block.name}.fmu", "description": block.how})
+        "name": element_name(block.name), "type": "application/x-fmu-sharedlibrary",
+        "source": f"resources/{element_name(block.name)}.fmu", "description": block.how})
     connectors = ET.SubElement(comp, _q(SSD, "Connectors"))
     for c in block.connectors:
         conn = ET.SubElement(connectors, _q(SSD, "Connector"), name=c.name, kind=c.kind)
@@ -166,7 +175,7 @@ def component_element(block: BlockFmu, units: set[str], ssp: int = 1) -> ET.Elem
     if block.values:
         bindings = ET.SubElement(comp, _q(SSD, "ParameterBindings"))
         ET.SubElement(bindings, _q(SSD, "ParameterBinding"),
-                      source=f"resources/{block.name}.ssv")
+                      source=f"resources/{element_name(block.name)}.ssv")
     return comp
 
 
@@ -191,8 +200,10 @@ def _wires(system: System, blocks: dict[str, BlockFmu], c: Connection
         (None,) if dst_var.size is None else tuple(range(len(comps[c.dst].get(c.dst_port)))))
     out: list[tuple[dict[str, str], float | None, float]] = []
     for s, d in zip(sidx, didx, strict=True):
-        attrs = {"startElement": c.src, "startConnector": blocks[c.src].variable(c.src_port, s),
-                 "endElement": c.dst, "endConnector": blocks[c.dst].variable(c.dst_port, d)}
+        attrs = {"startElement": element_name(c.src),
+                 "startConnector": blocks[c.src].variable(c.src_port, s),
+                 "endElement": element_name(c.dst),
+                 "endConnector": blocks[c.dst].variable(c.dst_port, d)}
         same = src_var.element_unit(s or 0) == dst_var.element_unit(d or 0)
         if c.gain == 1.0 and c.offset == 0.0 and same:
             out.append((attrs, None, 0.0))
@@ -216,10 +227,10 @@ def default_experiment(system: System) -> ET.Element:
         run.set("realtime", "true" if exp.realtime else "false")
     multiples = {n: m for n, m in system.step_multiples.items() if m != 1}
     for name, m in multiples.items():
-        ET.SubElement(run, _q(TWMR, "StepMultiple"), element=name, value=str(m))
+        ET.SubElement(run, _q(TWMR, "StepMultiple"), element=element_name(name), value=str(m))
     record = ET.SubElement(run, _q(TWMR, "Record"), decimation=str(system.record.decimation))
     for comp, port in system.record.signals:
-        ET.SubElement(record, _q(TWMR, "Signal"), element=comp, port=port)
+        ET.SubElement(record, _q(TWMR, "Signal"), element=element_name(comp), port=port)
     osp = ET.SubElement(notes, _q(SSC, "Annotation"), type="com.opensimulationplatform")
     ET.SubElement(ET.SubElement(osp, _q(OSP, "Algorithm")), _q(OSP, "FixedStepAlgorithm"),
                   baseStepSize=repr(exp.step))
