@@ -45,6 +45,8 @@ log = logging.getLogger("twmr.adaptive")
 
 #: the step factor's safety margin and bounds per step (grow at most x2, shrink at most x5)
 SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
+#: accepted macro steps per `advance` call (the rows reach the observers after each call)
+PER_CALL = 64
 
 
 @dataclass(frozen=True)
@@ -109,9 +111,13 @@ class Adaptive(Algorithm):
         self._fns = {k: env[k] for k in ("point", "record", "step", "outputs")}
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
+        """Up to `PER_CALL` accepted macro steps from n0, the last ending at n1 at most (n1 is
+        the stop: `Execution` gives a variable-step algorithm the whole run)."""
         n = n0
-        while n < n1:
+        for _ in range(PER_CALL):
             n = self._macro(n, n1, rows)
+            if n >= n1:
+                break
         return n
 
     def finish(self, n: int, rows: list[Any]) -> None:
@@ -151,7 +157,7 @@ class Adaptive(Algorithm):
                 for comp, state in zip(self.comps, saved, strict=True):
                     comp.release_state(state)
                 rows.extend(pending)
-                capped = k < self.k and k in (n1 - n, self._to_event(t))
+                capped = k < self.k and k == self._to_event(t)
                 self.k = max(self.k, k) if capped else self._next(k, err)
                 self.held = False
                 return n + k

@@ -72,9 +72,9 @@ class NonFinite(Exception):
 
 def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
     """The algorithm registered as `name` in the `twmr.algorithms` entry-point group (built in:
-    'gauss_seidel', 'jacobi', 'adaptive'): its factory called with `compiled` 'auto' | 'on' | 'off' (None:
-    `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError` naming the known
-    algorithms when `name` is not one."""
+    'gauss_seidel', 'jacobi', 'adaptive'): its factory called with `compiled` 'auto' | 'on' |
+    'off' (None: `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError`
+    naming the known algorithms when `name` is not one."""
     from twmr.master.compiled import compiled_mode
 
     factory = plugin(ALGORITHMS, name, "master algorithm")
