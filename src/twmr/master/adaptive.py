@@ -17,7 +17,8 @@ saved states and retries with a smaller H. The next H is k fac with fac = 0.9 er
 local error of a zero-order-hold coupling is O(H^2)), bounded to [0.2, 2] and not grown right
 after a rejection. A step ends at the grid point at or after a component's next time event
 (`Component.next_event`, e.g. a step source's switching time), so a jump between two points is
-not missed. A step of one base step has no half step: it is taken once, unchecked; a
+not missed. A step of one base step has no half step: it is taken once, unchecked (after a
+step of two was rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a
 step at `min_step` over the tolerance is accepted (counted as forced).
 
 A row is recorded at every accepted communication point t (not at the middle points), so the
@@ -47,6 +48,9 @@ log = logging.getLogger("twmr.adaptive")
 SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
 #: accepted macro steps per `advance` call (the rows reach the observers after each call)
 PER_CALL = 64
+#: most unchecked one-base-step steps in a row after a step of two was rejected (the wait
+#: doubles with each such rejection, from 1)
+MAX_WAIT = 64
 
 
 @dataclass(frozen=True)
@@ -96,6 +100,7 @@ class Adaptive(Algorithm):
         self.k_max = max(self.k_min, round((exp.max_step or exp.stop - exp.start) / exp.step))
         self.rtol, self.atol = exp.rtol, exp.atol
         self.k, self.held = self.k_min, False
+        self.wait, self.backoff = 0, 1
         self.comps = [system.components[n] for n in system.order]
         plan = build(system, "gauss_seidel", record, 1, check_finite)
         read = {(c.src, c.src_port) for c in system.connections} | set(record)
@@ -166,6 +171,8 @@ class Adaptive(Algorithm):
                 comp.release_state(state)
             k = max(self.k_min, min(k - 1, int(k * self._factor(err))))
             self.held = True
+            if k == 1:  # the tolerance needs one base step: stay there a while before trying 2
+                self.wait, self.backoff = self.backoff, min(MAX_WAIT, 2 * self.backoff)
 
     def _to_event(self, t: float) -> int:
         """Base steps from t to the first grid point at or after the next time event."""
@@ -182,6 +189,11 @@ class Adaptive(Algorithm):
 
     def _next(self, k: int, err: float) -> int:
         """The next step [base steps] after an accepted one of k; an unchecked step doubles."""
+        if math.isnan(err) and self.wait > 0:
+            self.wait -= 1
+            return k
+        if not math.isnan(err):
+            self.backoff = 1
         fac = GROW if math.isnan(err) else self._factor(err)
         if self.held:
             fac = min(fac, 1.0)
