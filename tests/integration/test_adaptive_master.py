@@ -189,3 +189,25 @@ def test_tolerances_need_the_adaptive_algorithm() -> None:
         loads(LOOP % {"h": 1e-3, "alg": "gauss_seidel, rtol: 1.0e-3"}, source="loop.yaml")
     with pytest.raises(ScenarioError, match="whole multiple"):
         loads(LOOP % {"h": 1e-3, "alg": "adaptive, max_step: 0.0015"}, source="loop.yaml")
+
+
+@pytest.mark.parametrize("interface", ["model_exchange", "co_simulation"])
+def test_a_bouncing_ball_fmu_alone_takes_few_steps_and_stays_exact(
+        tmp_path: Path, interface: str) -> None:
+    """An FMU alone has no coupling error: the step grows to max_step, and the two half steps
+    after each restore follow the analytic bounces (a state not restored would run twice)."""
+    from tests.integration.test_fmu_events import ball_height
+
+    path = build_c_fmu("bounce3", tmp_path, fmi3=True)
+    data, ex = run(f"""
+components:
+  ball: {{kind: fmu, parameters: {{path: {path}, interface: {interface}}}}}
+experiment: {{stop: 2.0, step: 1.0e-3, algorithm: adaptive, rtol: 1.0e-6, atol: 1.0e-8,
+             max_step: 0.25}}
+record: {{signals: [ball.h]}}
+""")
+    report = ex.algorithm.report()
+    assert report["step_max_s"] == pytest.approx(0.25)
+    assert int(report["steps_accepted"]) < 20  # type: ignore[call-overload]
+    tol = 1e-4 if interface == "model_exchange" else 1e-9  # ME: the FMU's solver (CVODE)
+    assert np.max(np.abs(data[:, 1] - ball_height(data[:, 0]))) < tol
