@@ -211,3 +211,6 @@ record: {{signals: [ball.h]}}
     assert int(report["steps_accepted"]) < 20  # type: ignore[call-overload]
     tol = 1e-4 if interface == "model_exchange" else 1e-9  # ME: the FMU's solver (CVODE)
     assert np.max(np.abs(data[:, 1] - ball_height(data[:, 0]))) < tol
+    with pytest.raises(ScenarioError, match="is larger than max_step"):
+        loads(LOOP % {"h": 1e-3, "alg": "adaptive, min_step: 0.004, max_step: 0.002"},
+              source="loop.yaml")

@@ -325,7 +325,9 @@ class _Builder:
         e = self.spec.experiment
         given = {k: g for k in ADAPTIVE_KEYS
                  if (g := getattr(e, k)) is not None and g.value is not None}
-        if given and e.algorithm.value != "adaptive":
+        if not given:
+            return {}
+        if e.algorithm.value != "adaptive":
             key, g = next(iter(given.items()))
             self.problems.append(Problem(g.where, f"'{key}' applies to algorithm: adaptive only, "
                                          f"but the experiment's algorithm is "
@@ -344,10 +346,11 @@ class _Builder:
                                              f"(the adaptive master steps on the base grid)."))
                 return {}
             options[key] = min(round(n) * step, duration)
-        if options.get("min_step", step) > options.get("max_step", duration):
-            self.problems.append(Problem(given["min_step"].where, f"min_step "
-                                         f"({options['min_step']:g} s) is larger than max_step "
-                                         f"({options.get('max_step', duration):g} s).",
+        bound = "min_step" if "min_step" in given else "max_step"
+        lo, hi = options.get("min_step", step), options.get("max_step", duration)
+        if bound in given and lo > hi:
+            self.problems.append(Problem(given[bound].where, f"min_step ({lo:g} s) is larger "
+                                         f"than max_step ({hi:g} s).",
                                          "make min_step <= max_step."))
             return {}
         return options
