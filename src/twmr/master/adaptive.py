@@ -10,7 +10,12 @@ component's state saved:
    the outputs y_H of the stepping components that the run reads (wired or recorded) are kept;
 2. every state restored, then two steps of k // 2 and k - k // 2 base steps (Gauss-Seidel at t
    and at the middle point): outputs y_H/2;
-3. the error err = max_i |y_H - y_H/2|_i / (atol + rtol max(|y_H|_i, |y_H/2|_i)).
+3. the error err = max_i |y_H - y_H/2|_i / (atol + rtol max(|y_H|_i, |y_H/2|_i)). A
+   feedthrough output holds its value from the last point (t after the whole step, t + H/2
+   after the halves), so its term is the change of that coupled signal over half a step: an
+   input-extrapolation term beside the step-doubling one. It makes the estimate see a
+   block's hidden states through the signals they drive (outputs alone, the velocity of a
+   second-order plant behind its position would go unseen, and the error grow 3x past rtol).
 
 err <= 1 accepts the two half steps (the more accurate result) at t + H; err > 1 restores the
 saved states and retries with a smaller H. The next H is k fac with fac = 0.9 err^(-1/2) (the
