@@ -15,7 +15,8 @@ component's state saved:
    after the halves), so its term is the change of that coupled signal over half a step: an
    input-extrapolation term beside the step-doubling one. It makes the estimate see a
    block's hidden states through the signals they drive (outputs alone, the velocity of a
-   second-order plant behind its position would go unseen, and the error grow 3x past rtol).
+   second-order plant behind its position would go unseen, and the error end several times
+   past the tolerance).
 
 err <= 1 accepts the two half steps (the more accurate result) at t + H; err > 1 restores the
 saved states and retries with a smaller H. The next H is k fac with fac = 0.9 err^(-1/2) (the
