@@ -151,7 +151,8 @@ def test_unknown_algorithm_is_one_paragraph_with_a_suggestion(third_party) -> No
     assert done.returncode == 1
     err = done.stderr.strip()
     assert "--set (experiment.algorithm=jacobbi): unknown master algorithm 'jacobbi' (did you " \
-           "mean 'jacobi'?). Fix: use one of: gauss_seidel, jacobi, rollback_test" in err, err
+           "mean 'jacobi'?). Fix: use one of: adaptive, gauss_seidel, jacobi, " \
+           "rollback_test" in err, err
     assert "\n" not in err
 
 

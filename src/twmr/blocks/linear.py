@@ -15,6 +15,9 @@ from twmr.core.component import Component
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 
+#: discretisations a state-space block keeps, one per step size [s]
+DISCRETE_CACHE = 256
+
 
 class Gain(Component):
     """y = k u (element-wise) or y = K u (a matrix).
@@ -194,15 +197,21 @@ class StateSpace(Component):
         self._c = np.reshape(self.C, (p, n))
         self._d = np.reshape(np.array(self.D, dtype=float), (p, m))
         self._h = math.nan
+        self._discrete: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         self.evaluate(self.start_time)
 
     def kernel(self, h: float) -> Kernel:
         """The definition for steps of h [s] (the discretisation made here)."""
         if h != self._h:
-            from scipy.signal import cont2discrete
+            if h not in self._discrete:  # an adaptive master comes back to the same steps
+                from scipy.signal import cont2discrete
 
-            ad, bd, *_ = cont2discrete((self._a, self._b, self._c, self._d), h, method="zoh")
-            self._ad, self._bd, self._h = ad, bd, h
+                ad, bd, *_ = cont2discrete((self._a, self._b, self._c, self._d), h,
+                                           method="zoh")
+                if len(self._discrete) >= DISCRETE_CACHE:
+                    self._discrete.clear()
+                self._discrete[h] = ad, bd
+            (self._ad, self._bd), self._h = self._discrete[h], h
         n = len(self._a)
         x = (np.array(self.x0 or [0.0] * n, dtype=float),)
         ad = np.ascontiguousarray(self._ad, dtype=float)

@@ -61,3 +61,6 @@ class Step(Component):
 
     def kernel(self, h: float) -> Kernel:
         return Kernel(params=self._params(), step=kernels.step_step)
+
+    def next_event(self, t: float) -> float | None:
+        return float(self.time) if t < self.time else None

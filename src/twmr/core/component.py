@@ -315,6 +315,11 @@ class Component:
         its `step` function from t to t + h [s] (the kernel made again when h changes), the
         outputs written back.""")
 
+    def next_event(self, t: float) -> float | None:
+        """The first time > t [s] at which the outputs jump (a time event; None: none known);
+        the adaptive master ends a step there (`twmr.master.adaptive`)."""
+        return None
+
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
 
@@ -342,12 +347,18 @@ class Component:
         """Restore a snapshot taken by `get_state` (FMI fmi2SetFMUstate)."""
         if not self.can_get_and_set_state:
             raise self.no_state("restore")
-        if not isinstance(state, tuple) or tuple(n for n, _ in state) != self._state_names():
+        names = tuple(n for n, _ in state) if isinstance(state, tuple) else None
+        d = self.__dict__
+        if names is not None and _X in d and _CALLS in d and names == self._state_names()[:-1]:
+            # saved before the kernel's first step: it starts again from the kernel's own state
+            del d[_X]
+            d[_CALLS].reset()
+        elif names != self._state_names():
             raise ComponentError(self.name, None, f"the state given to set_state was not "
                                  f"saved by a {type(self).__name__} with these ports. Fix: "
                                  f"restore only states that this component's get_state "
                                  f"returned.")
-        self.__dict__.update((n, _frozen(v)) for n, v in state)
+        d.update((n, _frozen(v)) for n, v in state)
 
     def _state_names(self) -> tuple[str, ...]:
         """What a saved state holds: the ports and states, the `state_attributes`, and the

@@ -48,6 +48,11 @@ class Algorithm(ABC):
         compiled algorithm collects its kernels and compiles here)."""
         return
 
+    def refuse(self, system: System) -> Problem | None:
+        """Why `system` cannot run under this algorithm, beyond state rollback (None: it can);
+        `admit` raises it."""
+        return None
+
     def report(self) -> dict[str, object]:
         """Figures about the algorithm (e.g. compile time [s]), for the run's outcome."""
         return {}
@@ -67,9 +72,9 @@ class NonFinite(Exception):
 
 def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
     """The algorithm registered as `name` in the `twmr.algorithms` entry-point group (built in:
-    'gauss_seidel', 'jacobi'): its factory called with `compiled` 'auto' | 'on' | 'off' (None:
-    `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError` naming the known
-    algorithms when `name` is not one."""
+    'gauss_seidel', 'jacobi', 'adaptive'): its factory called with `compiled` 'auto' | 'on' |
+    'off' (None: `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError`
+    naming the known algorithms when `name` is not one."""
     from twmr.master.compiled import compiled_mode
 
     factory = plugin(ALGORITHMS, name, "master algorithm")
@@ -99,11 +104,14 @@ def algorithm_for(system: System, compiled: str | None = None) -> Algorithm:
 def admit(system: System, algorithm: Algorithm, name: str = "") -> None:
     """Refuse a system `algorithm` cannot run: one that restores earlier states
     (`needs_state_rollback`) needs every component to save its state
-    (`Component.can_get_and_set_state`). `ScenarioError` naming the blocks and the algorithm."""
-    if not algorithm.needs_state_rollback:
-        return
-    unfit = {n: c for n, c in system.components.items() if not c.can_get_and_set_state}
+    (`Component.can_get_and_set_state`), and the algorithm's own `refuse`. `ScenarioError`
+    naming the blocks and the algorithm."""
+    unfit = {n: c for n, c in system.components.items() if not c.can_get_and_set_state} \
+        if algorithm.needs_state_rollback else {}
     if not unfit:
+        problem = algorithm.refuse(system)
+        if problem is not None:
+            raise ScenarioError(problem)
         return
     label = f"'{name}'" if name else type(algorithm).__name__
     why = "; ".join(f"'{n}' ({type(c).__name__}) cannot save and restore its state: "

@@ -281,8 +281,9 @@ class Execution:
     # -- stepping ------------------------------------------------------------------------------
     def _loop(self, n_steps: int) -> None:
         chunk = 64
+        variable = self.algorithm.variable_step  # its steps must not depend on the chunks
         while self._n < n_steps:
-            n1 = min(n_steps, self._n + chunk)
+            n1 = n_steps if variable else min(n_steps, self._n + chunk)
             t0 = time.perf_counter()
             self._n = self._advance(n1)
             dt = time.perf_counter() - t0

@@ -33,7 +33,7 @@ from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wir
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
-from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
+from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, RecordSpec, System
 
 __all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schema"]
@@ -316,7 +316,44 @@ class _Builder:
                                          f"{suggest(str(e.algorithm.value), known)}.",
                                          f"use one of: {', '.join(sorted(known))} (the "
                                          f"'twmr.algorithms' entry points)."))
-        return Experiment(start, stop, step, e.algorithm.value, e.realtime.value)
+        return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
+                          **self.adaptive_options(step, stop - start))
+
+    def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
+        """The experiment's `rtol`, `atol`, `min_step`, `max_step` as given (algorithm
+        'adaptive' only; step bounds whole multiples of the base `step`, min <= max)."""
+        e = self.spec.experiment
+        given = {k: g for k in ADAPTIVE_KEYS
+                 if (g := getattr(e, k)) is not None and g.value is not None}
+        if not given:
+            return {}
+        if e.algorithm.value != "adaptive":
+            key, g = next(iter(given.items()))
+            self.problems.append(Problem(g.where, f"'{key}' applies to algorithm: adaptive only, "
+                                         f"but the experiment's algorithm is "
+                                         f"'{e.algorithm.value}'.",
+                                         f"set 'algorithm: adaptive', or remove '{key}'."))
+            return {}
+        options = {k: float(g.value) for k, g in given.items()}
+        for key in ("min_step", "max_step"):
+            if key not in options:
+                continue
+            n = options[key] / step
+            if not (round(n) >= 1 and math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9)):
+                self.problems.append(Problem(given[key].where, f"{key} = {options[key]:g} s is "
+                                             f"not a whole multiple of the base step "
+                                             f"{step:g} s.", f"give {key} as n * step, n >= 1 "
+                                             f"(the adaptive master steps on the base grid)."))
+                return {}
+            options[key] = min(round(n) * step, duration)
+        bound = "min_step" if "min_step" in given else "max_step"
+        lo, hi = options.get("min_step", step), options.get("max_step", duration)
+        if bound in given and lo > hi:
+            self.problems.append(Problem(given[bound].where, f"min_step ({lo:g} s) is larger "
+                                         f"than max_step ({hi:g} s).",
+                                         "make min_step <= max_step."))
+            return {}
+        return options
 
     def check_exposed(self, comps: dict[str, Component]) -> None:
         """Every exposed port names an inner port of its side, with a declared unit that

@@ -20,6 +20,7 @@ import jsonschema
 from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.registry import suggest
 from twmr.scenario.structure import (
+    ADAPTIVE_KEYS,
     ComponentSpec,
     ExperimentSpec,
     Exposure,
@@ -111,7 +112,8 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
     e = ("experiment",)
     experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),
                                 given(*e, "step"), given(*e, "algorithm", default="gauss_seidel"),
-                                given(*e, "realtime"), at(*e))
+                                given(*e, "realtime"), at(*e),
+                                *(given(*e, k) for k in ADAPTIVE_KEYS))
     exposed = {side: {n: _exposure(n, data[side][n], at, side) for n in data.get(side) or {}}
                for side in ("inputs", "outputs")}
     rec = data.get("record") or {}

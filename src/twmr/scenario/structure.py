@@ -59,6 +59,10 @@ class Exposure:
     where: Location
 
 
+#: the experiment keys of algorithm 'adaptive' (fields of `ExperimentSpec` and `Experiment`)
+ADAPTIVE_KEYS = ("rtol", "atol", "min_step", "max_step")
+
+
 @dataclass(frozen=True)
 class ExperimentSpec:
     """Start, stop and base step [s] as given (numbers, or text the builder reads as numbers),
@@ -70,6 +74,11 @@ class ExperimentSpec:
     algorithm: Given[str]
     realtime: Given[bool | None]
     where: Location
+    #: the adaptive algorithm's tolerances and step bounds (value None: not given)
+    rtol: Given[Any] | None = None
+    atol: Given[Any] | None = None
+    min_step: Given[Any] | None = None
+    max_step: Given[Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,12 @@ class Experiment:
     step: float = 1e-3
     algorithm: str = "gauss_seidel"
     realtime: bool | None = None
+    #: algorithm 'adaptive': relative and absolute tolerance, step bounds [s] (None: the base
+    #: step and the whole run)
+    rtol: float = 1e-4
+    atol: float = 1e-6
+    min_step: float | None = None
+    max_step: float | None = None
 
     @property
     def n_steps(self) -> int:
