@@ -296,3 +296,25 @@ def test_tustin_has_no_c_twin_and_says_what_to_do(tmp_path: Path):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode != 0 and "Traceback" not in done.stderr
     assert "method 'tustin' has no C kernel" in done.stderr and "--python" in done.stderr
+
+
+@pytest.mark.parametrize("block, message", [
+    ("{kind: zero_order_hold, parameters: {sample_period: 0.0015}}",
+     "(components.z.parameters.sample_period): component 'z' (zero_order_hold): sample_period "
+     "= 0.0015 s is not a whole number of steps of 0.001 s. Fix: give a multiple of the step."),
+    ("{kind: pid, parameters: {kp: 1, kd: 1, N: 5000}}",
+     "(components.z.parameters.N): component 'z' (pid): N = 5000.0 1/s makes the derivative "
+     "filter unstable at steps of 0.001 s"),
+    ("{kind: transport_delay, parameters: {delay: 1.0, buffer: 10}}",
+     "(components.z.parameters.delay): component 'z' (transport_delay): delay = 1.0 s is 1000 "
+     "steps of 0.001 s, more than a buffer of 10 samples holds. Fix: give buffer >= 1001."),
+])
+def test_what_depends_on_the_step_is_refused_at_check_at_its_line(block: str, message: str
+                                                                   ) -> None:
+    from twmr.core import ScenarioError
+    from twmr.scenario import loads
+
+    with pytest.raises(ScenarioError) as err:
+        loads(f"components:\n  z: {block}\nopen: ['z.*']\nexperiment: {{stop: 0.01, "
+              f"step: 0.001}}\n", source="s.yaml")
+    assert str(err.value).startswith(f"s.yaml:2 {message}"), str(err.value)

@@ -224,11 +224,14 @@ class ZeroOrderHold(Component):
                      "give a sample period of at least one step.")]
         return []
 
+    def check_step(self, h: float) -> list[tuple[str, str, str]]:
+        if whole_steps(self.sample_period, h) is None:
+            return [("sample_period", f"sample_period = {self.sample_period} s is not a whole "
+                     f"number of steps of {h} s.", "give a multiple of the step.")]
+        return []
+
     def prepare(self, run: Any) -> None:
-        if whole_steps(self.sample_period, run.step) is None:
-            raise ComponentError(self.name, None, f"parameter sample_period = "
-                                 f"{self.sample_period} s is not a whole number of steps of "
-                                 f"{run.step} s. Fix: give a multiple of the step.")
+        _refuse(self, self.check_step(run.step))
 
     def initialize(self) -> None:
         self.evaluate(self.start_time)
@@ -271,13 +274,16 @@ class TransportDelay(Component):
                      f"samples.", f"give buffer >= {self.steps + 1}.")]
         return []
 
-    def prepare(self, run: Any) -> None:
-        d = self.steps if self.steps > 0 else self.delay / run.step
+    def check_step(self, h: float) -> list[tuple[str, str, str]]:
+        d = self.steps if self.steps > 0 else self.delay / h
         if d > self.buffer - 1 + WHOLE * d:
-            raise ComponentError(self.name, None, f"parameter delay = {self.delay} s is "
-                                 f"{d:g} steps of {run.step} s, more than a buffer of "
-                                 f"{self.buffer} samples holds. Fix: give buffer >= "
-                                 f"{math.ceil(d) + 1}.")
+            return [("delay", f"delay = {self.delay} s is {d:g} steps of {h} s, more than a "
+                     f"buffer of {self.buffer} samples holds.",
+                     f"give buffer >= {math.ceil(d) + 1}.")]
+        return []
+
+    def prepare(self, run: Any) -> None:
+        _refuse(self, self.check_step(run.step))
 
     def initialize(self) -> None:
         self.y = self.variables["y"].coerce(self.y0)
@@ -334,14 +340,16 @@ class Pid(_Feedthrough):
     def initialize(self) -> None:
         self.evaluate(self.start_time)
 
+    def check_step(self, h: float) -> list[tuple[str, str, str]]:
+        if self.kd != 0.0 and self.N * h >= 2.0:
+            return [("N", f"N = {self.N} 1/s makes the derivative filter unstable at steps of "
+                     f"{h} s (its pole 1 - N h = {1.0 - self.N * h:g} is outside the unit "
+                     f"circle).", f"give N < {2.0 / h:g} 1/s, or a smaller step.")]
+        return []
+
     def prepare(self, run: Any) -> None:
         super().prepare(run)
-        if self.kd != 0.0 and self.N * run.step >= 2.0:
-            raise ComponentError(self.name, None, f"parameter N = {self.N} 1/s makes the "
-                                 f"derivative filter unstable at steps of {run.step} s (its pole "
-                                 f"1 - N h = {1.0 - self.N * run.step:g} is outside the unit "
-                                 f"circle). Fix: give N < {2.0 / run.step:g} 1/s, or a smaller "
-                                 f"step.")
+        _refuse(self, self.check_step(run.step))
 
     def kernel(self, h: float) -> Kernel:
         h = self.step_of(h)
@@ -350,3 +358,10 @@ class Pid(_Feedthrough):
                           self.kb * h, float(self.limit_output), float(self.y_min),
                           float(self.y_max), float(dk.ANTIWINDUP.get(self.antiwindup, 0))),
                       state=(0.0, 0.0, 0.0), evaluate=dk.pid_evaluate, step=dk.pid_step)
+
+
+def _refuse(comp: Component, problems: list[tuple[str, str, str]]) -> None:
+    """A run not built from a scenario (the test Harness) refuses what `check_step` found."""
+    if problems:
+        _, message, fix = problems[0]
+        raise ComponentError(comp.name, None, f"parameter {message} Fix: {fix}")
