@@ -14,6 +14,7 @@ frame's sequence number first (gaps are dropped frames), then rows x columns, ro
 from __future__ import annotations
 
 import collections
+import contextlib
 import json
 import logging
 import math
@@ -67,10 +68,11 @@ def parse_address(text: str) -> tuple[str, int]:
 class _Client:
     """One viewer's bounded queue of frames (latest wins) and its counters."""
 
-    def __init__(self) -> None:
+    def __init__(self, connection: Any) -> None:
+        self.connection = connection
         self.queue: collections.deque[bytes | str | None] = collections.deque(maxlen=CLIENT_QUEUE)
         self.ready = threading.Condition()
-        self.sent = 0
+        self.taken = 0  # frames taken to send (the last may still be on its way)
         self.dropped = 0
 
     def push(self, message: bytes | str | None) -> None:
@@ -84,6 +86,7 @@ class _Client:
         with self.ready:
             while not self.queue:
                 self.ready.wait()
+            self.taken += 1
             return self.queue.popleft()
 
 
@@ -149,6 +152,11 @@ class LiveView(Observer):
                 if not self.clients:
                     break
             drained.wait(0.05)
+        with self._lock:
+            stuck = list(self.clients)
+        for client in stuck:  # a viewer that does not read: its blocked send fails now
+            with contextlib.suppress(OSError):
+                client.connection.socket.shutdown(socket.SHUT_RDWR)
         self._server.shutdown()
         if self._thread is not None:
             self._thread.join(timeout=5)
@@ -201,7 +209,7 @@ class LiveView(Observer):
         if str(PurePosixPath(urlsplit(connection.request.path).path)) != "/ws":
             connection.close(1008, "the data is on /ws")
             return
-        client = _Client()
+        client = _Client(connection)
         with self._lock:
             self.clients.append(client)
             first = [m for m in (self._start_message, self._history_frame(),
@@ -209,9 +217,8 @@ class LiveView(Observer):
         try:
             for message in first:
                 connection.send(message)
-            while (message := client.pop()) is not None:
-                connection.send(message)
-                client.sent += 1
+            while (queued := client.pop()) is not None:
+                connection.send(queued)
             connection.close(1001, "the live view closed")
         except ConnectionClosed:
             pass
