@@ -11,6 +11,7 @@ import threading
 import urllib.error
 import urllib.request
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -155,3 +156,27 @@ def test_the_page_and_the_vendored_plots_are_served(view):
         with urllib.request.urlopen(f"http://127.0.0.1:{view.port}/{name}", timeout=10) as f:
             assert f.read() == (static / name).read_bytes()
     assert "MIT" in (static / "uPlot.LICENSE").read_text()
+
+
+def test_simulate_live_serves_the_run_and_closes_after(caplog):
+    import twmr
+    from twmr.observers.base import Observer
+
+    fixture = Path(__file__).parent.parent / "fixtures" / "scenarios" / "loop.yaml"
+    seen: dict[str, object] = {}
+
+    class Viewer(Observer):  # a page connecting while the run goes, from its first rows on
+        def rows(self, block, steps_done):
+            if "start" in seen or not len(block):
+                return
+            url = next(r.getMessage() for r in caplog.records if r.name == "twmr.live")
+            with connect(url.split(": ", 1)[1].replace("http", "ws") + "ws") as page:
+                seen["start"] = json.loads(page.recv(timeout=10))
+                seen["rows"] = _rows(page.recv(timeout=10), len(block[0]))[1]
+            seen["block"] = block.copy()
+
+    caplog.set_level("INFO", logger="twmr.live")
+    result = twmr.simulate(str(fixture), live="127.0.0.1:0", observers=[Viewer()])
+    assert seen["start"]["columns"] == list(result.columns)
+    assert np.array_equal(seen["rows"], seen["block"][::-(-len(seen["block"]) // FRAME_ROWS)])
+    assert not [t for t in threading.enumerate() if t.name == "twmr-live"]
