@@ -119,12 +119,14 @@ def _is_ssp(source: str | Path) -> bool:
 def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path | None = None,
              *, formats: Sequence[str] = (), observers: Sequence[Observer] = (),
              metrics: Sequence[str] = (), progress: bool = False,
-             header: dict[str, Any] | None = None) -> Result:
+             header: dict[str, Any] | None = None, live: str | None = None) -> Result:
     """Run a scenario to its stop time and return its `Result`.
 
     `out`: the run's folder (crash-consistent `result.arrows`, `summary.json`, the asked export
     `formats` of 'csv' / 'mat' / 'parquet'); None keeps the rows in memory. `metrics` names
     registered metric functions (e.g. 'tracking') whose figures go into `summary['metrics']`.
+    `live`: '[HOST:]PORT' of a live view of the run in the browser (`docs/live.md`; its URL is
+    logged), closed when the run ends.
     Raises a `CosimError` (or `KeyboardInterrupt`) after every component is terminated; the
     results so far are in `<out>.incomplete` (see the module's docstring)."""
     from twmr.master.execution import Execution, held_signals
@@ -146,6 +148,10 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
         from twmr.observers.progress import ProgressBar
 
         extra.append(ProgressBar())
+    if live is not None:
+        from twmr.observers.live import LiveView
+
+        extra.append(LiveView(live))
     if out is None:
         ex = Execution(system, [store, summary, *extra, *observers])
         ex.run()

@@ -77,14 +77,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = _out_dir(args, scenario_path)
     log.info("running %s (%d components, %d steps of %g s, %s) -> %s/", scenario_path,
              len(scenario.system.components), exp.n_steps, exp.step, exp.algorithm, out)
+    live = _live_view(args)
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
-                              progress=not args.quiet)
+                              progress=not args.quiet,
+                              observers=[live] if live is not None else [])
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)
         if folder is not None and args.plot:
             _plots(api.read_result(folder), scenario_path.stem)
         raise
+    finally:
+        if live is not None:
+            if live.keep and not isinstance(sys.exc_info()[1], KeyboardInterrupt):
+                log.warning("the run ended; the live view stays up at %s until Ctrl-C",
+                            live.url)
+                live.wait()
+            live.close()
     if args.plot:
         _plots(result, scenario_path.stem)
     s = result.summary
@@ -105,6 +114,20 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         print(jsonvalues.dumps(s["metrics"]))
     return 0
+
+
+def _live_view(args: argparse.Namespace) -> Any:
+    """The `--live` server, started (its URL printed), or None."""
+    if args.live is None:
+        if args.live_keep:
+            raise CosimError("--live-keep keeps the live view up after the run, and there is "
+                             "none. Fix: add --live PORT (e.g. --live 0), or drop --live-keep.")
+        return None
+    from twmr.observers.live import LiveView
+
+    live = LiveView(args.live, keep=args.live_keep)
+    print(f"live view: {live.start()}", file=sys.stderr, flush=True)
+    return live
 
 
 def _plots(result: Any, title: str) -> None:
@@ -407,6 +430,11 @@ def parser() -> argparse.ArgumentParser:
                    help="compile the step loop with numba: auto (default: when every block "
                         "offers a kernel and the run has >= 10000 steps), on (an error "
                         "otherwise), off (the Python loop); sets TWMR_COMPILED")
+    r.add_argument("--live", metavar="[HOST:]PORT",
+                   help="serve live scopes of the recorded signals in the browser while the run "
+                        "goes (host 127.0.0.1 unless given; port 0: a free one, printed)")
+    r.add_argument("--live-keep", action="store_true",
+                   help="with --live: keep serving after the run, until Ctrl-C")
     r.add_argument("--fmu-log", action="store_true",
                    help="show every message the FMUs log (errors and warnings always show)")
     r.set_defaults(fn=cmd_run)

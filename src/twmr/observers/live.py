@@ -1,0 +1,288 @@
+"""`LiveView`: live scopes of a run's recorded signals in the browser (`twmr run --live`).
+
+An HTTP + WebSocket server (`websockets`' threaded server) on 127.0.0.1 unless told otherwise
+serves one page (`live_static/live.html`, plotting with the vendored uPlot) and streams the rows
+the run records to every page that connects. The run never waits for a viewer: `rows` decimates
+the chunk to at most `FRAME_ROWS` rows, encodes it once and appends it to each client's queue of
+`CLIENT_QUEUE` frames, the oldest dropped when full (latest wins); each client's own thread
+sends from its queue. A page that joins late gets the run's start and its history (at most
+`HISTORY_ROWS` rows, thinned by halves).
+
+Wire format: text messages are JSON (`start`: columns, units, step, n_steps, scenario, ports,
+planar; `end`: status, error, steps_done); binary messages are rows: little-endian float64, the
+frame's sequence number first (gaps are dropped frames), then rows x columns, row-major."""
+from __future__ import annotations
+
+import collections
+import contextlib
+import json
+import logging
+import math
+import socket
+import threading
+from importlib import resources
+from pathlib import PurePosixPath
+from typing import Any
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from twmr.core.errors import CosimError
+from twmr.observers.base import Observer, Outcome, RunStart
+from twmr.plots import group_ports, is_planar_position
+
+log = logging.getLogger("twmr.live")
+
+DEFAULT_HOST = "127.0.0.1"
+#: most rows one frame carries (a chunk with more is thinned by a stride)
+FRAME_ROWS = 500
+#: frames waiting for one client; past it the oldest is dropped
+CLIENT_QUEUE = 8
+#: rows kept for pages that join late (thinned by halves past it)
+HISTORY_ROWS = 20_000
+_STATIC = {"/": ("live.html", "text/html; charset=utf-8"),
+           "/uPlot.iife.min.js": ("uPlot.iife.min.js", "text/javascript; charset=utf-8"),
+           "/uPlot.min.css": ("uPlot.min.css", "text/css; charset=utf-8"),
+           "/uPlot.LICENSE": ("uPlot.LICENSE", "text/plain; charset=utf-8")}
+_LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+
+
+class LiveAddressError(CosimError):
+    """A `--live` address that does not parse or cannot be bound."""
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """'8765' -> ('127.0.0.1', 8765); 'HOST:PORT'; '[::1]:8765'; port 0: a free one."""
+    raw = str(text).strip()
+    host, sep, port = raw.rpartition(":")
+    if not sep:
+        host, port = DEFAULT_HOST, raw
+    host = host.strip("[]") or DEFAULT_HOST
+    if not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise LiveAddressError(
+            f"--live {text!r}: expected [HOST:]PORT with a port from 0 to 65535. Fix: e.g. "
+            f"--live 8765, --live 0 (a free port) or --live 127.0.0.1:8765.")
+    return host, int(port)
+
+
+class _Client:
+    """One viewer's bounded queue of frames (latest wins) and its counters."""
+
+    def __init__(self, connection: Any) -> None:
+        self.connection = connection
+        self.queue: collections.deque[bytes | str | None] = collections.deque(maxlen=CLIENT_QUEUE)
+        self.ready = threading.Condition()
+        self.taken = 0  # frames taken to send (the last may still be on its way)
+        self.dropped = 0
+
+    def push(self, message: bytes | str | None) -> None:
+        with self.ready:
+            if len(self.queue) == self.queue.maxlen:
+                self.dropped += 1
+            self.queue.append(message)
+            self.ready.notify()
+
+    def pop(self) -> bytes | str | None:
+        with self.ready:
+            while not self.queue:
+                self.ready.wait()
+            self.taken += 1
+            return self.queue.popleft()
+
+
+class LiveView(Observer):
+    """Serves the live page on `address` ('[HOST:]PORT', see `parse_address`) from `start()` (or
+    the run's start) to `close()`; `keep`: stay up after the run (else `finished` closes)."""
+
+    def __init__(self, address: str = f"{DEFAULT_HOST}:0", keep: bool = False):
+        self.host, self.port = parse_address(address)
+        self.keep = keep
+        self.clients: list[_Client] = []
+        self._lock = threading.Lock()
+        self._start_message: str | None = None
+        self._history: list[np.ndarray] = []
+        self._history_rows = 0
+        self._sequence = 0
+        self._end_message: str | None = None
+        self._server: Any = None
+        self._thread: threading.Thread | None = None
+
+    @property
+    def url(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"http://{host}:{self.port}/"
+
+    # -- the server ----------------------------------------------------------------------------
+    def start(self) -> str:
+        """Bind and serve in a background thread (once); the page's URL."""
+        if self._server is not None:
+            return self.url
+        from websockets.sync.server import serve
+
+        family = socket.AF_INET6 if ":" in self.host else socket.AF_INET
+        sock = socket.socket(family, socket.SOCK_STREAM)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind((self.host, self.port))
+            sock.listen()
+        except OSError as err:
+            sock.close()
+            raise LiveAddressError(
+                f"--live {self.host}:{self.port}: cannot listen there ({err.strerror or err}). "
+                f"Fix: choose another port, or --live 0 for a free one.") from None
+        self.port = sock.getsockname()[1]
+        self._server = serve(self._serve_client, sock=sock, process_request=self._http,
+                             compression=None, max_size=2**16, close_timeout=2)
+        self._thread = threading.Thread(target=self._server.serve_forever, name="twmr-live",
+                                        daemon=True)
+        self._thread.start()
+        return self.url
+
+    def close(self) -> None:
+        """Tell every page the server goes, then stop serving."""
+        if self._server is None:
+            return
+        with self._lock:
+            clients = list(self.clients)
+        for client in clients:
+            client.push(None)
+        drained = threading.Event()
+        for _ in range(20):  # at most 1 s for the pages to get what is queued
+            with self._lock:
+                if not self.clients:
+                    break
+            drained.wait(0.05)
+        with self._lock:
+            stuck = list(self.clients)
+        for client in stuck:  # a viewer that does not read: its blocked send fails now
+            with contextlib.suppress(OSError):
+                client.connection.socket.shutdown(socket.SHUT_RDWR)
+        self._server.shutdown()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        self._server = None
+
+    def wait(self) -> None:
+        """Serve until Ctrl-C (`--live-keep`), then close."""
+        stop = threading.Event()
+        try:
+            while not stop.wait(0.5):
+                pass
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.close()
+
+    def _http(self, connection: Any, request: Any) -> Any:
+        """The page and its files; a WebSocket upgrade on /ws from this page's origin only."""
+        host = request.headers.get("Host", "")
+        if not self._host_allowed(host):
+            return connection.respond(403, "Forbidden: unexpected Host header.\n")
+        path = urlsplit(request.path).path
+        if path == "/ws":
+            origin = request.headers.get("Origin")
+            if origin is not None and urlsplit(origin).netloc != host:
+                return connection.respond(403, "Forbidden: another site's page.\n")
+            return None
+        if path not in _STATIC:
+            return connection.respond(404, "Not found.\n")
+        from websockets.datastructures import Headers
+        from websockets.http11 import Response
+
+        name, kind = _STATIC[path]
+        body = (resources.files("twmr.observers") / "live_static" / name).read_bytes()
+        return Response(200, "OK", Headers([("Content-Type", kind),
+                                            ("Content-Length", str(len(body))),
+                                            ("Cache-Control", "no-store"),
+                                            ("Connection", "close")]), body)
+
+    def _host_allowed(self, host: str) -> bool:
+        """On a loopback address only loopback names (no DNS rebinding); elsewhere any."""
+        if not (self.host.startswith("127.") or self.host in ("::1", "localhost")):
+            return True
+        name = host.rpartition(":")[0] if not host.endswith("]") else host
+        return name in _LOOPBACK_NAMES or name.startswith("127.")
+
+    def _serve_client(self, connection: Any) -> None:
+        from websockets.exceptions import ConnectionClosed
+
+        if str(PurePosixPath(urlsplit(connection.request.path).path)) != "/ws":
+            connection.close(1008, "the data is on /ws")
+            return
+        client = _Client(connection)
+        with self._lock:
+            self.clients.append(client)
+            first = [m for m in (self._start_message, self._history_frame(),
+                                 self._end_message) if m is not None]
+        try:
+            for message in first:
+                connection.send(message)
+            while (queued := client.pop()) is not None:
+                connection.send(queued)
+            connection.close(1001, "the live view closed")
+        except ConnectionClosed:
+            pass
+        finally:
+            with self._lock:
+                self.clients.remove(client)
+
+    def _history_frame(self) -> bytes | None:
+        if not self._history:
+            return None
+        return _frame(-1.0, np.concatenate(self._history))
+
+    def _broadcast(self, message: bytes | str) -> None:
+        with self._lock:
+            for client in self.clients:
+                client.push(message)
+
+    # -- the observer --------------------------------------------------------------------------
+    def started(self, run: RunStart) -> None:
+        if self._server is None:
+            log.info("live view: %s", self.start())
+        columns = list(run.columns)
+        units = dict(zip(columns, run.units, strict=True))
+        index = {c: i for i, c in enumerate(columns)}
+        planar = [{"port": port, "x": index[cols[0]], "y": index[cols[1]]}
+                  for port, cols in group_ports(columns).items()
+                  if is_planar_position(port, [units[c] for c in cols])]
+        message = json.dumps({"type": "start", "columns": columns, "units": list(run.units),
+                              "step": run.step, "n_steps": run.n_steps,
+                              "scenario": run.scenario,
+                              "ports": run.metadata.get("ports", {}), "planar": planar})
+        with self._lock:
+            self._start_message, self._end_message = message, None
+            self._history, self._history_rows, self._sequence = [], 0, 0
+        self._broadcast(message)
+
+    def rows(self, block: np.ndarray, steps_done: int) -> None:
+        if not len(block):
+            return
+        stride = math.ceil(len(block) / FRAME_ROWS)
+        thin = np.ascontiguousarray(block[::stride], dtype="<f8")
+        with self._lock:
+            self._sequence += 1
+            self._keep_history(thin)
+            sequence = self._sequence
+        self._broadcast(_frame(float(sequence), thin))
+
+    def _keep_history(self, thin: np.ndarray) -> None:
+        self._history.append(thin)
+        self._history_rows += len(thin)
+        if self._history_rows > HISTORY_ROWS:
+            kept = np.concatenate(self._history)[::2]
+            self._history, self._history_rows = [kept], len(kept)
+
+    def finished(self, outcome: Outcome) -> None:
+        message = json.dumps({"type": "end", "status": outcome.status, "error": outcome.error,
+                              "steps_done": outcome.steps_done})
+        with self._lock:
+            self._end_message = message
+        self._broadcast(message)
+        if not self.keep:
+            self.close()
+
+
+def _frame(sequence: float, rows: np.ndarray) -> bytes:
+    """A binary rows message: the sequence number, then the rows (float64, row-major)."""
+    return np.float64(sequence).astype("<f8").tobytes() + rows.astype("<f8").tobytes()

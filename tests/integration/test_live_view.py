@@ -1,0 +1,131 @@
+"""`twmr run --live` in a real browser: headless Chromium (Debian's chromium and chromium-driver)
+driven by selenium opens the page while a paced paper run goes, sees the traces grow and the XY
+view hold the path and its reference, and what it drew equals the stored result."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+DRIVER = shutil.which("chromedriver")
+
+webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is in the [test] extra")
+pytestmark = pytest.mark.skipif(
+    CHROMIUM is None or DRIVER is None,
+    reason="headless Chromium is not installed (Debian's chromium and chromium-driver; "
+           ".ci/run installs them)")
+
+
+@pytest.fixture
+def browser():
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    options.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu",
+                "--window-size=1400,900"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+    driver.set_script_timeout(30)
+    yield driver
+    driver.quit()
+
+
+def _start_run(out: Path) -> tuple[subprocess.Popen[str], str, list[str]]:
+    """A paced paper run with a live view on a free port; the process, the page's URL and the
+    lines of stderr so far (filled on by a thread)."""
+    env = {**os.environ, "TWMR_CACHE_DIR": os.environ.get("TWMR_CACHE_DIR",
+                                                          str(out.parent / "cache"))}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twmr.cli", "run", str(SCENARIO), "--set",
+         "experiment.realtime=true", "--set", "experiment.stop=8", "--live", "127.0.0.1:0",
+         "--live-keep", "--format", "none", "--out", str(out)],
+        stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env, cwd=out.parent)
+    lines: list[str] = []
+    found = threading.Event()
+
+    def read() -> None:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            lines.append(line)
+            if line.startswith("live view: "):
+                found.set()
+
+    threading.Thread(target=read, daemon=True).start()
+    if not found.wait(120):
+        proc.kill()
+        pytest.fail(f"no 'live view:' line from twmr run: {''.join(lines)}")
+    url = next(ln for ln in lines if ln.startswith("live view: ")).split(": ", 1)[1].strip()
+    return proc, url, lines
+
+
+def _points(driver) -> int:
+    return driver.execute_script(
+        "const c = window.twmrLive && twmrLive.charts[0]; return c ? c.data[0].length : 0;")
+
+
+def test_live_page_streams_a_paced_run(browser, tmp_path):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    out = tmp_path / "run"
+    proc, url, lines = _start_run(out)
+    try:
+        assert url.startswith("http://127.0.0.1:")
+        browser.get(url)
+        wait = WebDriverWait(browser, 60, poll_frequency=0.2)
+        wait.until(lambda d: _points(d) > 0)
+        first = _points(browser)
+        ended_early = browser.execute_script("return twmrLive.end !== null;")
+        assert not ended_early, "the run ended before the page read its first points"
+        wait.until(lambda d: _points(d) > first)
+        assert _points(browser) > first
+
+        xy = browser.execute_script(
+            "return twmrLive.xy.series.slice(1).map((s, i) => "
+            "[s.label, twmrLive.xy.data[i + 1][0].length]);")
+        assert sorted(label for label, _ in xy) == ["plant.pose", "ref.position"]
+        assert all(n > 1 for _, n in xy)
+        browser.save_screenshot(str(tmp_path / "live.png"))
+        assert (tmp_path / "live.png").stat().st_size > 10_000
+
+        from websockets.sync.client import connect
+
+        with connect(url.replace("http://", "ws://") + "ws") as second:
+            start = json.loads(second.recv(timeout=30))
+            assert start["type"] == "start"
+            assert start["columns"] == browser.execute_script("return twmrLive.columns;")
+
+        WebDriverWait(browser, 120, poll_frequency=0.5).until(
+            lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
+        end = browser.execute_script("return twmrLive.end;")
+        assert end["status"] == "completed", end
+        browser.save_screenshot(str(tmp_path / "live_end.png"))
+        columns = browser.execute_script("return twmrLive.columns;")
+        page = np.array(browser.execute_script("return twmrLive.data;"), dtype=float).T
+        dropped = browser.execute_script("return twmrLive.dropped;")
+    finally:
+        proc.send_signal(signal.SIGINT)
+        rc = proc.wait(60)
+    assert rc == 0, "".join(lines)
+
+    import pyarrow.ipc
+
+    with pyarrow.ipc.open_stream(out / "result.arrows") as reader:
+        table = reader.read_all()
+    stored = np.column_stack([table[c].to_numpy() for c in columns])
+    at = np.searchsorted(stored[:, 0], page[:, 0])
+    assert np.array_equal(stored[at], page)  # every drawn row is a recorded row, bit for bit
+    if dropped == 0:
+        assert len(page) == len(stored)
