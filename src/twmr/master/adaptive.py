@@ -35,7 +35,6 @@ from __future__ import annotations
 import linecache
 import logging
 import math
-import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -45,7 +44,7 @@ import numpy as np
 from twmr.core.errors import CosimError, Location, Problem
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
-from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer
+from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
 from twmr.scenario.system import System
 
 log = logging.getLogger("twmr.adaptive")
@@ -230,15 +229,7 @@ class Adaptive(Algorithm):
                 "step_max_s": max(sizes, default=math.nan)}
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
-        owner, t = ("?", "a call"), math.nan
-        for frame, lineno in traceback.walk_tb(exc.__traceback__):
-            if frame.f_code.co_filename == self.filename:
-                owner = self._owner.get(lineno, owner)
-                t = frame.f_locals.get("t", t)
-        name, what = owner
-        call = {"input": "writing its inputs", "evaluate": "evaluate()",
-                "do_step": "do_step()"}.get(what, what)
-        return name, call, t
+        return locate_in(exc, self.filename, self._owner)
 
 
 def _generate(system: System, plan: Plan, watched: list[tuple[str, str]]

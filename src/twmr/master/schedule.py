@@ -87,15 +87,22 @@ class FixedStep(Algorithm):
         self._finish(n, rows)  # type: ignore[misc]
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
-        owner, t = ("?", "a call"), math.nan
-        for frame, lineno in traceback.walk_tb(exc.__traceback__):
-            if frame.f_code.co_filename == self.filename:
-                owner = self._owner.get(lineno, owner)
-                t = frame.f_locals.get("t", t)
-        name, what = owner
-        call = {"input": "writing its inputs", "evaluate": "evaluate()",
-                "do_step": "do_step()"}.get(what, what)
-        return name, call, t
+        return locate_in(exc, self.filename, self._owner)
+
+
+def locate_in(exc: BaseException, filename: str, owners: dict[int, tuple[str, str]]
+              ) -> tuple[str, str, float]:
+    """(component, call, t) of an exception raised in the generated loop `filename`, whose
+    lines `owners` maps to (component, 'input' | 'evaluate' | 'do_step')."""
+    owner, t = ("?", "a call"), math.nan
+    for frame, lineno in traceback.walk_tb(exc.__traceback__):
+        if frame.f_code.co_filename == filename:
+            owner = owners.get(lineno, owner)
+            t = frame.f_locals.get("t", t)
+    name, what = owner
+    call = {"input": "writing its inputs", "evaluate": "evaluate()",
+            "do_step": "do_step()"}.get(what, what)
+    return name, call, t
 
 
 def _generate(system: System, plan: Plan) -> tuple[str, dict[int, tuple[str, str]],
