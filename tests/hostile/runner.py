@@ -117,6 +117,21 @@ def _limits() -> None:
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
 
 
+def _resident_peak(pid: int) -> int:
+    """The peak resident set [bytes] of process `pid` so far (VmHWM of its own memory map, 0
+    once it has ended). Not `wait4`'s ru_maxrss: a forked child starts with its parent's peak,
+    which under pytest-xdist is the worker's hundreds of MiB. Sampled while the child runs; the
+    memory cap (RLIMIT_AS) bounds what a sample could miss."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
 def _run(argv: list[str], shown: list[str], cwd: Path, timeout: float, stdin: bytes | None,
          watched: Sequence[Path], env: dict[str, str] | None, shell: bool = False) -> Outcome:
     cwd = Path(cwd)
@@ -134,15 +149,16 @@ def _run(argv: list[str], shown: list[str], cwd: Path, timeout: float, stdin: by
             t0 = time.perf_counter()
             proc = subprocess.Popen(argv, cwd=cwd, stdin=fin, stdout=fout, stderr=ferr,
                                     env=environment, preexec_fn=_limits, start_new_session=True)
-            status, usage = None, None
+            status, peak = None, 0
             while True:
-                pid, st, ru = os.wait4(proc.pid, os.WNOHANG)
+                peak = max(peak, _resident_peak(proc.pid))
+                pid, st, _ = os.wait4(proc.pid, os.WNOHANG)
                 if pid:
-                    status, usage = st, ru
+                    status = st
                     break
                 if time.perf_counter() - t0 > timeout:
                     break
-                time.sleep(0.02)
+                time.sleep(0.01)
             elapsed = time.perf_counter() - t0
             if status is None:
                 with contextlib.suppress(ProcessLookupError):
@@ -160,7 +176,7 @@ def _run(argv: list[str], shown: list[str], cwd: Path, timeout: float, stdin: by
         stderr = (io / "stderr").read_bytes().decode(errors="replace")
     created, modified, deleted = diff(before, snapshot(roots))
     return Outcome(list(shown), cwd, code, stdout, stderr, elapsed, proc.pid,
-                   usage.ru_maxrss * 1024, created, modified, deleted, shell)
+                   peak, created, modified, deleted, shell)
 
 
 def run_cli(args: Sequence[str], cwd: Path, timeout: float = 60, stdin: bytes | None = None,
