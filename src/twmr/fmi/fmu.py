@@ -79,16 +79,6 @@ def _shown(get: Callable[..., list[Any]], factor: float, offset: float
     return get_shown
 
 
-#: options of the solver that integrates a model-exchange FMU
-SOLVER_OPTIONS = ("solver", "rtol", "atol", "max_step", "solver_step")
-
-
-def _model_exchange(md: Any, interface: str) -> bool:
-    """Whether an FMU runs as model exchange under `interface` (auto: when it has no
-    co-simulation)."""
-    return interface == "model_exchange" or (interface == "auto" and md.coSimulation is None)
-
-
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -97,14 +87,16 @@ class FmuComponent(Component):
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout", "compile", "compile_timeout")
-    #: beside the ports, a saved state holds the time and whether the inputs are already set
+    #: beside the ports, a saved state holds the time and the inputs `evaluate` set
     state_attributes = ("_t", "_sent")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
-                 solver: str = "cvode", rtol: float = 1e-6, atol: float | None = None,
-                 max_step: float = 0.0, solver_step: float = 1e-3, **parameters: Any):
+                 solver: str | None = None, rtol: float | None = None,
+                 atol: float | None = None, max_step: float | None = None,
+                 solver_step: float | None = None, **parameters: Any):
         """`interface`: auto (co-simulation when the FMU has it) | co_simulation |
-        model_exchange. Model exchange only: `solver` cvode (default) or rk4; `rtol`, `atol`
+        model_exchange. Model exchange only (given for co-simulation, they are refused):
+        `solver` cvode (default) or rk4; `rtol`, `atol`
         (None: rtol × each state's nominal) and `max_step` [s] (0: no limit) for cvode;
         `solver_step` [s] for rk4."""
         label = name or "fmu"
@@ -113,11 +105,25 @@ class FmuComponent(Component):
         if interface not in ("auto", "co_simulation", "model_exchange"):
             raise FmuError(label, None, f"interface '{interface}' is unknown. Fix: use auto, "
                            f"co_simulation or model_exchange.")
-        self.me = _model_exchange(self.md, interface)
+        self.me = interface == "model_exchange" or (interface == "auto" and
+                                                     self.md.coSimulation is None)
         if (self.me and self.md.modelExchange is None) or (not self.me and
                                                            self.md.coSimulation is None):
             raise FmuError(label, None, f"'{self.source_path.name}' has no {interface} "
                            f"interface.")
+        given = [k for k, v in (("solver", solver), ("rtol", rtol), ("atol", atol),
+                                ("max_step", max_step), ("solver_step", solver_step))
+                 if v is not None]
+        if given and not self.me:
+            raise FmuError(label, None, f"{', '.join(given)} given, but "
+                           f"'{self.source_path.name}' runs as co-simulation, which brings its "
+                           f"own solver (these options would change nothing). Fix: remove them, "
+                           f"or set interface: model_exchange, if the FMU has it, to integrate "
+                           f"it with {' or '.join(SOLVERS)}.")
+        solver = "cvode" if solver is None else solver
+        rtol = 1e-6 if rtol is None else rtol
+        max_step = 0.0 if max_step is None else max_step
+        solver_step = 1e-3 if solver_step is None else solver_step
         if solver not in SOLVERS:
             raise FmuError(label, None, f"solver '{solver}' is unknown. Fix: use one of "
                            f"{', '.join(SOLVERS)}.")
@@ -184,14 +190,6 @@ class FmuComponent(Component):
                            f"isolate: true to run the FMU in a worker process of its own.")
         full = cls._built(name, full, rest.pop("compile", False),
                           rest.pop("compile_timeout", DEFAULT_TIMEOUT))
-        solver_options = [k for k in SOLVER_OPTIONS if k in rest]
-        if solver_options and rest.get("interface", "auto") in ("auto", "co_simulation") and \
-                not _model_exchange(read_description(full, name), rest.get("interface", "auto")):
-            raise FmuError(name, None, f"{', '.join(solver_options)} given, but "
-                           f"'{full.name}' runs as co-simulation, which brings its own solver "
-                           f"(these options would change nothing). Fix: remove them, or set "
-                           f"interface: model_exchange, if the FMU has it, to integrate it with "
-                           f"{' or '.join(SOLVERS)}.")
         if isolate:
             from twmr.fmi.isolated import IsolatedFmu
 

@@ -39,10 +39,6 @@ def _split(column: str) -> tuple[str, str, int | None]:
     return owner, port, None
 
 
-def _number(v: float) -> float | str:
-    return number(float(v))
-
-
 def _value(v: Any) -> float:
     return NON_FINITE[v] if isinstance(v, str) else float(v)
 
@@ -98,8 +94,8 @@ class Mcap(ResultFormat):
                 stamp = round(float(row[0]) * 1e9)
                 for channel, ports in channels:
                     message: dict[str, Any] = {"time_s": float(row[0])}
-                    message.update({port: _number(row[elements[0][0]]) if elements[0][1] is None
-                                    else [_number(row[j]) for j, _ in elements]
+                    message.update({port: number(float(row[elements[0][0]])) if elements[0][1] is None
+                                    else [number(float(row[j])) for j, _ in elements]
                                     for port, elements in ports.items()})
                     writer.add_message(channel, log_time=stamp, publish_time=stamp,
                                        sequence=sequence, data=json.dumps(message).encode())
