@@ -65,7 +65,7 @@ class Mcap(ResultFormat):
                         range(len(elements))):
                     del ports[port]
                     ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
-        number = {"type": ["number", "string"], "description": "a number; non-finite values "
+        a_number = {"type": ["number", "string"], "description": "a number; non-finite values "
                   "are the strings NaN, Infinity, -Infinity"}
         with open(path, "wb") as stream:
             writer = Writer(stream)
@@ -80,9 +80,9 @@ class Mcap(ResultFormat):
                     unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
                     text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
                     if elements[0][1] is None:
-                        properties[port] = {**number, "unit": unit, "description": text}
+                        properties[port] = {**a_number, "unit": unit, "description": text}
                     else:
-                        properties[port] = {"type": "array", "items": number, "unit": unit,
+                        properties[port] = {"type": "array", "items": a_number, "unit": unit,
                                             "description": text}
                 schema = {"title": owner, "type": "object", "properties": properties}
                 schema_id = writer.register_schema(owner, "jsonschema",
@@ -94,9 +94,9 @@ class Mcap(ResultFormat):
                 stamp = round(float(row[0]) * 1e9)
                 for channel, ports in channels:
                     message: dict[str, Any] = {"time_s": float(row[0])}
-                    message.update({port: number(float(row[elements[0][0]])) if elements[0][1] is None
-                                    else [number(float(row[j])) for j, _ in elements]
-                                    for port, elements in ports.items()})
+                    for port, elements in ports.items():
+                        values = [number(float(row[j])) for j, _ in elements]
+                        message[port] = values[0] if elements[0][1] is None else values
                     writer.add_message(channel, log_time=stamp, publish_time=stamp,
                                        sequence=sequence, data=json.dumps(message).encode())
             writer.finish()
