@@ -95,8 +95,8 @@ class Mcap(ResultFormat):
                 for channel, ports in channels:
                     message: dict[str, Any] = {"time_s": float(row[0])}
                     for port, elements in ports.items():
-                        values = [number(float(row[j])) for j, _ in elements]
-                        message[port] = values[0] if elements[0][1] is None else values
+                        sample = [number(float(row[j])) for j, _ in elements]
+                        message[port] = sample[0] if elements[0][1] is None else sample
                     writer.add_message(channel, log_time=stamp, publish_time=stamp,
                                        sequence=sequence, data=json.dumps(message).encode())
             writer.finish()
