@@ -320,6 +320,19 @@ class Component:
         the adaptive master ends a step there (`twmr.master.adaptive`)."""
         return None
 
+    #: set by a master that locates state events (`twmr.master.adaptive`) before `setup`: a
+    #: state event found at the very end of a `do_step` waits for `event`
+    hold_events = False
+
+    def state_event(self) -> float | None:
+        """After `do_step`: the time [s] of the first state event it met inside its step, one
+        at the step's end included (None: none); the adaptive master steps to it."""
+        return None
+
+    def event(self, t: float) -> None:
+        """Handle a state event held at the end of the last step, at t [s] (`hold_events`):
+        the outputs from before it to after it. Nothing when none is held."""
+
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
 

@@ -335,6 +335,7 @@ class FmuComponent(Component):
         if self.me:
             self._integrator = Integrator(f, self.md, self.fmi3, self.solver, self.rtol,
                                           self.atol, self.max_step, self.solver_step, self._call)
+            self._integrator.hold = self.hold_events
             try:
                 self._integrator.start(self.start_time)
             except Terminated:
@@ -504,6 +505,28 @@ class FmuComponent(Component):
         if self.fmi3 and result is not None and result[1]:
             raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
                            f"simulation (fmi3DoStep terminateSimulation).", self.log.tail())
+
+    def state_event(self) -> float | None:
+        return None if self._integrator is None else self._integrator.state_event
+
+    def event(self, t: float) -> None:
+        """Model exchange: the state event held at the end of the last step (event mode and
+        iteration), then every read output got again."""
+        integ = self._integrator
+        if integ is None or not integ.held:
+            return
+        self._t = t
+        try:
+            integ.handle_held()
+            self._get(self._get_ft)
+            self._get(self._get_step)
+        except Terminated as stop:
+            raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
+                           f"the simulation (terminateSimulation).", self.log.tail()) from None
+        except FmuError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            raise self._error("the event at the end of the step", exc) from exc
 
     def _fmi2_terminated(self) -> bool:
         """After a discarded fmi2DoStep: whether the FMU says it has terminated."""

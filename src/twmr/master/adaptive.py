@@ -56,17 +56,25 @@ PER_CALL = 64
 #: most unchecked one-base-step steps in a row after a step of two was rejected (the wait
 #: doubles with each such rejection, from 1)
 MAX_WAIT = 64
+#: a state event closer than this many base steps to a step's start is taken as at its start
+EVENT_TOL = 1e-9
+#: most retries of one macro step to a newly located state event
+MAX_RELOCATE = 8
 
 
 @dataclass(frozen=True)
 class Attempt:
     """One macro step tried from base step `n` over `k` base steps; `err` its scaled error
-    estimate (NaN: unchecked, k = 1)."""
+    estimate (NaN: unchecked, k = 1). `t` [s] and `size` [s] are where it started and how long
+    it was: a step that starts or ends at a state event is off the grid (`n` is then the grid
+    point before its start and `k` the grid points to its end, rounded up)."""
 
     n: int
     k: int
     err: float
     accepted: bool
+    t: float = math.nan
+    size: float = math.nan
 
 
 class Adaptive(Algorithm):
@@ -106,85 +114,163 @@ class Adaptive(Algorithm):
         self.rtol, self.atol = exp.rtol, exp.atol
         self.k, self.held = self.k_min, False
         self.wait, self.backoff = 0, 1
+        self.m, self.t_off = 0, math.nan  # the grid point at or before now; now if off it
+        self.bracket: int | None = None  # a discrete output changes before this grid point
         self.comps = [system.components[n] for n in system.order]
+        for comp in self.comps:
+            comp.hold_events = True
         plan = build(system, "gauss_seidel", record, 1, check_finite)
         read = {(c.src, c.src_port) for c in system.connections} | set(record)
         stepping = {s.name for s in plan.steps}
-        self.watched = [(n, p) for n in plan.order if n in stepping
-                        for p, v in system.components[n].variables.items()
-                        if v.kind in ("output", "state") and v.type == "Real" and (n, p) in read]
-        self.source, self._owner, env = _generate(system, plan, self.watched)
+        outputs = [(n, p, v) for n in plan.order if n in stepping
+                   for p, v in system.components[n].variables.items()
+                   if v.kind in ("output", "state") and (n, p) in read]
+        self.watched = [(n, p) for n, p, v in outputs if v.type == "Real"]
+        self.discrete = [(n, p) for n, p, v in outputs if v.type != "Real"]
+        self.source, self._owner, env = _generate(system, plan, self.watched, self.discrete)
         self.filename = f"<twmr adaptive {system.source} {id(self):x}>"
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        self._fns = {k: env[k] for k in ("point", "record", "step", "outputs")}
+        self._fns = {k: env[k] for k in ("point", "record", "step", "outputs", "discrete")}
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
-        """Up to `PER_CALL` accepted macro steps from n0, the last ending at n1 at most (n1 is
-        the stop: `Execution` gives a variable-step algorithm the whole run)."""
-        n = n0
-        for _ in range(PER_CALL):
-            n = self._macro(n, n1, rows)
-            if n >= n1:
+        """Up to `PER_CALL` accepted macro steps from n0 (more while they stay before grid point
+        n0 + 1, at state events), the last ending at n1 at most (n1 is the stop: `Execution`
+        gives a variable-step algorithm the whole run); the grid point at or before the time
+        reached."""
+        if self.m != n0:  # a fresh start, or a caller that moved the time: on the grid
+            self.m, self.t_off = n0, math.nan
+        for i in range(1_000_000):
+            self._macro(n1, rows)
+            if self.m >= n1 or (i + 1 >= PER_CALL and self.m > n0):
                 break
-        return n
+        return self.m
 
     def finish(self, n: int, rows: list[Any]) -> None:
         t = self.start0 + n * self.h
         self._fns["point"](t)
         self._fns["record"](t, rows)
 
-    def _macro(self, n: int, n1: int, rows: list[Any]) -> int:
-        """One accepted macro step from base step n (not past n1), with as many retries as it
-        takes; the step reached."""
+    def _grid(self, m: int) -> float:
+        return self.start0 + m * self.h
+
+    def _macro(self, n1: int, rows: list[Any]) -> None:
+        """One accepted macro step from now (not past grid point n1), with as many retries as
+        it takes; a step that ends at a state event records the row just before it and
+        has the event handled (the next step records the row after it)."""
         point, record, step = self._fns["point"], self._fns["record"], self._fns["step"]
-        h, t = self.h, self.start0 + n * self.h
-        k = min(self.k, n1 - n, self._to_event(t))
+        h, m = self.h, self.m
+        on_grid = math.isnan(self.t_off)
+        t = self._grid(m) if on_grid else self.t_off
+        to_event = self._to_event(m)
+        k = min(self.k, n1 - m, to_event)
+        if self.bracket is not None:  # halve the interval a discrete output changed in
+            k = min(k, max(self.k_min, (self.bracket - m) // 2))
+        at_event: float | None = None  # the step ends at this state event instead
+        relocated = 0
         while True:
+            t_end = at_event if at_event is not None else self._grid(m + k)
+            whole = k * h if on_grid and at_event is None else t_end - t
             saved = [c.get_state() for c in self.comps]
             pending: list[Any] = []
             point(t)
             record(t, pending)
-            if k == 1:
-                step(t, h)
-                err = math.nan
-            else:
-                step(t, k * h)
+            before = self._fns["discrete"]()
+            step(t, whole)
+            found = self._state_event(t, t_end)
+            changed = self._fns["discrete"]() != before
+            err = math.nan
+            hunt = changed and k > self.k_min and at_event is None
+            checked = whole >= 2 * h if at_event is not None else k > 1
+            if found is None and not hunt and checked:
                 big = self._values()
                 self._restore(saved)
-                half = k // 2
+                if at_event is not None:
+                    mid, first = t + whole / 2, whole / 2
+                elif on_grid:
+                    mid, first = t + (k // 2) * h, (k // 2) * h
+                else:
+                    mid = self._grid(m + k // 2)
+                    first = mid - t
                 point(t)
-                step(t, half * h)
-                point(t + half * h)
-                step(t + half * h, (k - half) * h)
+                step(t, first)
+                found = self._state_event(t, mid)
+                point(mid)
+                step(mid, t_end - mid)
+                found = found if found is not None else self._state_event(mid, t_end)
                 err = self._error(big, self._values())
+            if found is not None and relocated < MAX_RELOCATE:
+                relocated += 1
+                self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
+                at_event = found  # retried to end at the event, first of all
+                k = max(1, math.ceil((found - self._grid(m)) / h - 1e-9))
+                continue
+            if hunt:
+                self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
+                self.bracket = m + k
+                k = max(self.k_min, k // 2)
+                continue
             accepted = not err > 1.0 or k <= self.k_min
-            self.history.append(Attempt(n, k, err, accepted))
-            log.debug("t = %g s, H = %g s, err = %.3g: %s", t, k * h, err,
+            self.history.append(Attempt(m, k, err, accepted, t, whole))
+            log.debug("t = %g s, H = %g s, err = %.3g: %s", t, whole, err,
                       "accepted" if accepted else "rejected")
             if accepted:
                 for comp, state in zip(self.comps, saved, strict=True):
                     comp.release_state(state)
                 rows.extend(pending)
-                capped = k < self.k and k == self._to_event(t)
-                self.k = max(self.k, k) if capped else self._next(k, err)
-                self.held = False
-                return n + k
-            self._restore(saved)
-            for comp, state in zip(self.comps, saved, strict=True):
-                comp.release_state(state)
-            k = max(self.k_min, min(k - 1, int(k * self._factor(err))))
+                break
+            self._undo(saved, None)
+            k_new = max(self.k_min, min(k - 1, int(k * self._factor(err))))
+            if at_event is not None and self._grid(m + k_new) < at_event:
+                at_event = None
+            k = k_new
             self.held = True
             if k == 1:  # the tolerance needs one base step: stay there a while before trying 2
                 self.wait, self.backoff = self.backoff, min(MAX_WAIT, 2 * self.backoff)
+        if changed:
+            self.bracket = None
+        elif self.bracket is not None and m + k >= self.bracket:
+            self.bracket = None  # the change seen before did not come again
+        if at_event is not None:
+            self.m = m + k - 1 if self._grid(m + k) > at_event else m + k
+            self.t_off = at_event if self._grid(self.m) != at_event else math.nan
+            point(at_event)
+            record(at_event, rows)  # just before the event
+            for comp in self.comps:
+                comp.event(at_event)
+            return
+        self.m, self.t_off = m + k, math.nan
+        capped = k < self.k and k == to_event
+        self.k = max(self.k, k) if capped else self._next(k, err)
+        self.held = False
 
-    def _to_event(self, t: float) -> int:
-        """Base steps from t to the first grid point at or after the next time event."""
+    def _undo(self, saved: list[Any], attempt: Attempt | None) -> None:
+        """Every component back to `saved`, which is released; `attempt` logged as rejected."""
+        if attempt is not None:
+            self.history.append(attempt)
+        self._restore(saved)
+        for comp, state in zip(self.comps, saved, strict=True):
+            comp.release_state(state)
+
+    def _state_event(self, t: float, t_end: float) -> float | None:
+        """The earliest state event a component met in the steps from t to t_end [s], when it
+        lies before t_end and not at t (within `EVENT_TOL` base steps of it); None: none."""
+        events = [e for c in self.comps if (e := c.state_event()) is not None]
+        if not events:
+            return None
+        first = min(events)
+        tol = EVENT_TOL * self.h
+        return first if t + tol < first < t_end - tol else None
+
+    def _to_event(self, m: int) -> int:
+        """Base steps from grid point m to the first grid point at or after the next time
+        event (after now)."""
+        t = self._grid(m) if math.isnan(self.t_off) else self.t_off
         events = [e for c in self.comps if (e := c.next_event(t)) is not None and e > t]
         if not events:
             return self.k_max
-        return max(1, math.ceil((min(events) - t) / self.h - 1e-9))
+        return max(1, math.ceil((min(events) - self._grid(m)) / self.h - 1e-9))
 
     def _factor(self, err: float) -> float:
         """The step factor for a scaled error `err` (0: the most growth)."""
@@ -220,7 +306,7 @@ class Adaptive(Algorithm):
 
     def report(self) -> dict[str, object]:
         done = [a for a in self.history if a.accepted]
-        sizes = [a.k * self.h for a in done]
+        sizes = [a.size for a in done]
         return {"steps_accepted": len(done),
                 "steps_rejected": len(self.history) - len(done),
                 "steps_unchecked": sum(a.k == 1 for a in done),
@@ -232,11 +318,12 @@ class Adaptive(Algorithm):
         return locate_in(exc, self.filename, self._owner)
 
 
-def _generate(system: System, plan: Plan, watched: list[tuple[str, str]]
+def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
+              discrete: list[tuple[str, str]]
               ) -> tuple[str, dict[int, tuple[str, str]], dict[str, Any]]:
     """(source, line owners, globals) of `point(t)` (inputs written, feedthrough evaluated,
-    NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H) and
-    `outputs()` (the `watched` port values)."""
+    NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H),
+    `outputs()` (the `watched` port values) and `discrete()` (the `discrete` ones)."""
     ids = {name: i for i, name in enumerate(plan.order)}
     env: dict[str, Any] = {"nonfinite": _nonfinite}
     for name, comp in system.components.items():
@@ -260,6 +347,8 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]]
         w.add(1, f"st{ids[s.name]}(t, H)", (s.name, "do_step"))
     w.add(0, "def outputs():")
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in watched) + ")")
+    w.add(0, "def discrete():")
+    w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in discrete) + ")")
     return "\n".join(w.lines) + "\n", w.owner, env
 
 
