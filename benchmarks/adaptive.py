@@ -135,12 +135,12 @@ record: {{signals: [osc.x0, osc.x1]}}
                                 f"atol: {rtol:.3e}"))
     err = error(data)
     row: dict[str, Any] = {"rtol": rtol, "max_error": err, **adaptive_figures(ex, wall),
-                           "fixed_step_s": float("nan"), "fixed_steps": float("nan"),
-                           "fixed_wall_s": float("nan")}
+                           "fixed_step_s": float("nan"), "fixed_error": float("nan"),
+                           "fixed_steps": float("nan"), "fixed_wall_s": float("nan")}
     for h in (0.005, 0.01, 0.02, 0.025, 0.04, 0.05, 0.1):
         fixed, _, fixed_wall = timed(text(f"step: {h}"))
         if error(fixed) <= err:
-            row.update(fixed_step_s=h, fixed_steps=round(10.0 / h),
+            row.update(fixed_step_s=h, fixed_error=error(fixed), fixed_steps=round(10.0 / h),
                        fixed_wall_s=round(fixed_wall, 3))
     return row
 

@@ -2,9 +2,9 @@
 step-doubling error estimate, rolling every component back on a rejected step (as OMSimulator's
 adaptive master).
 
-H is always a whole number k of base steps h (time stays an integer count of base steps; k
-between `min_step / h` and `max_step / h`). From the communication point t with every
-component's state saved:
+H is a whole number k of base steps h (k between `min_step / h` and `max_step / h`), and a
+step ends on the grid of base steps, except one that ends at a state event (below). From the
+communication point t with every component's state saved:
 
 1. one macro step: inputs written and feedthrough evaluated at t, every component steps by H;
    the outputs y_H of the stepping components that the run reads (wired or recorded) are kept;
@@ -29,6 +29,15 @@ step at `min_step` over the tolerance is accepted (counted as forced).
 
 A row is recorded at every accepted communication point t (not at the middle points), so the
 time column is uneven; the result store and the writers take any time column.
+
+Events located in time: every component is asked to hold a state event found at the very end of
+a step (`Component.hold_events`). When an attempt meets one inside the step
+(`Component.state_event()`, e.g. a model-exchange FMU's located zero crossing at t_e), every
+state is restored and the step retried to end at t_e exactly, off the grid. After it is
+accepted, a row is recorded just before the event, the event is handled (`Component.event`) and
+the next step records the row just after it at the same time, then ends on the grid again. A
+non-Real output that the run reads and that changes inside a step (a co-simulation FMU's event
+counter) makes the master halve the step until the one holding the change is `min_step` long.
 """
 from __future__ import annotations
 
