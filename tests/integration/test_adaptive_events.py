@@ -160,3 +160,17 @@ def test_van_der_pol_meets_its_tolerance_with_fewer_steps_than_fixed(fmus, tmp_p
             as_good.append(fixed_summary["steps"])
     assert as_good, "no fixed step tried is as accurate"
     assert summary["pacing"]["algorithm.steps_accepted"] < min(as_good) / 2
+
+
+def test_a_block_fed_by_the_fmu_shows_the_event_in_both_rows(fmus, tmp_path) -> None:
+    """ball.v -> gain: the row before the event has the gain of the speed before the bounce,
+    the row after it the gain of the rebound speed."""
+    component = ball(fmus["bounce3"], "model_exchange", ", rtol: 1.0e-8") + \
+        "\n  gain: {kind: gain, parameters: {k: 2.0}}\nconnections: [ball.v -> gain.u]"
+    r, _, _ = run(tmp_path / "run", component, "stop: 0.6, step: 1.0e-3, algorithm: adaptive, "
+                  "rtol: 1.0e-6, atol: 1.0e-8, max_step: 0.1", "ball.v, ball.bounces, gain.y")
+    i = int(np.argmax(r["ball.bounces"] >= 1))
+    v1 = math.sqrt(2 * G * H0)
+    assert r["time"][i - 1] == r["time"][i]
+    np.testing.assert_allclose([r["gain.y"][i - 1], r["gain.y"][i]], [-2 * v1, 2 * E * v1],
+                               rtol=1e-4)  # the FMU's CVODE at rtol 1e-8
