@@ -20,6 +20,8 @@ from fmpy import simulate_fmu
 
 from tests.fmu_build import build_c_fmu
 from tests.integration.test_fmu_events import H0, E, G, ball_height
+from twmr.core.component import Component
+from twmr.core.port import Output, Parameter
 from twmr.master import Execution
 from twmr.observers.store import FILENAME, ResultStore, read_store
 from twmr.observers.summary import SignalSummary
@@ -174,3 +176,52 @@ def test_a_block_fed_by_the_fmu_shows_the_event_in_both_rows(fmus, tmp_path) -> 
     assert r["time"][i - 1] == r["time"][i]
     np.testing.assert_allclose([r["gain.y"][i - 1], r["gain.y"][i]], [-2 * v1, 2 * E * v1],
                                rtol=1e-4)  # the FMU's CVODE at rtol 1e-8
+
+
+class Crossing(Component):
+    """x = t [s]; a state event when x reaches `at`, counted by the Integer output `n`. With
+    `hold_events`, an event at the very end of a step waits for `event` (as a model-exchange
+    FMU's does)."""
+
+    kind = "crossing"
+    at = Parameter(0.25, unit="s")
+    x = Output(0.0, unit="s")
+    n = Output(0, type="Integer")
+    state_attributes = ("_held",)
+
+    def initialize(self) -> None:
+        self.x, self._held, self._met = self.start_time, False, None
+
+    def do_step(self, t: float, h: float) -> None:
+        end, self._met = t + h, None
+        if t < self.at <= end:
+            self._met = float(self.at)
+            if self.hold_events and end == self.at:
+                self._held = True
+            else:
+                self.n += 1
+        self.x = end
+
+    def state_event(self) -> float | None:
+        return self._met
+
+    def event(self, t: float) -> None:
+        if self._held:
+            self._held = False
+            self.n += 1
+
+
+@pytest.mark.parametrize("at", [255 / 1024, 0.3])
+def test_an_event_at_a_step_end_or_inside_gives_the_two_rows(tmp_path, at) -> None:
+    """Base step 1/1024 s: the steps double from one base step, so the step from 127 to 255
+    base steps ends exactly at 255/1024 s (an event at its end, held); 0.3 s lies off the grid
+    (the step is retried to end there)."""
+    component = f"c: {{kind: 'tests.integration.test_adaptive_events:Crossing', " \
+                f"parameters: {{at: {at!r}}}}}"
+    r, _, algorithm = run(tmp_path / "run", component, f"stop: 0.5, step: {1 / 1024!r}, "
+                          "algorithm: adaptive", "c.x, c.n")
+    i = int(np.argmax(r["c.n"] >= 1))
+    assert r["time"][i - 1] == r["time"][i] == at
+    assert (r["c.n"][i - 1], r["c.n"][i]) == (0, 1) and r["c.n"][-1] == 1
+    retried = [a for a in algorithm.history if not a.accepted]
+    assert bool(retried) == (at == 0.3)

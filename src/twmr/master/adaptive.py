@@ -241,13 +241,15 @@ class Adaptive(Algorithm):
             self.bracket = None
         elif self.bracket is not None and m + k >= self.bracket:
             self.bracket = None  # the change seen before did not come again
+        held = at_event if at_event is not None else self._held_at(t_end)
+        if held is not None:
+            point(held)
+            record(held, rows)  # just before the event
+            for comp in self.comps:
+                comp.event(held)
         if at_event is not None:
             self.m = m + k - 1 if self._grid(m + k) > at_event else m + k
             self.t_off = at_event if self._grid(self.m) != at_event else math.nan
-            point(at_event)
-            record(at_event, rows)  # just before the event
-            for comp in self.comps:
-                comp.event(at_event)
             return
         self.m, self.t_off = m + k, math.nan
         capped = k < self.k and k == to_event
@@ -271,6 +273,14 @@ class Adaptive(Algorithm):
         first = min(events)
         tol = EVENT_TOL * self.h
         return first if t + tol < first < t_end - tol else None
+
+    def _held_at(self, t_end: float) -> float | None:
+        """t_end [s] when a component met a state event at the very end of the last step (it
+        holds it); None otherwise."""
+        tol = EVENT_TOL * self.h
+        held = any(e is not None and abs(e - t_end) <= tol
+                   for e in (c.state_event() for c in self.comps))
+        return t_end if held else None
 
     def _to_event(self, m: int) -> int:
         """Base steps from grid point m to the first grid point at or after the next time
