@@ -225,3 +225,33 @@ def test_an_event_at_a_step_end_or_inside_gives_the_two_rows(tmp_path, at) -> No
     assert (r["c.n"][i - 1], r["c.n"][i]) == (0, 1) and r["c.n"][-1] == 1
     retried = [a for a in algorithm.history if not a.accepted]
     assert bool(retried) == (at == 0.3)
+
+
+class Ticker(Crossing):
+    """`n` counts a time event at `at` (announced by `next_event`), handled inside the step."""
+
+    kind = "ticker"
+
+    def do_step(self, t: float, h: float) -> None:
+        if t < self.at <= t + h:
+            self.n += 1
+        self.x = t + h
+
+    def state_event(self) -> float | None:
+        return None
+
+    def next_event(self, t: float) -> float | None:
+        return float(self.at) if t < self.at else None
+
+
+@pytest.mark.parametrize("at", [255 / 1024, 0.3])
+def test_a_discrete_change_at_a_time_event_does_not_halve_the_step(tmp_path, at) -> None:
+    """The step ends at the grid point at or after the time event, so the counter's change in
+    it needs no search: no step is rejected, and the row there has the new count."""
+    component = f"c: {{kind: 'tests.integration.test_adaptive_events:Ticker', " \
+                f"parameters: {{at: {at!r}}}}}"
+    r, summary, _ = run(tmp_path / "run", component, f"stop: 0.5, step: {1 / 1024!r}, "
+                        "algorithm: adaptive, max_step: 0.0625", "c.x, c.n")
+    after = float(r["time"][int(np.argmax(r["c.n"] >= 1))])
+    assert r["c.n"][-1] == 1 and at <= after < at + 1 / 1024
+    assert summary["pacing"]["algorithm.steps_rejected"] == 0

@@ -190,7 +190,8 @@ class Adaptive(Algorithm):
             found = self._state_event(t, t_end)
             changed = self._fns["discrete"]() != before
             err = math.nan
-            hunt = changed and k > self.k_min and at_event is None
+            # a change in a step that ends at a time event is that event's, at the end
+            hunt = changed and k > self.k_min and at_event is None and k != to_event
             checked = whole >= 2 * h if at_event is not None else k > 1
             if found is None and not hunt and checked:
                 big = self._values()
