@@ -173,7 +173,7 @@ class Adaptive(Algorithm):
         on_grid = math.isnan(self.t_off)
         t = self._grid(m) if on_grid else self.t_off
         to_event = self._to_event(m)
-        k = min(self.k, n1 - m, to_event)
+        k = min(self.k, n1 - m, self.k_max if to_event is None else to_event)
         if self.bracket is not None:  # halve the interval a discrete output changed in
             k = min(k, max(self.k_min, (self.bracket - m) // 2))
         at_event: float | None = None  # the step ends at this state event instead
@@ -283,13 +283,13 @@ class Adaptive(Algorithm):
                    for e in (c.state_event() for c in self.comps))
         return t_end if held else None
 
-    def _to_event(self, m: int) -> int:
+    def _to_event(self, m: int) -> int | None:
         """Base steps from grid point m to the first grid point at or after the next time
-        event (after now)."""
+        event (after now); None: no time event ahead."""
         t = self._grid(m) if math.isnan(self.t_off) else self.t_off
         events = [e for c in self.comps if (e := c.next_event(t)) is not None and e > t]
         if not events:
-            return self.k_max
+            return None
         return max(1, math.ceil((min(events) - self._grid(m)) / self.h - 1e-9))
 
     def _factor(self, err: float) -> float:
