@@ -97,6 +97,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         _plots(result, scenario_path.stem)
     s = result.summary
+    if s.get("stopped_by"):
+        log.info("%s asked to end the simulation at t = %g s (experiment.fmu_terminate: stop)",
+                 s["stopped_by"]["component"], s["stopped_by"]["time"])
     log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
              s["wall_time_s"], s["realtime_factor"], result.folder)
     figures = s.get("pacing") or {}

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from twmr.core.errors import ComponentError, CosimError
+from twmr.core.errors import ComponentError, CosimError, FmuTerminated
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
@@ -261,6 +261,8 @@ class Execution:
             else:
                 self._loop(exp.n_steps)
             self._guarded(self.algorithm.finish, exp.n_steps)
+        except FmuTerminated as exc:
+            error = self._fmu_ended(exc)
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
@@ -382,6 +384,16 @@ class Execution:
         return max(self._n, self._step_of(t)) if math.isfinite(t) else self._n
 
     # -- the end -------------------------------------------------------------------------------
+    def _fmu_ended(self, request: FmuTerminated) -> FmuTerminated | None:
+        """An FMU's request to end the simulation: the run's failure, or with
+        `experiment.fmu_terminate: stop` its normal end (noted in the outcome)."""
+        if self.system.experiment.fmu_terminate != "stop":
+            return request
+        self.outcome.stopped_by = {"component": request.instance, "time": self._time(self._n)}
+        log.info("%s asked to end the simulation at t = %g s; the run ends there "
+                 "(experiment.fmu_terminate: stop)", request.instance, self._time(self._n))
+        return None
+
     def _conclude(self, error: BaseException | None, wall: float) -> BaseException | None:
         """Rows left to the observers, the outcome filled in and announced; the error to raise."""
         out = self.outcome
