@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError, FmuTerminated
+from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
@@ -225,6 +226,7 @@ class Execution:
         observers have what was recorded."""
         exp = self.system.experiment
         error: BaseException | None = None
+        once = OncePerRun().attach()
         previous = self._catch_stop_signals()
         paced = self.pacer is not None
         frozen = False
@@ -276,6 +278,7 @@ class Execution:
             error = self._conclude(error, wall if math.isfinite(wall) else 0.0)
         finally:
             self._restore_signals(previous)
+            once.detach()
         if error is not None:
             raise error
         return self.outcome
