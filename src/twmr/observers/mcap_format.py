@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,65 @@ def _value(v: Any) -> float:
     return NON_FINITE[v] if isinstance(v, str) else float(v)
 
 
+@dataclass(frozen=True)
+class ComponentChannel:
+    """One component's channel: its topic, the JSON Schema of its messages, and per port the
+    (column index, element index or None) it is read from."""
+
+    owner: str
+    topic: str
+    schema: dict[str, Any]
+    ports: dict[str, list[tuple[int, int | None]]]
+
+    def message(self, row: np.ndarray) -> dict[str, Any]:
+        """The message of one recorded row (time first): `time_s` and each port's value."""
+        message: dict[str, Any] = {"time_s": float(row[0])}
+        for port, elements in self.ports.items():
+            sample = [number(float(row[j])) for j, _ in elements]
+            message[port] = sample[0] if elements[0][1] is None else sample
+        return message
+
+
+def component_channels(columns: list[str], units: list[str]) -> list[ComponentChannel]:
+    """The channels of a result's columns (time first), one per component (module docstring);
+    shared by the MCAP file and the live Foxglove server."""
+    # component -> port -> [(column index, element index or None)]
+    layout: dict[str, dict[str, list[tuple[int, int | None]]]] = {}
+    unit_of: dict[tuple[str, str], str] = {}
+    for j, column in enumerate(columns[1:], start=1):
+        owner, port, index = _split(column)
+        layout.setdefault(owner, {}).setdefault(port, []).append((j, index))
+        unit_of.setdefault((owner, port), units[j])
+    for ports in layout.values():  # a vector not recorded whole: its elements one by one
+        for port, elements in list(ports.items()):
+            if elements[0][1] is not None and [i for _, i in elements] != list(
+                    range(len(elements))):
+                del ports[port]
+                ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
+    a_number = {"type": ["number", "string"], "description": "a number; non-finite values "
+              "are the strings NaN, Infinity, -Infinity"}
+    channels = []
+    for owner, ports in layout.items():
+        properties: dict[str, Any] = {"time_s": {"type": "number", "unit": "s",
+                                                 "description": "simulated time [s]"}}
+        for port, elements in ports.items():
+            unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
+            text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
+            if elements[0][1] is None:
+                properties[port] = {**a_number, "unit": unit, "description": text}
+            else:
+                properties[port] = {"type": "array", "items": a_number, "unit": unit,
+                                    "description": text}
+        schema = {"title": owner, "type": "object", "properties": properties}
+        channels.append(ComponentChannel(owner, f"/{owner.replace('.', '/')}", schema, ports))
+    return channels
+
+
+def log_time_ns(t: float) -> int:
+    """A simulated time [s] as the integer nanoseconds of a log time."""
+    return round(t * 1e9)
+
+
 class Mcap(ResultFormat):
     """`result.mcap`: one JSON channel per component (see the module's docstring)."""
 
@@ -52,53 +112,24 @@ class Mcap(ResultFormat):
               values: np.ndarray) -> list[Path]:
         from mcap.writer import Writer
 
-        # component -> port -> [(column index, element index or None)]
-        layout: dict[str, dict[str, list[tuple[int, int | None]]]] = {}
-        unit_of: dict[tuple[str, str], str] = {}
-        for j, column in enumerate(columns[1:], start=1):
-            owner, port, index = _split(column)
-            layout.setdefault(owner, {}).setdefault(port, []).append((j, index))
-            unit_of.setdefault((owner, port), units[j])
-        for ports in layout.values():  # a vector not recorded whole: its elements one by one
-            for port, elements in list(ports.items()):
-                if elements[0][1] is not None and [i for _, i in elements] != list(
-                        range(len(elements))):
-                    del ports[port]
-                    ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
-        a_number = {"type": ["number", "string"], "description": "a number; non-finite values "
-                  "are the strings NaN, Infinity, -Infinity"}
         with open(path, "wb") as stream:
             writer = Writer(stream)
             writer.start(profile="", library="twmr-cosim")
             writer.add_metadata(METADATA, {"columns": json.dumps(columns),
                                            "units": json.dumps(units)})
             channels = []
-            for owner, ports in layout.items():
-                properties: dict[str, Any] = {"time_s": {"type": "number", "unit": "s",
-                                                         "description": "simulated time [s]"}}
-                for port, elements in ports.items():
-                    unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
-                    text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
-                    if elements[0][1] is None:
-                        properties[port] = {**a_number, "unit": unit, "description": text}
-                    else:
-                        properties[port] = {"type": "array", "items": a_number, "unit": unit,
-                                            "description": text}
-                schema = {"title": owner, "type": "object", "properties": properties}
-                schema_id = writer.register_schema(owner, "jsonschema",
-                                                   json.dumps(schema).encode())
-                channel = writer.register_channel(f"/{owner.replace('.', '/')}", "json",
-                                                  schema_id, {"component": owner})
-                channels.append((channel, ports))
+            for channel in component_channels(columns, units):
+                schema_id = writer.register_schema(channel.owner, "jsonschema",
+                                                   json.dumps(channel.schema).encode())
+                channels.append((writer.register_channel(channel.topic, "json", schema_id,
+                                                         {"component": channel.owner}),
+                                 channel))
             for sequence, row in enumerate(values):
-                stamp = round(float(row[0]) * 1e9)
-                for channel, ports in channels:
-                    message: dict[str, Any] = {"time_s": float(row[0])}
-                    for port, elements in ports.items():
-                        sample = [number(float(row[j])) for j, _ in elements]
-                        message[port] = sample[0] if elements[0][1] is None else sample
-                    writer.add_message(channel, log_time=stamp, publish_time=stamp,
-                                       sequence=sequence, data=json.dumps(message).encode())
+                stamp = log_time_ns(float(row[0]))
+                for channel_id, channel in channels:
+                    writer.add_message(channel_id, log_time=stamp, publish_time=stamp,
+                                       sequence=sequence,
+                                       data=json.dumps(channel.message(row)).encode())
             writer.finish()
         return []
 
