@@ -112,7 +112,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     elif figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
     pacing = {k: v for k, v in figures.items() if not k.startswith("algorithm.")
-              and isinstance(v, (int, float))}
+              and k != "start_unix_s" and isinstance(v, (int, float))}
     if pacing:
         log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):

@@ -16,8 +16,8 @@ from websockets.sync.client import connect
 
 pytest.importorskip("foxglove")
 
-from twmr.observers.base import RunStart  # noqa: E402
-from twmr.observers.foxglove_live import FoxgloveServer  # noqa: E402
+from twmr.observers.base import RunStart
+from twmr.observers.foxglove_live import FoxgloveServer
 
 RUN = RunStart(("time", "robot.plant.pose[1]", "robot.plant.pose[2]", "g.y"), ("s", "m", "m", ""),
                1e-3, 10)

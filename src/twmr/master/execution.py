@@ -101,12 +101,13 @@ class Pacer:
         self.h_ns = round(h * 1e9)
         self.spin_ns = int(spin * 1e9)
         self.t0 = time.perf_counter_ns()
+        self.t0_unix_ns = time.time_ns()
         self.released_ns: list[int] = []
         self.deadline_ns: list[int] = []
         self.overruns = 0
 
     def start(self) -> None:
-        self.t0 = time.perf_counter_ns()
+        self.t0, self.t0_unix_ns = time.perf_counter_ns(), time.time_ns()
 
     def __call__(self, n: int) -> None:
         target = self.t0 + n * self.h_ns
@@ -127,7 +128,8 @@ class Pacer:
 
     def stats(self) -> dict[str, float]:
         """Lateness and |period error| p50/p99/max [us], missed deadlines (released more than one
-        step late), paced steps."""
+        step late), paced steps, and the wall-clock time of t = start (`start_unix_s`, seconds
+        since the epoch: what puts a frame log's times on the run's time axis)."""
         if not self.released_ns:
             return {}
         late = self.lateness_us()
@@ -139,7 +141,8 @@ class Pacer:
                 "period_error_p50_us": float(np.percentile(period, 50)),
                 "period_error_p99_us": float(np.percentile(period, 99)),
                 "period_error_max_us": float(period.max()),
-                "missed_deadlines": self.overruns, "paced_steps": int(late.size)}
+                "missed_deadlines": self.overruns, "paced_steps": int(late.size),
+                "start_unix_s": self.t0_unix_ns / 1e9}
 
 
 class _Relay:

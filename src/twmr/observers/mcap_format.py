@@ -11,6 +11,12 @@ rerun and rosbag2 read.
 - A vector recorded whole is an array; elements recorded alone are fields `pose[2]`.
 - Non-finite values, which JSON has no number for, are the strings "NaN", "Infinity" and
   "-Infinity" (each property's schema admits them).
+- A paced CAN run's frame logs (`<drive>_frames.blf` or `.asc` beside the results) are one more
+  channel each, topic `/can/<log name>`: one message per frame (`id`, `extended`, `dlc`, `data`
+  as a list of bytes, `direction` rx/tx, `remote`, `error_frame`), its log time the frame's
+  wall-clock time put on the run's time axis through the pacer's `start_unix_s` in
+  `summary.json` (`time_s` the same in seconds; frames of the set-up, before the start, have a
+  negative `time_s` and log time 0).
 - A `twmr.columns` metadata record holds the recorded column names and units in their order, so
   `read` gives back the columns of `result.arrows` exactly (JSON numbers round-trip float64).
 """
@@ -29,6 +35,19 @@ from twmr.observers.writers import ResultFormat
 
 _ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
 METADATA = "twmr.columns"
+#: the `kind` metadata of a frame log's channel
+FRAMES = "can_frames"
+_FRAME_SCHEMA = {
+    "title": "CAN frame", "type": "object",
+    "properties": {
+        "time_s": {"type": "number", "unit": "s", "description": "the frame's time on the run's "
+                   "time axis [s] (negative: during set-up)"},
+        "id": {"type": "integer", "description": "arbitration id"},
+        "extended": {"type": "boolean", "description": "29-bit id"},
+        "dlc": {"type": "integer", "description": "data length code"},
+        "data": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": 255}},
+        "direction": {"enum": ["rx", "tx"], "description": "as the host saw it"},
+        "remote": {"type": "boolean"}, "error_frame": {"type": "boolean"}}}
 
 
 def _split(column: str) -> tuple[str, str, int | None]:
@@ -98,6 +117,37 @@ def component_channels(columns: list[str], units: list[str]) -> list[ComponentCh
     return channels
 
 
+def _add_frame_logs(writer: Any, folder: Path, start: float) -> None:
+    """A channel per frame log in `folder` (module docstring); `start` [s] is the run's start."""
+    import can
+
+    logs = sorted(p for p in folder.iterdir()
+                  if p.suffix.lower() in (".blf", ".asc") and not p.name.startswith("."))
+    if not logs:
+        return
+    summary = folder / "summary.json"
+    pacing = json.loads(summary.read_text()).get("pacing", {}) if summary.exists() else {}
+    epoch = pacing.get("start_unix_s")
+    schema_id = writer.register_schema("can_frame", "jsonschema",
+                                       json.dumps(_FRAME_SCHEMA).encode())
+    for log in logs:
+        channel = writer.register_channel(f"/can/{log.stem}", "json", schema_id,
+                                          {"kind": FRAMES, "file": log.name})
+        frames = list(can.LogReader(str(log)))
+        zero = float(epoch) if isinstance(epoch, int | float) else \
+            (frames[0].timestamp if frames else 0.0)
+        for sequence, frame in enumerate(frames):
+            t = start + frame.timestamp - zero
+            stamp = max(0, log_time_ns(t))
+            message = {"time_s": t, "id": frame.arbitration_id,
+                       "extended": bool(frame.is_extended_id), "dlc": frame.dlc,
+                       "data": list(frame.data), "direction": "rx" if frame.is_rx else "tx",
+                       "remote": bool(frame.is_remote_frame),
+                       "error_frame": bool(frame.is_error_frame)}
+            writer.add_message(channel, log_time=stamp, publish_time=stamp, sequence=sequence,
+                               data=json.dumps(message).encode())
+
+
 def log_time_ns(t: float) -> int:
     """A simulated time [s] as the integer nanoseconds of a log time."""
     return round(t * 1e9)
@@ -130,6 +180,7 @@ class Mcap(ResultFormat):
                     writer.add_message(channel_id, log_time=stamp, publish_time=stamp,
                                        sequence=sequence,
                                        data=json.dumps(channel.message(row)).encode())
+            _add_frame_logs(writer, path.parent, float(values[0, 0]) if len(values) else 0.0)
             writer.finish()
         return []
 
@@ -147,6 +198,8 @@ class Mcap(ResultFormat):
             where = {c: j for j, c in enumerate(columns)}
             rows: dict[int, np.ndarray] = {}
             for _schema, channel, message in reader.iter_messages(log_time_order=False):
+                if channel.metadata.get("kind") == FRAMES:
+                    continue
                 owner = channel.metadata.get("component", channel.topic.lstrip("/"))
                 row = rows.setdefault(message.sequence, np.full(len(columns), np.nan))
                 fields = json.loads(message.data)
