@@ -78,16 +78,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     log.info("running %s (%d components, %d steps of %g s, %s) -> %s/", scenario_path,
              len(scenario.system.components), exp.n_steps, exp.step, exp.algorithm, out)
     live = _live_view(args)
+    foxglove = _foxglove_server(args)
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
                               progress=not args.quiet,
-                              observers=[live] if live is not None else [])
+                              observers=[o for o in (live, foxglove) if o is not None])
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)
         if folder is not None and args.plot:
             _plots(api.read_result(folder), scenario_path.stem)
         raise
     finally:
+        if foxglove is not None:
+            foxglove.close()
         if live is not None:
             if live.keep and not isinstance(sys.exc_info()[1], KeyboardInterrupt):
                 log.warning("the run ended; the live view stays up at %s until Ctrl-C",
@@ -97,6 +100,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         _plots(result, scenario_path.stem)
     s = result.summary
+    if s.get("stopped_by"):
+        log.info("%s asked to end the simulation at t = %g s (experiment.fmu_terminate: stop)",
+                 s["stopped_by"]["component"], s["stopped_by"]["time"])
     log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
              s["wall_time_s"], s["realtime_factor"], result.folder)
     figures = s.get("pacing") or {}
@@ -106,7 +112,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     elif figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
     pacing = {k: v for k, v in figures.items() if not k.startswith("algorithm.")
-              and isinstance(v, (int, float))}
+              and k != "start_unix_s" and isinstance(v, (int, float))}
     if pacing:
         log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):
@@ -114,6 +120,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         print(jsonvalues.dumps(s["metrics"]))
     return 0
+
+
+def _foxglove_server(args: argparse.Namespace) -> Any:
+    """The `--foxglove` server, started (its address printed), or None."""
+    if args.foxglove is None:
+        return None
+    from twmr.observers.foxglove_live import FoxgloveServer
+
+    server = FoxgloveServer(args.foxglove)
+    print(f"foxglove: open connection {server.start()}", file=sys.stderr, flush=True)
+    return server
 
 
 def _live_view(args: argparse.Namespace) -> Any:
@@ -433,6 +450,9 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--live", metavar="[HOST:]PORT",
                    help="serve live scopes of the recorded signals in the browser while the run "
                         "goes (host 127.0.0.1 unless given; port 0: a free one, printed)")
+    r.add_argument("--foxglove", metavar="[HOST:]PORT",
+                   help="publish the recorded signals live to Foxglove (a Foxglove WebSocket "
+                        "server; host 127.0.0.1 unless given; needs foxglove-sdk)")
     r.add_argument("--live-keep", action="store_true",
                    help="with --live: keep serving after the run, until Ctrl-C")
     r.add_argument("--fmu-log", action="store_true",

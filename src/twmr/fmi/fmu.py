@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
-from twmr.core.errors import ComponentError, FmuError
+from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.fmi import guard
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
@@ -77,6 +77,10 @@ def _shown(get: Callable[..., list[Any]], factor: float, offset: float
         return [factor * v + offset for v in get(*args)]
 
     return get_shown
+
+
+#: how an FMI 2.0 co-simulation FMU asks to end the simulation
+_FMI2_DISCARDED = "(fmi2DoStep returned fmi2Discard and fmi2Terminated is true)"
 
 
 class FmuComponent(Component):
@@ -339,9 +343,8 @@ class FmuComponent(Component):
             try:
                 self._integrator.start(self.start_time)
             except Terminated:
-                raise FmuError(self.name, self.start_time, f"FMU '{self.path.name}' asked to "
-                               f"terminate during its initial event iteration.",
-                               self.log.tail()) from None
+                raise self._terminated(self.start_time, "during its initial event "
+                                       "iteration") from None
             self._set_cont = self._plan([p for p in inputs if not p.discrete], 1)
             self._set_disc = self._plan([p for p in inputs if p.discrete], 1)
             self._last_disc = self._values_of(self._set_disc)
@@ -490,21 +493,22 @@ class FmuComponent(Component):
             if self._get_step:
                 self._get(self._get_step)
         except Terminated as stop:
-            raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
-                           f"the simulation (terminateSimulation).", self.log.tail()) from None
+            raise self._terminated(stop.args[0], "(terminateSimulation)") from None
         except FmuError:
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
             if self._fmi2_terminated():
-                raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                               f"simulation (fmi2DoStep returned fmi2Discard and "
-                               f"fmi2Terminated is true).", self.log.tail()) from None
+                raise self._terminated(t, _FMI2_DISCARDED) from None
             what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
                                                               else "fmi2DoStep")
             raise self._error(what, exc) from exc
         if self.fmi3 and result is not None and result[1]:
-            raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                           f"simulation (fmi3DoStep terminateSimulation).", self.log.tail())
+            raise self._terminated(t, "(fmi3DoStep terminateSimulation)")
+
+    def _terminated(self, t: float, how: str) -> FmuTerminated:
+        """The FMU's request at `t` to end the simulation, `how` it asked."""
+        return FmuTerminated(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
+                             f"simulation {how}.", self.log.tail())
 
     def state_event(self) -> float | None:
         return None if self._integrator is None else self._integrator.state_event
@@ -594,9 +598,7 @@ class FmuComponent(Component):
         def error(call: str, status: int, t: float) -> BaseException:
             self._t = t
             if call == "fmi2DoStep" and status == 2 and self._fmi2_terminated():
-                return FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                                f"simulation (fmi2DoStep returned fmi2Discard and "
-                                f"fmi2Terminated is true).", self.log.tail())
+                return self._terminated(t, _FMI2_DISCARDED)
             return FmuError(self.name, t, f"FMU '{self.path.name}': {call} returned "
                             f"{_FMI2_STATUS.get(status, status)}. Fix: see the FMU's log; check "
                             f"its inputs and parameters at this time.", self.log.tail())

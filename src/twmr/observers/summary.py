@@ -74,6 +74,8 @@ class SignalSummary(Observer):
             "ports": run.metadata.get("ports", {}) if run else {},
             "signals": self.signals(), "pacing": outcome.extra,
         }
+        if outcome.stopped_by is not None:
+            self.document["stopped_by"] = outcome.stopped_by
         if run is not None and run.folder is not None:
             write_summary(self.document, run.folder / FILENAME)
 

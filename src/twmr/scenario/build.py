@@ -316,8 +316,10 @@ class _Builder:
                                          f"{suggest(str(e.algorithm.value), known)}.",
                                          f"use one of: {', '.join(sorted(known))} (the "
                                          f"'twmr.algorithms' entry points)."))
+        ending = e.fmu_terminate.value if e.fmu_terminate is not None else None
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
-                          **self.adaptive_options(step, stop - start))
+                          **self.adaptive_options(step, stop - start),
+                          fmu_terminate=ending or "error")
 
     def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
         """The experiment's `rtol`, `atol`, `min_step`, `max_step` as given (algorithm

@@ -79,6 +79,8 @@ class ExperimentSpec:
     atol: Given[Any] | None = None
     min_step: Given[Any] | None = None
     max_step: Given[Any] | None = None
+    #: what an FMU's request to end the simulation does: 'error' or 'stop' (None: not given)
+    fmu_terminate: Given[Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -53,6 +53,9 @@ class Experiment:
     atol: float = 1e-6
     min_step: float | None = None
     max_step: float | None = None
+    #: an FMU that asks to end the simulation: 'error' fails the run, 'stop' ends it there
+    #: normally (the rows up to that time are the result)
+    fmu_terminate: str = "error"
 
     @property
     def n_steps(self) -> int:
