@@ -525,8 +525,7 @@ class FmuComponent(Component):
             self._get(self._get_ft)
             self._get(self._get_step)
         except Terminated as stop:
-            raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
-                           f"the simulation (terminateSimulation).", self.log.tail()) from None
+            raise self._terminated(stop.args[0], "(terminateSimulation)") from None
         except FmuError:
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
