@@ -5,8 +5,17 @@ import pytest
 
 from twmr.fmi.lsbus import operations as ops
 from twmr.fmi.lsbus.operations import (
-    ArbitrationLost, BusError, BusOperationError, CanFdTransmit, CanTransmit, Configuration,
-    Confirm, Status, Wakeup, decode, encode,
+    ArbitrationLost,
+    BusError,
+    BusOperationError,
+    CanFdTransmit,
+    CanTransmit,
+    Configuration,
+    Confirm,
+    Status,
+    Wakeup,
+    decode,
+    encode,
 )
 
 # CAN Transmit id 0x123, standard, no rtr, 2 bytes: header (opcode 0x10, length 18), id, ide, rtr,

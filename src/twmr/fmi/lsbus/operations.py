@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Union
 
 from twmr.core.errors import CosimError
 
@@ -175,8 +174,8 @@ class Wakeup:
     """A bus wake-up."""
 
 
-Operation = Union[FormatError, CanTransmit, CanFdTransmit, CanXlTransmit, Confirm,
-                  ArbitrationLost, BusError, Configuration, Status, Wakeup]
+Operation = (FormatError | CanTransmit | CanFdTransmit | CanXlTransmit | Confirm |
+             ArbitrationLost | BusError | Configuration | Status | Wakeup)
 
 _ID = struct.Struct("<I")
 _TRANSMIT = struct.Struct("<IBBH")
