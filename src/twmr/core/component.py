@@ -170,6 +170,9 @@ class Component:
     sizing_parameters: frozenset[str] = frozenset()
     #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
     aliases: Mapping[str, str] = MappingProxyType({})
+    #: bus terminals (FMI-LS-BUS network terminals): name -> {member: port}, members Tx_Data,
+    #: Tx_Clock, Rx_Data, Rx_Clock; a wire `a.T -> b.U` joins each Tx member to the other's Rx
+    terminals: Mapping[str, Mapping[str, str]] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}

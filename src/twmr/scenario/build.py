@@ -29,7 +29,15 @@ from twmr.core.port import TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
-from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
+from twmr.scenario.graph import (
+    describe_cycle,
+    find_port,
+    order,
+    parse_end,
+    resolve_end,
+    terminal_wires,
+    wire,
+)
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
@@ -422,6 +430,15 @@ class _Builder:
                 else ((), ())
             if any(id(v.exposure) in self.broken for v in (*src_via, *dst_via)):
                 self.miswired.add((dst.comp, dst.port))  # reported where it is exposed
+                continue
+            src, dst = resolve_end(comps, src), resolve_end(comps, dst)
+            members = terminal_wires(comps, src, dst, loc, self.problems)
+            if members is not None:
+                for a, b in members:
+                    made = wire(comps, a, b, loc, self.problems, src_via, dst_via)
+                    if not made:
+                        self.miswired.add((b.comp, b.port))
+                    conns += made
                 continue
             made = wire(comps, src, dst, loc, self.problems, src_via, dst_via)
             if not made:  # reported; its input is not reported again as unconnected
