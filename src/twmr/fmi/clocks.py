@@ -14,9 +14,9 @@ An event (the FMU's `eventHandlingNeeded`, an early return, a scheduled clock du
 from `fmi3UpdateDiscreteStates`) is handled at the FMU's own time inside the communication
 step: enter event mode, activate input clocks and set their clocked inputs, get the output
 clocks and the variables they clock, update the discrete states until they settle, read the
-clocks' new intervals, return to step mode, and step on to the communication point. The doStep is split at every scheduled
-tick, so a countdown clock ticks at its own time. What ticked is visible to the other components
-at the end of the communication step; a Binary output of a bus terminal that ticks twice in one
+clocks' new intervals, return to step mode, and step on to the communication point. The doStep
+is split at every scheduled tick, so a countdown clock ticks at its own time. What ticked is
+visible to the other components at the end of the communication step; a Binary output of a bus terminal that ticks twice in one
 step carries the operations of both ticks, back to back.
 """
 from __future__ import annotations
