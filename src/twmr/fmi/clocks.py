@@ -16,8 +16,8 @@ step: enter event mode, activate input clocks and set their clocked inputs, get 
 clocks and the variables they clock, update the discrete states until they settle, read the
 clocks' new intervals, return to step mode, and step on to the communication point. The doStep
 is split at every scheduled tick, so a countdown clock ticks at its own time. What ticked is
-visible to the other components at the end of the communication step; a Binary output of a bus terminal that ticks twice in one
-step carries the operations of both ticks, back to back.
+visible to the other components at the end of the communication step; a Binary output of a bus
+terminal that ticks twice in one step carries the operations of both ticks, back to back.
 """
 from __future__ import annotations
 
@@ -26,6 +26,7 @@ import math
 from typing import TYPE_CHECKING
 
 from twmr.core.errors import FmuError
+from twmr.fmi.description import clock_timing
 
 if TYPE_CHECKING:
     from twmr.fmi.description import FmuPort
@@ -48,12 +49,10 @@ class EventMode:
         self.clock_ports = [p for p in ports if p.clock]
         self.clocked_in = [p for p in ports if p.clocked_by and p.kind == "input"]
         self.clocked_out = [p for p in ports if p.clocked_by and p.kind in ("output", "state")]
-        by_vr = {p.vrs[0]: p for p in self.scheduled}
-        self._periodic = {p.name: float(v.intervalDecimal) for v in comp.md.modelVariables
-                          if v.type == "Clock" and (p := by_vr.get(v.valueReference)) and
-                          p.clock == "constant" and v.intervalDecimal}
-        self._shift = {v.name: float(v.shiftDecimal or 0.0) for v in comp.md.modelVariables
-                       if v.type == "Clock"}
+        timing = clock_timing(comp.source_path)
+        #: periodic clocks of constant interval: name -> (interval, shift) [s]
+        self._periodic = {p.name: timing[p.vrs[0]] for p in self.scheduled
+                          if p.clock == "constant" and p.vrs[0] in timing}
         #: within one communication step: the clocked outputs already got (bus data appends)
         self._fresh: set[str] = set()
         #: every tick: (time [s], clock port)
@@ -143,9 +142,8 @@ class EventMode:
         self._read([p for p in self.clocked_out if active & set(p.clocked_by)], t)
         due = self.due()
         for p in scheduled:
-            period = self._periodic.get(p.name)
-            if period:
-                due[p.name] = due[p.name] + period
+            if p.name in self._periodic:
+                due[p.name] = due[p.name] + self._periodic[p.name][0]
             else:
                 due.pop(p.name, None)
         self._set_due(due)
@@ -172,11 +170,10 @@ class EventMode:
 
     def start(self, t: float) -> None:
         """The event that ends initialization (eventModeUsed): the clocks and clocked outputs
-        as they are at t [s], the first ticks of periodic clocks scheduled."""
-        due = {p.name: t + self._shift.get(p.name, 0.0) + period
-               for p in self.scheduled if (period := self._periodic.get(p.name))}
-        self._set_due(due)
-        self.event(t, [], [])
+        as they are at t [s]; a periodic clock with a constant interval ticks first at t plus
+        its shift, then every interval."""
+        self._set_due({name: t + shift for name, (_, shift) in self._periodic.items()})
+        self.event(t, [], self.due_at(t))
 
     def _intervals(self, t: float) -> None:
         """The next tick of each scheduled clock whose interval the FMU says changed."""

@@ -140,6 +140,27 @@ def read_description(path: Path, instance: str = "fmu") -> Any:
     return md
 
 
+def clock_timing(path: Path) -> dict[int, tuple[float, float]]:
+    """Value reference -> (intervalDecimal, shiftDecimal) [s] of every Clock that gives an
+    interval, from the FMU's modelDescription.xml (fmpy does not read them); shift 0 if none."""
+    import zipfile
+
+    from lxml import etree
+
+    if path.is_dir():
+        raw = (path / "modelDescription.xml").read_bytes()
+    else:
+        with zipfile.ZipFile(path) as z:
+            raw = z.read("modelDescription.xml")
+    timing = {}
+    for v in etree.fromstring(raw).iter("Clock"):
+        interval = v.get("intervalDecimal")
+        if interval is not None:
+            timing[int(v.get("valueReference", "0"))] = (float(interval),
+                                                         float(v.get("shiftDecimal") or 0.0))
+    return timing
+
+
 def unit_definitions(md: Any) -> dict[str, Unit]:
     """The FMU's UnitDefinitions that carry a BaseUnit, as units (SI = factor * value + offset)."""
     defined: dict[str, Unit] = {}
