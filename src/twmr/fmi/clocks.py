@@ -130,7 +130,7 @@ class EventMode:
         clocked = [p for p in self.clocked_in if vrs & set(p.clocked_by)]
         if clocked:
             c._write(clocked)
-        active = {p.vrs[0] for p in scheduled}
+        active = {p.vrs[0] for p in activate}
         if self.out_clocks:
             values = c._call(f"fmi3GetClock of {', '.join(p.name for p in self.out_clocks)}",
                              f.getClock, [p.vrs[0] for p in self.out_clocks])
