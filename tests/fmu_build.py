@@ -63,8 +63,8 @@ LSBUS = SOURCES / "lsbus"
 
 def build_lsbus_fmu(name: str, out_dir: Path, edits: dict[str, str] | None = None) -> Path:
     """Build an LS-BUS CAN node of tests/fmus/lsbus/ (`cannode_triggered`, `cannode_countdown`,
-    `cannode_periodic`) from the one source `cannode.c` (-DCOUNTDOWN for the two whose Tx
-    clock is an input clock), with its
+    `cannode_periodic`: one source `cannode.c`, -DCOUNTDOWN for the two whose Tx clock is an
+    input clock) or the bus simulation `canbus` (`canbus.c`), with its
     terminalsAndIcons.xml and LS-BUS manifest; `edits` replaces text in its XML files (a test's
     broken variant: another MIME type, another version)."""
     from fmpy.fmi3 import platform_tuple
@@ -77,8 +77,8 @@ def build_lsbus_fmu(name: str, out_dir: Path, edits: dict[str, str] | None = Non
     binaries = work / "binaries" / platform_tuple
     binaries.mkdir(parents=True, exist_ok=True)
     ext = {"Windows": ".dll", "Darwin": ".dylib"}.get(platform.system(), ".so")
-    source = LSBUS / "cannode.c"
-    defines = [] if name.endswith("triggered") else ["-DCOUNTDOWN"]
+    source = LSBUS / ("canbus.c" if name == "canbus" else "cannode.c")
+    defines = [] if name in ("canbus", "cannode_triggered") else ["-DCOUNTDOWN"]
     subprocess.run([os.environ.get("CC", "cc"), "-shared", "-fPIC", "-O2", f"-I{headers}",
                     *defines, str(source), str(_fmi3_stubs(source, headers, work)),
                     "-o", str(binaries / f"{name}{ext}"), "-lm"], check=True)

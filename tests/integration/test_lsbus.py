@@ -132,3 +132,37 @@ def test_a_beta_version_runs_with_a_note(tmp_path) -> None:
     assert done.returncode == 0, done.stderr
     assert "note: component 'a'" in done.stderr and "FMI-LS-BUS 1.0.0-beta.1" in done.stderr
     assert "OK: the scenario is valid." in done.stdout
+
+
+def test_two_nodes_through_the_bus_simulation_fmu(tmp_path) -> None:
+    """Both nodes send at 0.3 and 0.6 s; the bus simulation (configured to 100 kbit/s by the
+    nodes) lets id 0x1 win arbitration, holds the bus 44 + 32 = 76 bits (0.76 ms) per frame,
+    confirms each frame to its sender and delivers it to the other node; the deliveries show at
+    the first communication point (0.1 ms grid) at or after their time."""
+    node = build_lsbus_fmu("cannode_triggered", tmp_path)
+    bus = build_lsbus_fmu("canbus", tmp_path)
+    system = loads(f"""
+components:
+  n1: {{kind: fmu, parameters: {{path: {node}}}}}
+  n2: {{kind: fmu, parameters: {{path: {node}, id: 0x22}}, initial: {{payload: "0a0b0c0d"}}}}
+  bus: {{kind: fmu, parameters: {{path: {bus}}}}}
+connections:
+  - n1.CanChannel -> bus.Node1
+  - n2.CanChannel -> bus.Node2
+open: [n1.payload, n2.payload]
+experiment: {{start: 0.0, stop: 0.65, step: 0.0001}}
+""", source="bus.yaml")
+    r = simulate(system)
+    frame = 76 / 100_000
+    ends = [0.3 + frame, 0.3 + 2 * frame, 0.6 + frame, 0.6 + 2 * frame]
+    ticks = system.components["bus"]._events.ticks
+    np.testing.assert_allclose([t for t, p in ticks if p == "Node1.Tx_Clock"], ends, atol=1e-9)
+    assert [t for t, p in ticks if p == "Node2.Tx_Clock"] == \
+        [t for t, p in ticks if p == "Node1.Tx_Clock"]
+    assert r["bus.baud"][-1] == 100_000 and r["bus.frames"][-1] == 4
+    n1, n2 = system.components["n1"], system.components["n2"]
+    assert (n2.get("rx_id"), n1.get("rx_id")) == (0x1, 0x22)
+    np.testing.assert_allclose(sorted(set(r["n2.rx_time"])), [-1, 0.3008, 0.6008], atol=1e-9)
+    np.testing.assert_allclose(sorted(set(r["n1.rx_time"])), [-1, 0.3016, 0.6016], atol=1e-9)
+    assert r["n1.confirms"][-1] == r["n2.confirms"][-1] == 2
+    assert r["n1.rx_frames"][-1] == r["n2.rx_frames"][-1] == 2
