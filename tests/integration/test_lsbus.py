@@ -166,3 +166,13 @@ experiment: {{start: 0.0, stop: 0.65, step: 0.0001}}
     np.testing.assert_allclose(sorted(set(r["n1.rx_time"])), [-1, 0.3016, 0.6016], atol=1e-9)
     assert r["n1.confirms"][-1] == r["n2.confirms"][-1] == 2
     assert r["n1.rx_frames"][-1] == r["n2.rx_frames"][-1] == 2
+
+
+def test_an_isolated_node_exchanges_the_same_frames(nodes) -> None:
+    """Node a (countdown) in a worker process of its own: the same frames at the same times."""
+    results = [simulate(loads(direct(nodes["countdown"], nodes["triggered"], extra),
+                              source="direct.yaml")) for extra in ("", ", isolate: true")]
+    for signal in ("a.rx_frames", "a.rx_time", "b.rx_frames", "b.rx_id", "b.rx_time",
+                   "a.CanChannel.Tx_Clock", "a.tx_time"):
+        np.testing.assert_array_equal(results[0][signal], results[1][signal], signal)
+    assert results[1]["b.rx_frames"][-1] == 3
