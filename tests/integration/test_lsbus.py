@@ -176,3 +176,16 @@ def test_an_isolated_node_exchanges_the_same_frames(nodes) -> None:
                    "a.CanChannel.Tx_Clock", "a.tx_time"):
         np.testing.assert_array_equal(results[0][signal], results[1][signal], signal)
     assert results[1]["b.rx_frames"][-1] == 3
+
+
+def test_inspect_names_the_clocks_and_the_terminal(nodes) -> None:
+    from twmr.fmi import describe_fmu, fmu_interface
+
+    info = fmu_interface(nodes["countdown"])
+    ports = {p["name"]: p for p in info["ports"]}
+    assert ports["CanChannel.Tx_Clock"]["clock"] == "countdown"
+    assert ports["CanChannel.Tx_Clock"]["scheduled"] and ports["CanChannel.Tx_Clock"]["kind"] == \
+        "output"
+    assert ports["CanChannel.Rx_Data"]["clocked_by"] == ["CanChannel.Rx_Clock"]
+    assert info["bus_terminals"][0]["members"]["Tx_Data"] == "CanChannel.Tx_Data"
+    assert "bus terminal CanChannel (CAN, FMI-LS-BUS 1.0.0)" in describe_fmu(nodes["countdown"])
