@@ -117,3 +117,12 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
                           capture_output=True, text=True)
     assert done.returncode != 0 and "Traceback" not in done.stderr
     assert "clock3.fmu" in done.stderr and words in done.stderr
+
+
+def test_clocks_with_a_step_multiple_are_refused(fmus) -> None:
+    text = counted(fmus, "triggered", 0.3).replace("period: 0.3}}", "period: 0.3}, "
+                                                   "step_multiple: 2}")
+    with pytest.raises(CosimError) as err:
+        loads(text, source="clocks.yaml")
+    assert "component 'a' has clocks (CanChannel.Rx_Clock, CanChannel.Tx_Clock) and " \
+        "step_multiple 2" in str(err.value)

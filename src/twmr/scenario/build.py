@@ -25,7 +25,7 @@ from twmr.core.errors import (
     UnitError,
     WiringError,
 )
-from twmr.core.port import TEXT_TYPES
+from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
@@ -190,8 +190,17 @@ class _Builder:
     def check_steps(self, comps: dict[str, Component], step: float) -> None:
         """Each component's problems with its step (the base step times its step_multiple)."""
         for name, comp in comps.items():
-            h = step * int(self.spec.components[name].step_multiple.value)
+            multiple = self.spec.components[name].step_multiple
+            h = step * int(multiple.value)
             self.report(name, comp.check_step(h))
+            clocks = [n for n, v in comp.variables.items() if v.type == CLOCK]
+            if clocks and int(multiple.value) != 1:
+                self.problems.append(Problem(multiple.where, f"component '{name}' has clocks "
+                                             f"({', '.join(clocks[:3])}) and step_multiple "
+                                             f"{multiple.value}: a tick lasts one base step, so "
+                                             f"the others would see it {multiple.value} times.",
+                                             "remove step_multiple from this component (its "
+                                             "events happen at their own times anyway)."))
 
     def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
         """The class of a component's kind, or None after adding the problem."""
