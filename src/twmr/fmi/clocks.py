@@ -86,9 +86,7 @@ class EventMode:
         self._fresh = set()
         ticked = [p for p in self.in_clocks if d[p.name]]
         if ticked:
-            c._call("fmi3EnterEventMode", f.enterEventMode)
-            self.event(t, ticked, self.due_at(t))
-            c._call("fmi3EnterStepMode", f.enterStepMode)
+            self._handle(t, ticked, self.due_at(t))
         end, now = t + h, t
         while now < end - _tol(end):
             stop = min(end, self.next_time())
@@ -111,9 +109,23 @@ class EventMode:
             due = self.due_at(now)
             timed = c._time_event <= now + _tol(now)
             if needed or early or due or timed:
-                c._call("fmi3EnterEventMode", f.enterEventMode)
-                self.event(now, [], due)
-                c._call("fmi3EnterStepMode", f.enterStepMode)
+                self._handle(now, [], due)
+
+    def _handle(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
+        """Event mode at t [s]: one event, then one more for every clock that became due at
+        that instant (a countdown of 0 s), then back to step mode."""
+        c, f = self.comp, self.comp._fmu
+        c._call("fmi3EnterEventMode", f.enterEventMode)
+        self._instant(t, ticked, scheduled)
+        c._call("fmi3EnterStepMode", f.enterStepMode)
+
+    def _instant(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
+        self.event(t, ticked, scheduled)
+        for _ in range(MAX_ITERATIONS):
+            due = self.due_at(t)
+            if not due:
+                break
+            self.event(t, [], due)
 
     def event(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
         """One event at t [s], the FMU in event mode: activate the `ticked` input clocks and the
@@ -173,7 +185,7 @@ class EventMode:
         as they are at t [s]; a periodic clock with a constant interval ticks first at t plus
         its shift, then every interval."""
         self._set_due({name: t + shift for name, (_, shift) in self._periodic.items()})
-        self.event(t, [], self.due_at(t))
+        self._instant(t, [], self.due_at(t))
 
     def _intervals(self, t: float) -> None:
         """The next tick of each scheduled clock whose interval the FMU says changed."""
