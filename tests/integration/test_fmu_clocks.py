@@ -81,6 +81,17 @@ def test_scheduled_input_clocks_tick_at_their_own_times(fmus, node, period, sent
     assert r["c.ticks"][-1] == len([t for t in sent if t < 1.0])  # the tick at stop: not seen
 
 
+def test_a_periodic_clock_of_fixed_interval_asks_the_fmu(fmus, tmp_path) -> None:
+    """intervalVariability="fixed": the interval is the FMU's (fmi3GetIntervalDecimal gives the
+    node's period, 0.25 s); it ticks at shift 0, then every interval."""
+    fixed = build_lsbus_fmu("cannode_periodic", tmp_path, {
+        'intervalVariability="constant" intervalDecimal="0.3"': 'intervalVariability="fixed"'})
+    system = loads(counted({**fmus, "fixed": str(fixed)}, "fixed", 0.25), source="clocks.yaml")
+    simulate(system)
+    assert [round(t, 12) for t, _ in system.components["a"]._events.ticks] == \
+        [0.0, 0.25, 0.5, 0.75, 1.0]
+
+
 def test_a_clock_wired_to_a_value_is_refused_naming_both(fmus) -> None:
     text = counted(fmus, "triggered", 0.3).replace("a.CanChannel.Tx_Clock -> c.tick",
                                                    "a.tx_frames -> c.tick")

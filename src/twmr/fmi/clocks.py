@@ -53,6 +53,9 @@ class EventMode:
         #: periodic clocks of constant interval: name -> (interval, shift) [s]
         self._periodic = {p.name: timing[p.vrs[0]] for p in self.scheduled
                           if p.clock == "constant" and p.vrs[0] in timing}
+        #: shift [s] of the other periodic clocks, and their interval once the FMU gave it
+        self._shift = {p.name: timing.get(p.vrs[0], (0.0, 0.0))[1] for p in self.scheduled}
+        self._period: dict[str, float] = {}
         #: within one communication step: the clocked outputs already got (bus data appends)
         self._fresh: set[str] = set()
         #: every tick: (time [s], clock port)
@@ -154,8 +157,10 @@ class EventMode:
         self._read([p for p in self.clocked_out if active & set(p.clocked_by)], t)
         due = self.due()
         for p in scheduled:
-            if p.name in self._periodic:
-                due[p.name] = due[p.name] + self._periodic[p.name][0]
+            period = self._periodic[p.name][0] if p.name in self._periodic else \
+                self._period.get(p.name)
+            if p.clock != "countdown" and period:
+                due[p.name] = due[p.name] + period
             else:
                 due.pop(p.name, None)
         self._set_due(due)
@@ -188,7 +193,9 @@ class EventMode:
         self._instant(t, [], self.due_at(t))
 
     def _intervals(self, t: float) -> None:
-        """The next tick of each scheduled clock whose interval the FMU says changed."""
+        """The next tick of each scheduled clock whose interval the FMU says changed: a
+        countdown one after that interval, a periodic one (fixed, tunable, changing) at its
+        shift the first time, then every interval from this tick."""
         asked = [p for p in self.scheduled if p.name not in self._periodic]
         if not asked:
             return
@@ -206,7 +213,12 @@ class EventMode:
                     raise FmuError(c.name, t, f"FMU '{c.path.name}': clock '{p.name}' has "
                                    f"interval {interval!r} s; a periodic clock needs a positive "
                                    f"one. Fix: see the FMU's log.", c.log.tail())
-                due[p.name] = t + max(0.0, interval)
+                if p.clock == "countdown":
+                    due[p.name] = t + max(0.0, interval)
+                else:
+                    due[p.name] = t + (self._shift[p.name] if p.name not in self._period
+                                       else interval)
+                    self._period[p.name] = interval
         self._set_due(due)
 
     def _read(self, ports: list[FmuPort], t: float) -> None:
