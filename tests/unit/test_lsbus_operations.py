@@ -75,3 +75,9 @@ def test_encode_refuses_impossible_frames() -> None:
         encode([CanTransmit(1, bytes(9))])
     with pytest.raises(BusOperationError, match="not a CAN FD length"):
         encode([CanFdTransmit(1, bytes(9))])
+
+
+def test_names_are_the_standards() -> None:
+    assert [ops.name(op) for op in (CanTransmit(1), Confirm(1), ArbitrationLost(1),
+                                    BusError(1, ops.ERROR_ACK), Wakeup())] == [
+        "CAN Transmit", "Confirm", "Arbitration Lost", "Bus Error", "Wakeup"]

@@ -28,7 +28,9 @@ Use::
     ops = decode(raw)            # [CanTransmit(id=291, data=b'\\x01\\x02', ...)]
 
 `decode` raises `BusOperationError` (a `CosimError`) naming the byte offset and what is wrong;
-whoever decodes bytes from a port adds the FMU, terminal and time to the message.
+whoever decodes bytes from a port adds the FMU, terminal and time to the message. `encode`
+refuses a frame its bus cannot carry (more than 8 bytes classic, not a CAN FD length, more than
+2048 bytes XL). `name(op)` is the standard's name of an operation, for messages and logs.
 """
 from __future__ import annotations
 
