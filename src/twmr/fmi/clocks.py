@@ -90,7 +90,7 @@ class EventMode:
         ticked = [p for p in self.in_clocks if d[p.name]]
         if ticked:
             self._handle(t, ticked, self.due_at(t))
-        end, now = t + h, t
+        end, now, stalled = t + h, t, 0
         while now < end - _tol(end):
             stop = min(end, self.next_time())
             if stop <= now + _tol(now):
@@ -102,11 +102,13 @@ class EventMode:
                                f"terminate the simulation (fmi3DoStep terminateSimulation).",
                                c.log.tail())
             reached = last if early else stop
-            if early and reached <= now and not needed:
+            stalled = stalled + 1 if reached <= now + _tol(now) else 0
+            if stalled > MAX_ITERATIONS or (stalled and not needed):
                 raise FmuError(c.name, now, f"FMU '{c.path.name}' returned early from fmi3DoStep "
-                               f"at t = {reached:.9g} s without progress and without an event. "
-                               f"Fix: see the FMU's log (its vendor should not return early "
-                               f"without an event).", c.log.tail())
+                               f"at t = {reached:.9g} s without progress ({stalled} time(s) in a "
+                               f"row{'' if needed else ', without an event'}). Fix: see the "
+                               f"FMU's log (its vendor should not return early without "
+                               f"progress).", c.log.tail())
             now = max(now, reached)
             c._t = now
             due = self.due_at(now)
