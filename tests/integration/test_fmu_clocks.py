@@ -137,3 +137,20 @@ def test_clocks_with_a_step_multiple_are_refused(fmus) -> None:
         loads(text, source="clocks.yaml")
     assert "component 'a' has clocks (CanChannel.Rx_Clock, CanChannel.Tx_Clock) and " \
         "step_multiple 2" in str(err.value)
+
+
+def test_the_adaptive_master_ends_a_step_at_a_scheduled_tick(fmus) -> None:
+    """Countdown node a (0.25 s) and triggered node b under `algorithm: adaptive` on a 0.05 s
+    grid (steps up to 0.2 s): steps end at a's ticks, so b receives at 0.25 s, not at 0.3."""
+    system = loads(f"""
+components:
+  a: {{kind: fmu, parameters: {{path: {fmus['countdown']}, period: 0.25}}}}
+  b: {{kind: fmu, parameters: {{path: {fmus['triggered']}, period: 10.0}}}}
+connections:
+  - a.CanChannel -> b.CanChannel
+open: [a.payload, b.payload]
+experiment: {{start: 0.0, stop: 1.0, step: 0.05, algorithm: adaptive, max_step: 0.2}}
+""", source="adaptive.yaml")
+    r = simulate(system)
+    assert ticked_at(r, "a.CanChannel.Tx_Clock") == [0.25, 0.5, 0.75, 1.0]
+    np.testing.assert_allclose(sorted(set(r["b.rx_time"])), [-1, 0.25, 0.5, 0.75], atol=1e-9)

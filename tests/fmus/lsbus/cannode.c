@@ -317,3 +317,21 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     i->time = end;
     return fmi3OK;
 }
+/* FMU state: a copy of the instance (canGetAndSetFMUState; not serialisable) */
+fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *state) {
+    Inst *copy = *state ? (Inst *)*state : (Inst *)malloc(sizeof(Inst));
+    if (!copy) return fail((Inst *)c, "cannode: out of memory saving the state");
+    memcpy(copy, c, sizeof(Inst));
+    *state = copy;
+    return fmi3OK;
+}
+fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState state) {
+    if (!state) return fail((Inst *)c, "cannode: no state given");
+    memcpy(c, state, sizeof(Inst));
+    return fmi3OK;
+}
+fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *state) {
+    free(*state);
+    *state = NULL;
+    return fmi3OK;
+}
