@@ -154,3 +154,21 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.05, algorithm: adaptive, max_step: 
     r = simulate(system)
     assert ticked_at(r, "a.CanChannel.Tx_Clock") == [0.25, 0.5, 0.75, 1.0]
     np.testing.assert_allclose(sorted(set(r["b.rx_time"])), [-1, 0.25, 0.5, 0.75], atol=1e-9)
+
+
+def test_the_adaptive_master_ends_a_step_where_an_fmu_returned_early(fmus) -> None:
+    """Triggered node a (0.25 s) returns early inside a step of the adaptive master: the step
+    is taken again to end at 0.25 s, where b receives the frame."""
+    system = loads(f"""
+components:
+  a: {{kind: fmu, parameters: {{path: {fmus['triggered']}, period: 0.25}}}}
+  b: {{kind: fmu, parameters: {{path: {fmus['triggered']}, period: 10.0}}}}
+connections:
+  - a.CanChannel -> b.CanChannel
+open: [a.payload, b.payload]
+experiment: {{start: 0.0, stop: 1.0, step: 0.05, algorithm: adaptive, max_step: 0.2}}
+""", source="adaptive.yaml")
+    r = simulate(system)
+    assert ticked_at(r, "a.CanChannel.Tx_Clock") == [0.0, 0.25, 0.5, 0.75, 1.0]
+    np.testing.assert_allclose(sorted(set(r["b.rx_time"])), [-1, 0.25, 0.5, 0.75], atol=1e-9)
+    assert r["a.tx_frames"][-1] == 4

@@ -323,6 +323,12 @@ class Component:
         the adaptive master ends a step there (`twmr.master.adaptive`)."""
         return None
 
+    def early_event(self) -> float | None:
+        """The time [s] of an event the last `do_step` met inside its step that could not be
+        known before it (an FMU's early return), or None; `algorithm: adaptive` retakes the
+        step to end at the grid point at or after it."""
+        return None
+
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
 

@@ -60,6 +60,8 @@ class EventMode:
         self._fresh: set[str] = set()
         #: every tick: (time [s], clock port)
         self.ticks: list[tuple[float, str]] = []
+        #: the first early return inside the last step [s]
+        self.early: float | None = None
 
     # -- times -------------------------------------------------------------------------------
     def due(self) -> dict[str, float]:
@@ -87,6 +89,7 @@ class EventMode:
             if p.kind == "output":
                 d[p.name] = False
         self._fresh = set()
+        self.early = None
         ticked = [p for p in self.in_clocks if d[p.name]]
         if ticked:
             self._handle(t, ticked, self.due_at(t))
@@ -109,6 +112,8 @@ class EventMode:
                                f"row{'' if needed else ', without an event'}). Fix: see the "
                                f"FMU's log (its vendor should not return early without "
                                f"progress).", c.log.tail())
+            if early and self.early is None and reached < end - _tol(end):
+                self.early = reached
             now = max(now, reached)
             c._t = now
             due = self.due_at(now)

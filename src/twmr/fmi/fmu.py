@@ -424,6 +424,9 @@ class FmuComponent(Component):
                            f"bus operations; see its log or ask its vendor.",
                            self.log.tail()) from None
 
+    def early_event(self) -> float | None:
+        return self._events.early if self._events is not None else None
+
     def next_event(self, t: float) -> float | None:
         if self._events is None:
             return None

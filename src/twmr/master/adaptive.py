@@ -23,9 +23,11 @@ saved states and retries with a smaller H. The next H is k fac with fac = 0.9 er
 local error of a zero-order-hold coupling is O(H^2)), bounded to [0.2, 2] and not grown right
 after a rejection. A step ends at the grid point at or after a component's next time event
 (`Component.next_event`, e.g. a step source's switching time), so a jump between two points is
-not missed. A step of one base step has no half step: it is taken once, unchecked (after a
-step of two was rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a
-step at `min_step` over the tolerance is accepted (counted as forced).
+not missed; a step in which a component met an event it could not announce (an FMU's early
+return, `Component.early_event`) is taken again to end at the grid point at or after it. A
+step of one base step has no half step: it is taken once, unchecked (after a step of two was
+rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a step at
+`min_step` over the tolerance is accepted (counted as forced).
 
 A row is recorded at every accepted communication point t (not at the middle points), so the
 time column is uneven; the result store and the writers take any time column.
@@ -151,6 +153,13 @@ class Adaptive(Algorithm):
                 err = math.nan
             else:
                 step(t, k * h)
+                early = self._early(t, k)
+                if early < k:  # an event inside the step: take the step again, to end there
+                    self._restore(saved)
+                    for comp, state in zip(self.comps, saved, strict=True):
+                        comp.release_state(state)
+                    k = early
+                    continue
                 big = self._values()
                 self._restore(saved)
                 half = k // 2
@@ -178,6 +187,14 @@ class Adaptive(Algorithm):
             self.held = True
             if k == 1:  # the tolerance needs one base step: stay there a while before trying 2
                 self.wait, self.backoff = self.backoff, min(MAX_WAIT, 2 * self.backoff)
+
+    def _early(self, t: float, k: int) -> int:
+        """Base steps from t to the first grid point at or after an event a component met
+        inside its last step (`Component.early_event`); k when none."""
+        events = [e for c in self.comps if (e := c.early_event()) is not None and e > t]
+        if not events:
+            return k
+        return max(1, min(k, math.ceil((min(events) - t) / self.h - 1e-9)))
 
     def _to_event(self, t: float) -> int:
         """Base steps from t to the first grid point at or after the next time event."""
