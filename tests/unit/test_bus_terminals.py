@@ -3,6 +3,8 @@ wires of their members, each Tx to the other side's Rx, both ways; a terminal to
 refused naming both."""
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import pytest
 
 from twmr.core import CosimError
@@ -19,8 +21,8 @@ class Node(Component):
     rx = Input(b"", type=BINARY)
     rx_tick = Input(False, type=CLOCK)
     level = Input(0.0)
-    terminals = {"can": {"Tx_Data": "tx", "Tx_Clock": "tx_tick", "Rx_Data": "rx",
-                         "Rx_Clock": "rx_tick"}}
+    terminals = MappingProxyType({"can": MappingProxyType({
+        "Tx_Data": "tx", "Tx_Clock": "tx_tick", "Rx_Data": "rx", "Rx_Clock": "rx_tick"})})
 
 
 def scenario(wire: str) -> str:
