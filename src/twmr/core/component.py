@@ -170,6 +170,9 @@ class Component:
     sizing_parameters: frozenset[str] = frozenset()
     #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
     aliases: Mapping[str, str] = MappingProxyType({})
+    #: bus terminals (FMI-LS-BUS network terminals): name -> {member: port}, members Tx_Data,
+    #: Tx_Clock, Rx_Data, Rx_Clock; a wire `a.T -> b.U` joins each Tx member to the other's Rx
+    terminals: Mapping[str, Mapping[str, str]] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}
@@ -332,6 +335,12 @@ class Component:
     def event(self, t: float) -> None:
         """Handle a state event held at the end of the last step, at t [s] (`hold_events`):
         the outputs from before it to after it. Nothing when none is held."""
+
+    def early_event(self) -> float | None:
+        """The time [s] of an event the last `do_step` met inside its step that could not be
+        known before it (an FMU's early return), or None; `algorithm: adaptive` retakes the
+        step to end at the grid point at or after it."""
+        return None
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""

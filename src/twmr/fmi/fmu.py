@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import logging
 import math
 import operator
 import os
@@ -25,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.fmi import guard
+from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
@@ -35,6 +37,8 @@ if TYPE_CHECKING:
     from twmr.core.kernel import Kernel
 
 __all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
+
+log = logging.getLogger(__name__)
 
 #: FMI 2.0 call suffix per FMI type
 _FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
@@ -91,8 +95,9 @@ class FmuComponent(Component):
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout", "compile", "compile_timeout")
-    #: beside the ports, a saved state holds the time and the inputs `evaluate` set
-    state_attributes = ("_t", "_sent")
+    #: beside the ports, a saved state holds the time, the inputs `evaluate` set and (event
+    #: mode) the clocks' next ticks and the next time event
+    state_attributes = ("_t", "_sent", "_clock_due", "_time_event")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str | None = None, rtol: float | None = None,
@@ -172,12 +177,49 @@ class FmuComponent(Component):
         self._wired: set[str] | None = None
         self._read: set[str] | None = None
         self._after_step_all = False  # set by prepare: Jacobi
+        # FMI 3.0 co-simulation with event mode: clocks, clocked variables, early return
+        self.event_mode = self.fmi3 and not self.me and bool(self.md.coSimulation.hasEventMode)
+        clocks = [p.name for p in self.ports if p.clock]
+        if clocks and self.me:
+            raise FmuError(label, None, f"'{self.source_path.name}' has clocks "
+                           f"({', '.join(clocks[:5])}), which this importer runs in "
+                           f"co-simulation only. Fix: remove interface: model_exchange.")
+        self._events: EventMode | None = None
+        self._clock_due: tuple[tuple[str, float], ...] = ()
+        self._time_event = math.inf
+        #: Binary ports that carry LS-BUS operations -> their terminal (checked at every tick)
+        self.bus_data: dict[str, str] = {}
+        self.terminals = self._bus_terminals(label) if self.fmi3 else {}
         super().__init__(name)
         self.variables = dict(self._variables)
         for var in self.variables.values():
             self.__dict__[var.name] = var.start
         for key, value in parameters.items():
             self.set_parameter(key, value)
+
+    def _bus_terminals(self, label: str) -> dict[str, dict[str, str]]:
+        """The FMU's LS-BUS network terminals (member -> port), their members checked to be
+        ports of the kind a bus terminal needs; a beta version's note is logged."""
+        from twmr.fmi.lsbus.terminals import bus_terminals
+
+        ports = {p.name: p for p in self.ports}
+        need = {"Tx_Data": ("output", "Binary"), "Rx_Data": ("input", "Binary"),
+                "Tx_Clock": ("output", "Clock"), "Rx_Clock": ("input", "Clock")}
+        found: dict[str, dict[str, str]] = {}
+        for t in bus_terminals(self.source_path, label):
+            for note in t.notes:
+                log.warning("note: component '%s': %s", label, note)
+            for member, (kind, type_) in need.items():
+                p = ports.get(t.members[member])
+                if p is None or p.kind != kind or p.fmi_type != type_:
+                    raise FmuError(label, None, f"'{self.source_path.name}': bus terminal "
+                                   f"'{t.name}' member {member} is '{t.members[member]}', which "
+                                   f"is not an {kind} {type_} "
+                                   f"port of the FMU (a clock the importer schedules counts as "
+                                   f"an output). Fix: correct the FMU's terminalsAndIcons.xml.")
+            self.bus_data[t.members["Tx_Data"]] = t.name
+            found[t.name] = dict(t.members)
+        return found
 
     @classmethod
     def create(cls, name: str, base_dir: Path, **construction: Any) -> Component:
@@ -279,8 +321,11 @@ class FmuComponent(Component):
             from fmpy.fmi3 import FMU3Model, FMU3Slave
 
             fmu = self._load(FMU3Model if self.me else FMU3Slave, args)
+            events = {"eventModeUsed": True, "earlyReturnAllowed": True} if self.event_mode \
+                else {}
             self._call(what, lambda: fmu.instantiate(loggingOn=True,
-                                                    logMessage=self.log.fmi3_logger()))
+                                                    logMessage=self.log.fmi3_logger(),
+                                                    **events))
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
 
@@ -328,12 +373,14 @@ class FmuComponent(Component):
             self._call("fmi2EnterInitializationMode", f.enterInitializationMode)
         # the inputs (open ones keep these values), and the parameters and start values the
         # scenario gave: the others are the FMU's own
-        self._write([p for p in self.ports if p.kind == "input" or
-                     (p.name in self._given and p.name not in self.sizing_parameters)])
+        self._write([p for p in self.ports if (p.kind == "input" or
+                     (p.name in self._given and p.name not in self.sizing_parameters)) and
+                     not p.clock and not p.clocked_by])
         self._call("ExitInitializationMode", f.exitInitializationMode)
-        inputs = [p for p in self.ports if p.kind == "input" and
-                  (self._wired is None or p.name in self._wired)]
-        outputs = [p for p in self.ports if p.kind in ("output", "state")]
+        inputs = [p for p in self.ports if p.kind == "input" and not p.clock and
+                  not p.clocked_by and (self._wired is None or p.name in self._wired)]
+        outputs = [p for p in self.ports if p.kind in ("output", "state") and not p.clock and
+                   not p.clocked_by]
         read = [p for p in outputs if self._read is None or p.name in self._read]
         feedthrough = {p.name for p in read if getattr(self.variables[p.name], "depends_on", ())}
         if self.me:
@@ -356,10 +403,39 @@ class FmuComponent(Component):
                                     if self.has_feedthrough and not self._after_step_all
                                     else read, 0)
         self._sent = None
+        if self.event_mode:  # initialization ended in event mode
+            self._events = EventMode(self)
+            self._events.start(self.start_time)
+            self._call("fmi3EnterStepMode", f.enterStepMode)
         try:
             self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
             raise self._error("reading the outputs after initialization", exc) from exc
+
+    def check_bus_data(self, port: str, data: bytes, t: float) -> None:
+        """Decode the LS-BUS operations an FMU put on bus port `port` at t [s]; malformed ones
+        stop the run naming the FMU, the terminal and the time."""
+        terminal = self.bus_data.get(port)
+        if terminal is None:
+            return
+        from twmr.fmi.lsbus.operations import BusOperationError, decode
+
+        try:
+            decode(data)
+        except BusOperationError as err:
+            raise FmuError(self.name, t, f"FMU '{self.path.name}', bus terminal '{terminal}' "
+                           f"({port}, {len(data)} bytes): {err}. Fix: the FMU writes malformed "
+                           f"bus operations; see its log or ask its vendor.",
+                           self.log.tail()) from None
+
+    def early_event(self) -> float | None:
+        return self._events.early if self._events is not None else None
+
+    def next_event(self, t: float) -> float | None:
+        if self._events is None:
+            return None
+        upcoming = self._events.next_time()
+        return upcoming if upcoming > t and upcoming < math.inf else None
 
     def _plan(self, ports: list[FmuPort], which: int) -> list[Any]:
         """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
@@ -487,6 +563,9 @@ class FmuComponent(Component):
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
+                result = None
+            elif self._events is not None:
+                self._events.step(t, h)
                 result = None
             else:
                 result = self._fmu.doStep(t, h)

@@ -23,9 +23,11 @@ saved states and retries with a smaller H. The next H is k fac with fac = 0.9 er
 local error of a zero-order-hold coupling is O(H^2)), bounded to [0.2, 2] and not grown right
 after a rejection. A step ends at the grid point at or after a component's next time event
 (`Component.next_event`, e.g. a step source's switching time), so a jump between two points is
-not missed. A step of one base step has no half step: it is taken once, unchecked (after a
-step of two was rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a
-step at `min_step` over the tolerance is accepted (counted as forced).
+not missed; a step in which a component met an event it could not announce (an FMU's early
+return, `Component.early_event`) is taken again to end at the grid point at or after it. A
+step of one base step has no half step: it is taken once, unchecked (after a step of two was
+rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a step at
+`min_step` over the tolerance is accepted (counted as forced).
 
 A row is recorded at every accepted communication point t (not at the middle points), so the
 time column is uneven; the result store and the writers take any time column.
@@ -187,6 +189,11 @@ class Adaptive(Algorithm):
             record(t, pending)
             before = self._fns["discrete"]()
             step(t, whole)
+            early = self._early(m, k) if at_event is None else k
+            if early < k:  # an event inside the step it could not announce: retaken to end there
+                self._undo(saved, None)
+                k = early
+                continue
             found = self._state_event(t, t_end)
             changed = self._fns["discrete"]() != before
             err = math.nan

@@ -25,11 +25,19 @@ from twmr.core.errors import (
     UnitError,
     WiringError,
 )
-from twmr.core.port import TEXT_TYPES
+from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
-from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
+from twmr.scenario.graph import (
+    describe_cycle,
+    find_port,
+    order,
+    parse_end,
+    resolve_end,
+    terminal_wires,
+    wire,
+)
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
@@ -182,8 +190,17 @@ class _Builder:
     def check_steps(self, comps: dict[str, Component], step: float) -> None:
         """Each component's problems with its step (the base step times its step_multiple)."""
         for name, comp in comps.items():
-            h = step * int(self.spec.components[name].step_multiple.value)
+            multiple = self.spec.components[name].step_multiple
+            h = step * int(multiple.value)
             self.report(name, comp.check_step(h))
+            clocks = [n for n, v in comp.variables.items() if v.type == CLOCK]
+            if clocks and int(multiple.value) != 1:
+                self.problems.append(Problem(multiple.where, f"component '{name}' has clocks "
+                                             f"({', '.join(clocks[:3])}) and step_multiple "
+                                             f"{multiple.value}: a tick lasts one base step, so "
+                                             f"the others would see it {multiple.value} times.",
+                                             "remove step_multiple from this component (its "
+                                             "events happen at their own times anyway)."))
 
     def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
         """The class of a component's kind, or None after adding the problem."""
@@ -424,6 +441,15 @@ class _Builder:
                 else ((), ())
             if any(id(v.exposure) in self.broken for v in (*src_via, *dst_via)):
                 self.miswired.add((dst.comp, dst.port))  # reported where it is exposed
+                continue
+            src, dst = resolve_end(comps, src), resolve_end(comps, dst)
+            members = terminal_wires(comps, src, dst, loc, self.problems)
+            if members is not None:
+                for a, b in members:
+                    made = wire(comps, a, b, loc, self.problems, src_via, dst_via)
+                    if not made:
+                        self.miswired.add((b.comp, b.port))
+                    conns += made
                 continue
             made = wire(comps, src, dst, loc, self.problems, src_via, dst_via)
             if not made:  # reported; its input is not reported again as unconnected

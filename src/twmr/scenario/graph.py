@@ -71,6 +71,48 @@ def parse_end(text: str) -> End:
     return End(m.group(1), m.group(2), tuple(index), text.strip())
 
 
+def resolve_end(comps: dict[str, Component], end: End) -> End:
+    """`end` with the component's name found among dotted names: 'a.CanChannel.Tx_Data' is
+    port 'CanChannel.Tx_Data' of 'a' when there is no component 'a.CanChannel' (FMI
+    structured names); the longest component name that matches wins."""
+    if end.comp in comps:
+        return end
+    parts = f"{end.comp}.{end.port}".split(".")
+    for k in range(len(parts) - 2, 0, -1):
+        comp, port = ".".join(parts[:k]), ".".join(parts[k:])
+        if comp in comps:
+            return End(comp, port, end.index, end.text)
+    return end
+
+
+def terminal_wires(comps: dict[str, Component], src: End, dst: End, loc: Location,
+                   problems: list[Problem]) -> list[tuple[End, End]] | None:
+    """The member wires of a wire between two bus terminals (each Tx member of one to the Rx
+    member of the other, both ways); None when neither end is a terminal; [] after adding a
+    problem (one end a terminal, the other not)."""
+    ta = comps[src.comp].terminals.get(src.port) if src.comp in comps else None
+    tb = comps[dst.comp].terminals.get(dst.port) if dst.comp in comps else None
+    if ta is None and tb is None:
+        return None
+    if ta is None or tb is None or src.index is not None or dst.index is not None:
+        term, other = (src, dst) if ta is not None else (dst, src)
+        what = "a bus terminal" if (tb if ta is not None else ta) is not None else \
+            "not a bus terminal"
+        problems.append(Problem(loc, f"'{term.text}' is a bus terminal of '{term.comp}' and "
+                                f"'{other.text}' is {what} (or an element of one): a terminal is "
+                                f"wired to a whole terminal.", "wire two terminals, e.g. "
+                                "'ecu.CanChannel -> bus.ecu'."))
+        return []
+    pairs = []
+    for (x, tx), (y, ty) in (((src, ta), (dst, tb)), ((dst, tb), (src, ta))):
+        for member in ("Tx_Data", "Tx_Clock"):
+            peer = member.replace("Tx_", "Rx_")
+            if member in tx and peer in ty:
+                pairs.append((End(x.comp, tx[member], None, f"{x.text}.{member}"),
+                              End(y.comp, ty[peer], None, f"{y.text}.{peer}")))
+    return pairs
+
+
 def find_port(comps: dict[str, Component], end: End, loc: Location,
               problems: list[Problem]) -> Variable | None:
     """The variable an end names, or None after adding a problem."""
@@ -176,6 +218,13 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
         problems.append(Problem(loc, f"size mismatch: '{src.text}' gives {len(sidx)} value(s), "
                                 f"'{dst.text}' takes {len(didx)}.",
                                 "select matching elements, e.g. 'plant.pose[1:2] -> x.xy'."))
+        return []
+    if (a.type == "Clock") != (b.type == "Clock"):
+        clock, other = (src, dst) if a.type == "Clock" else (dst, src)
+        problems.append(Problem(loc, f"'{clock.text}' is a clock and '{other.text}' is a "
+                                f"{(b if a.type == 'Clock' else a).type} port: a clock carries "
+                                f"ticks, not values.", "wire a clock to a clock (type Clock), "
+                                "and a clocked variable to a variable of its type."))
         return []
     if a.type != b.type and not (a.type in ("Integer", "Boolean") and b.type == "Real"):
         problems.append(Problem(loc, f"type mismatch: '{src.text}' is {a.type}, '{dst.text}' is "
