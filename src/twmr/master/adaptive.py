@@ -290,6 +290,15 @@ class Adaptive(Algorithm):
                    for e in (c.state_event() for c in self.comps))
         return t_end if held else None
 
+    def _early(self, m: int, k: int) -> int:
+        """Base steps from grid point m to the first grid point at or after an event a
+        component met inside its last step (`Component.early_event`); k when none."""
+        t = self._grid(m)
+        events = [e for c in self.comps if (e := c.early_event()) is not None and e > t]
+        if not events:
+            return k
+        return max(1, min(k, math.ceil((min(events) - t) / self.h - 1e-9)))
+
     def _to_event(self, m: int) -> int | None:
         """Base steps from grid point m to the first grid point at or after the next time
         event (after now); None: no time event ahead."""
