@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
+from twmr.master import loops
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
 from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
@@ -97,6 +98,7 @@ class Adaptive(Algorithm):
         self.source = ""
         self.filename = ""
         self.history: list[Attempt] = []
+        self.loops: list[loops.LoopSolver] = []
         self._owner: dict[int, tuple[str, str]] = {}
         self._fns: dict[str, Callable[..., Any]] = {}
 
@@ -141,6 +143,7 @@ class Adaptive(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        self.loops = loops.bind(env, system, plan)
         self._fns = {k: env[k] for k in ("point", "record", "step", "outputs", "discrete")}
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
@@ -369,6 +372,7 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in watched) + ")")
     w.add(0, "def discrete():")
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in discrete) + ")")
+    loops.render(w, plan, ids, ref)
     return "\n".join(w.lines) + "\n", w.owner, env
 
 
