@@ -207,5 +207,4 @@ class LoopSolver:
             f"residual |g(x) - x| is {abs(r[worst]):.3g} (at {self.labels[worst]}), over the "
             f"tolerance {opts.tol:g} x max(1, |x|). Fix: under 'experiment: loop_solver:' try "
             f"{fixes}, more iterations (max_iter, now {opts.max_iter}) or a larger tol; or "
-            f"break the loop with a `delay` on one of its wires. The results up to this time "
-            f"are saved.", t)
+            f"break the loop with a `delay` on one of its wires.", t)
