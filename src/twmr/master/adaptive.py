@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.master import loops
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
 from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
@@ -99,6 +99,7 @@ class Adaptive(Algorithm):
         self.filename = ""
         self.history: list[Attempt] = []
         self.loops: list[loops.LoopSolver] = []
+        self.probe = stats.Probe(False)
         self._owner: dict[int, tuple[str, str]] = {}
         self._fns: dict[str, Callable[..., Any]] = {}
 
@@ -143,7 +144,9 @@ class Adaptive(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        self.loops = loops.bind(env, system, plan)
+        self.probe = stats.Probe(stats.timing_wanted())
+        self.probe.wrap(env, plan.order)
+        self.loops = loops.bind(env, system, plan, self.probe.timing)
         self._fns = {k: env[k] for k in ("point", "record", "step", "outputs", "discrete")}
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
@@ -336,6 +339,14 @@ class Adaptive(Algorithm):
                 "steps_forced": sum(a.err > 1.0 for a in done),
                 "step_min_s": min(sizes, default=math.nan),
                 "step_max_s": max(sizes, default=math.nan)}
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        rejected = sum(not a.accepted for a in self.history)
+        blocks = self.probe.blocks()
+        for figures in blocks.values():
+            if figures["steps"]:
+                figures["rejected"] = rejected
+        return stats.document(blocks, self.loops)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)

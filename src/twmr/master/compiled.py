@@ -47,6 +47,7 @@ import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
 from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.master import stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
 from twmr.master.schedule import FixedStep
@@ -246,6 +247,12 @@ class CompiledStep(Algorithm):
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return self.python.locate(exc)
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        if not self.compiled:
+            return self.python.statistics(steps_done, finished)
+        assert self.python.plan is not None
+        return stats.document(stats.planned(self.python.plan, steps_done, finished, []), [])
 
     def report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"compiled": self.compiled}

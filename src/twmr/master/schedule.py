@@ -31,7 +31,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from twmr.master import loops
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Ref, Solve, Write, build, chunks, guard
 from twmr.scenario.system import System
@@ -68,6 +68,7 @@ class FixedStep(Algorithm):
         self.plan: Plan | None = None
         self._owner: dict[int, tuple[str, str]] = {}
         self.loops: list[loops.LoopSolver] = []
+        self.probe: stats.Probe | None = None
         self._run: Callable[[int, int, list[tuple[float, ...]]], None] | None = None
         self._finish: Callable[[int, list[tuple[float, ...]]], None] | None = None
 
@@ -79,7 +80,11 @@ class FixedStep(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        self.loops = loops.bind(env, system, self.plan)
+        timing = stats.timing_wanted()
+        self.probe = stats.Probe(timing) if timing else None
+        if self.probe is not None:
+            self.probe.wrap(env, self.plan.order)
+        self.loops = loops.bind(env, system, self.plan, timing)
         self._run, self._finish = env["run"], env["finish"]
 
     def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
@@ -88,6 +93,12 @@ class FixedStep(Algorithm):
 
     def finish(self, n: int, rows: list[tuple[float, ...]]) -> None:
         self._finish(n, rows)  # type: ignore[misc]
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        assert self.plan is not None
+        blocks = self.probe.blocks() if self.probe is not None else \
+            stats.planned(self.plan, steps_done, finished, self.loops)
+        return stats.document(blocks, self.loops)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)
