@@ -40,7 +40,7 @@ DIFF_STEP = math.sqrt(sys.float_info.epsilon)
 class LoopError(CosimError):
     """An algebraic loop did not converge at time `time` [s]; the message says which and why."""
 
-    def __init__(self, message: str, time: float):
+    def __init__(self, message: str, time: float = math.nan):
         super().__init__(message)
         self.message = message
         self.time = time
