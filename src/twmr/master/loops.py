@@ -37,6 +37,17 @@ from twmr.scenario.system import System
 DIFF_STEP = math.sqrt(sys.float_info.epsilon)
 
 
+def _newton_step(columns: list[list[float]], r: list[float]) -> list[float] | None:
+    """dx solving J dx = -r for the Jacobian J given by its `columns` (None: J is singular)."""
+    if len(r) == 1:
+        slope = columns[0][0]
+        return [-r[0] / slope] if slope != 0.0 and math.isfinite(slope) else None
+    try:
+        return [float(v) for v in np.linalg.solve(np.array(columns).T, -np.array(r))]
+    except np.linalg.LinAlgError:
+        return None
+
+
 class LoopError(CosimError):
     """An algebraic loop did not converge at time `time` [s]; the message says which and why."""
 
@@ -180,17 +191,16 @@ class LoopSolver:
                 return k
             if k == opts.max_iter or not all(map(math.isfinite, r)):
                 break
-            jac = np.empty((n, n))  # of F(x) = g(x) - x
+            columns = []  # of the Jacobian of F(x) = g(x) - x
             for j in range(n):
                 step = DIFF_STEP * max(1.0, abs(x[j]))
                 xj = list(x)
                 xj[j] += step
-                jac[:, j] = (np.array(self._pass(t, xj)) - r) / step
-            try:
-                dx = np.linalg.solve(jac, -np.array(r))
-            except np.linalg.LinAlgError:
-                raise self._failure(t, r, k, "the finite-difference Jacobian is singular; "
-                                    ) from None
+                columns.append([(a - b) / step for a, b in zip(self._pass(t, xj), r,
+                                                               strict=True)])
+            dx = _newton_step(columns, r)
+            if dx is None:
+                raise self._failure(t, r, k, "the finite-difference Jacobian is singular; ")
             x = [xi + opts.relaxation * float(d) for xi, d in zip(x, dx, strict=True)]
         raise self._failure(t, r, k, "")
 
