@@ -259,9 +259,12 @@ def test_compiled_loop_refuses_loops_solve_and_auto_keeps_python() -> None:
     np.testing.assert_allclose(store.data()[:, 1], 3.0, rtol=0, atol=1e-8)
 
 
-def test_adaptive_master_solves_the_loop_at_every_point() -> None:
+def test_adaptive_master_solves_the_loop_at_every_point(monkeypatch: pytest.MonkeyPatch
+                                                        ) -> None:
     """u = integral of 1 = t (exact for any step), s = u + 0.5 s = 2 t at every accepted
-    point, however long the steps (loose tolerances let them grow)."""
+    point, however long the steps (loose tolerances let them grow). The counts per block are
+    the same whether each call is timed (TWMR_TIMING) or the master's points and steps are
+    counted."""
     text = """
 components:
   one: {kind: constant, parameters: {value: 1.0}}
@@ -287,6 +290,14 @@ record: {signals: [u.y, s.y]}
     rejected = ex.outcome.extra["algorithm.steps_rejected"]
     assert stats["blocks"]["u"]["rejected"] == rejected
     assert stats["loops"]["loop1"]["points"] > len(data)  # the half steps solve it too
+    assert stats["blocks"]["u"]["steps"] >= len(data) - 1  # whole and half steps
+    assert stats["blocks"]["s"]["evaluations"] == stats["loops"]["loop1"]["evaluations"]
+    monkeypatch.setenv("TWMR_TIMING", "1")
+    timed = Execution(loads(text, source="adaptive_loop.yaml"), [ResultStore()])
+    timed.run()
+    blocks = timed.outcome.statistics["blocks"]
+    assert all(b.pop("time_s") > 0.0 for b in blocks.values())
+    assert blocks == stats["blocks"]
 
 
 SINE = """

@@ -252,7 +252,7 @@ class CompiledStep(Algorithm):
         if not self.compiled:
             return self.python.statistics(steps_done, finished)
         assert self.python.plan is not None
-        return stats.document(stats.planned(self.python.plan, steps_done, finished, []), [])
+        return stats.document(stats.fixed_step(self.python.plan, steps_done, finished, []), [])
 
     def report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"compiled": self.compiled}

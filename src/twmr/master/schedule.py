@@ -97,7 +97,7 @@ class FixedStep(Algorithm):
     def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
         assert self.plan is not None
         blocks = self.probe.blocks() if self.probe is not None else \
-            stats.planned(self.plan, steps_done, finished, self.loops)
+            stats.fixed_step(self.plan, steps_done, finished, self.loops)
         return stats.document(blocks, self.loops)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:

@@ -5,7 +5,8 @@ Per block: `steps` (its `do_step` calls), `evaluations` (its `evaluate` calls, t
 through a loop included) and, under the adaptive master, `rejected` (steps rolled back); per
 loop: the points solved, the iterations (total and the most at one point) and the passes
 through it (`twmr.master.loops`). The fixed-step schedule counts nothing while it runs: its
-calls follow from the steps done and the plan. The adaptive master counts its calls. The wall
+calls follow from the steps done and the plan; the adaptive master counts the calls of its
+generated `point` and `step` (every block steps in each), not each block's. The wall
 time spent in each block (`time_s`) is measured only when `TWMR_TIMING` is set (`twmr run -v`
 sets it): each call is then wrapped in a timer.
 """
@@ -74,27 +75,36 @@ class Probe:
         return out
 
 
-def planned(plan: Plan, steps_done: int, finished: bool, loops: Sequence[LoopSolver]
-            ) -> dict[str, dict[str, Any]]:
-    """Per block, the `do_step` and `evaluate` calls the fixed-step `plan` made in `steps_done`
-    base steps (and the final point when `finished`), the passes of `loops` included."""
+def planned(plan: Plan, steps: Callable[[int], int], points: Callable[[int], int],
+            loops: Sequence[LoopSolver]) -> dict[str, dict[str, Any]]:
+    """Per block of `plan`, its `do_step` and `evaluate` calls when a block of step multiple m
+    stepped `steps(m)` times and evaluated at `points(m)` points, the passes of `loops`
+    included."""
     out: dict[str, dict[str, Any]] = {}
 
     def block(name: str) -> dict[str, Any]:
         return out.setdefault(name, {"steps": 0, "evaluations": 0})
 
     for s in plan.steps:
-        block(s.name)["steps"] = steps_done // s.multiple
+        block(s.name)["steps"] = steps(s.multiple)
     passes = {solver.loop.index: solver.evaluations for solver in loops}
     for action in plan.point:
         if isinstance(action, Evaluate):
-            block(action.name)["evaluations"] += math.ceil(steps_done / action.multiple) + \
-                finished
+            block(action.name)["evaluations"] += points(action.multiple)
         elif isinstance(action, Solve):
             for inner in action.body:
                 if isinstance(inner, Evaluate):
                     block(inner.name)["evaluations"] += passes.get(action.index, 0)
     return {name: out[name] for name in plan.order if name in out}
+
+
+def fixed_step(plan: Plan, steps_done: int, finished: bool, loops: Sequence[LoopSolver]
+               ) -> dict[str, dict[str, Any]]:
+    """`planned` for the fixed-step `plan` after `steps_done` base steps (a block of multiple m
+    steps every m and evaluates at every m-th point), the final point included when
+    `finished`."""
+    return planned(plan, lambda m: steps_done // m,
+                   lambda m: math.ceil(steps_done / m) + finished, loops)
 
 
 def document(blocks: dict[str, dict[str, Any]], loops: Sequence[LoopSolver]
