@@ -55,15 +55,15 @@ def types3(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return build_c_fmu("types3", tmp_path_factory.mktemp("types3"), fmi3=True)
 
 
-def fmu_loop(path: Path, k: float, method: str = "fixed_point") -> str:
+def fmu_loop(path: Path, k: float, method: str = "fixed_point", isolate: bool = False) -> str:
     """c = 1 -> s; s -> a.r2; a.r2o = r2 + 1 -> b.r2; b.r2o = r2 + 1 -> k -> s.u2:
     s = 1 + k (s + 2)."""
     return f"""
 components:
   c: {{kind: constant, parameters: {{value: 1.0}}}}
   s: {{kind: sum}}
-  a: {{kind: fmu, parameters: {{path: {path}}}}}
-  b: {{kind: fmu, parameters: {{path: {path}}}}}
+  a: {{kind: fmu, parameters: {{path: {path}, isolate: {str(isolate).lower()}}}}}
+  b: {{kind: fmu, parameters: {{path: {path}, isolate: {str(isolate).lower()}}}}}
   k: {{kind: gain, parameters: {{k: {k!r}}}}}
 connections:
   - c.y -> s.u1
@@ -77,11 +77,13 @@ record: {{signals: [s.y, a.r2o, b.r2o]}}
 """
 
 
-@pytest.mark.parametrize("method", ["fixed_point", "newton"])
+@pytest.mark.parametrize(("method", "isolate"), [("fixed_point", False), ("newton", False),
+                                               ("newton", True)])
 def test_loop_through_two_fmus_and_half_gain_converges_to_the_fixed_point(
-        mixed: Path, method: str) -> None:
-    """s = 1 + 0.5 (s + 2), so s = 4, a.r2o = 5, b.r2o = 6 at every point."""
-    r = simulate(loads(fmu_loop(mixed, 0.5, method), source="fmu_loop.yaml"))
+        mixed: Path, method: str, isolate: bool) -> None:
+    """s = 1 + 0.5 (s + 2), so s = 4, a.r2o = 5, b.r2o = 6 at every point (also with each FMU in
+    a worker process of its own)."""
+    r = simulate(loads(fmu_loop(mixed, 0.5, method, isolate), source="fmu_loop.yaml"))
     assert len(r) == 6
     np.testing.assert_allclose(r["s.y"], 4.0, rtol=0, atol=1e-8)
     np.testing.assert_allclose(r["a.r2o"], 5.0, rtol=0, atol=1e-8)
@@ -202,6 +204,17 @@ def test_two_cycles_through_one_vector_input_are_one_loop(method: str) -> None:
     assert not stuck and [lp.tears for lp in loops] == [(("d", "u"),)]
     r = simulate(system)
     np.testing.assert_allclose(r["s.y"], 1.0 / 1.125, rtol=0, atol=1e-9)
+
+
+def test_twmr_check_lists_the_loop_and_its_tear(tmp_path: Path) -> None:
+    scenario = tmp_path / "loop.yaml"
+    scenario.write_text(native(0.5, ", loops: solve, loop_solver: {method: newton}"))
+    done = subprocess.run([sys.executable, "-m", "twmr.cli", "check", str(scenario)],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "evaluated in this order (`evaluate`): loop 1 (s, k)" in done.stdout
+    assert "algebraic loop 1 through s, k: torn at s.u2, solved at each point (newton, tol " \
+           "1e-09, max_iter 100, relaxation 1)" in done.stdout
 
 
 NONLINEAR = """
