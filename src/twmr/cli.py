@@ -61,6 +61,7 @@ def _formats(text: str) -> tuple[str, ...]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from twmr import api
+    from twmr.master.stats import TIMING_ENV, lines
 
     scenario_path = Path(args.scenario)
     if args.fmu_log:
@@ -70,6 +71,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
     if args.compiled:
         os.environ["TWMR_COMPILED"] = args.compiled  # read by the master (and sweep workers)
+    if getattr(args, "verbose", False):
+        os.environ[TIMING_ENV] = "1"  # the time spent per block, in summary.json and below
     formats = _formats(args.format)
     metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
     scenario = api.load(scenario_path, overrides)
@@ -111,6 +114,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                  figures.get("algorithm.compile_s", float("nan")))
     elif figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
+    statistics = lines(s.get("statistics") or {})
+    if statistics:
+        log.debug("per block and algebraic loop:\n%s", "\n".join(statistics))
     pacing = {k: v for k, v in figures.items() if not k.startswith("algorithm.")
               and k != "start_unix_s" and isinstance(v, (int, float))}
     if pacing:

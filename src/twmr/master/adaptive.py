@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
 from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
@@ -99,6 +100,9 @@ class Adaptive(Algorithm):
         self.source = ""
         self.filename = ""
         self.history: list[Attempt] = []
+        self.loops: list[loops.LoopSolver] = []
+        self.probe: stats.Probe | None = None
+        self.calls: dict[str, int] = {}
         self._owner: dict[int, tuple[str, str]] = {}
         self._fns: dict[str, Callable[..., Any]] = {}
 
@@ -143,7 +147,16 @@ class Adaptive(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        timing = stats.timing_wanted()
+        self.probe = stats.Probe(timing) if timing else None
+        if self.probe is not None:
+            self.probe.wrap(env, plan.order)
+        self.loops = loops.bind(env, system, plan, timing)
+        self.plan = plan
         self._fns = {k: env[k] for k in ("point", "record", "step", "outputs", "discrete")}
+        self.calls = {"point": 0, "step": 0}
+        for key in self.calls:
+            self._fns[key] = _counted(self._fns[key], self.calls, key)
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
         """Up to `PER_CALL` accepted macro steps from n0 (more while they stay before grid point
@@ -350,6 +363,16 @@ class Adaptive(Algorithm):
                 "step_min_s": min(sizes, default=math.nan),
                 "step_max_s": max(sizes, default=math.nan)}
 
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        rejected = sum(not a.accepted for a in self.history)
+        blocks = self.probe.blocks() if self.probe is not None else \
+            stats.planned(self.plan, lambda m: self.calls["step"],
+                          lambda m: self.calls["point"], self.loops)
+        for figures in blocks.values():
+            if figures["steps"]:
+                figures["rejected"] = rejected
+        return stats.document(blocks, self.loops)
+
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)
 
@@ -385,7 +408,16 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in watched) + ")")
     w.add(0, "def discrete():")
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in discrete) + ")")
+    loops.render(w, plan, ids, ref)
     return "\n".join(w.lines) + "\n", w.owner, env
+
+
+def _counted(fn: Callable[..., Any], calls: dict[str, int], key: str) -> Callable[..., Any]:
+    """`fn` counting its calls in `calls[key]`."""
+    def counted(*args: Any) -> Any:
+        calls[key] += 1
+        return fn(*args)
+    return counted
 
 
 def adaptive(compiled: str = "auto") -> Algorithm:

@@ -45,11 +45,13 @@ from typing import Any
 
 import numpy as np
 
-from twmr.core.errors import CosimError
+from twmr.core.errors import CosimError, Location, Problem
 from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.master import stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Write, guard
+from twmr.master.plan import METHODS, Plan, Solve, Write, guard
 from twmr.master.schedule import FixedStep
+from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
@@ -57,6 +59,8 @@ MODES = ("auto", "on", "off")
 #: numba would be loaded)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
+#: why a system with algebraic loops to solve keeps the Python schedule
+LOOPS = "its algebraic loops are iterated by the Python schedule"
 
 
 class CompileError(CosimError):
@@ -104,6 +108,15 @@ class CompiledStep(Algorithm):
         self.compile_seconds = float("nan")
 
     # -- Algorithm ---------------------------------------------------------------------------
+    def refuse(self, system: System) -> Problem | None:
+        if self.mode != "on" or self.method != "gauss_seidel" or \
+                system.experiment.loops != "solve" or \
+                not find_loops(system.components, system.connections)[0]:
+            return None
+        return Problem(Location(system.source, 0, "experiment.loops"),
+                       f"the compiled loop (--compiled on) does not run 'loops: solve': "
+                       f"{LOOPS}.", "run with --compiled auto or off (TWMR_COMPILED).")
+
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
@@ -129,6 +142,10 @@ class CompiledStep(Algorithm):
         by the Python schedule) and compile the loop; on failure keep the Python schedule
         (mode 'auto') or raise `CompileError` (mode 'on')."""
         system = self._system
+        assert self.python.plan is not None
+        if self.python.plan.loops:
+            self.reason = LOOPS
+            return
         kernels, self.reason = _kernels(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
@@ -230,6 +247,12 @@ class CompiledStep(Algorithm):
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return self.python.locate(exc)
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        if not self.compiled:
+            return self.python.statistics(steps_done, finished)
+        assert self.python.plan is not None
+        return stats.document(stats.fixed_step(self.python.plan, steps_done, finished, []), [])
 
     def report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"compiled": self.compiled}
@@ -388,6 +411,7 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
         for k, (src, port) in enumerate(plan.snapshot):
             w.add(ind, f"s{k} = {local(src, port)}")
         for action in plan.point:
+            assert not isinstance(action, Solve), "a loop to solve is refused before"
             lines = [plan.assignment(action, local)] if isinstance(action, Write) \
                 else call(action.name, "ev", "t")
             cond = None if final else guard(action)

@@ -222,6 +222,7 @@ class Execution:
         self._relay: _Relay | None = None
         self._n = 0
         self._rows: list[tuple[float, ...]] = []
+        self._finished = False
 
     def run(self) -> Outcome:
         """Set up, initialize, step to the stop time, terminate. Raises `CosimError` or
@@ -266,6 +267,7 @@ class Execution:
             else:
                 self._loop(exp.n_steps)
             self._guarded(self.algorithm.finish, exp.n_steps)
+            self._finished = True
         except FmuTerminated as exc:
             error = self._fmu_ended(exc)
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
@@ -433,6 +435,10 @@ class Execution:
             out.lateness_us = self.pacer.lateness_us()
         self._report_all()
         self.outcome.extra.update({f"algorithm.{k}": v for k, v in self.algorithm.report().items()})
+        try:
+            out.statistics = self.algorithm.statistics(self._n, self._finished)
+        except Exception:  # noqa: BLE001 - statistics never hide the run's own outcome
+            log.debug("the algorithm's statistics failed", exc_info=True)
         failures = []
         for obs in self.observers:
             try:

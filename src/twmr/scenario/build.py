@@ -30,7 +30,9 @@ from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
 from twmr.scenario.graph import (
+    Loop,
     describe_cycle,
+    find_loops,
     find_port,
     order,
     parse_end,
@@ -42,7 +44,7 @@ from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
-from twmr.scenario.system import Connection, Experiment, RecordSpec, System
+from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
 __all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schema"]
 
@@ -127,24 +129,65 @@ class _Builder:
         conns = self.connections(comps)
         self.check_drivers(comps, conns)
         self.fail_if_problems(WiringError)
-        exec_order, cycle = order(comps, conns)
+        loops: list[Loop] = []
+        if experiment.loops == "solve":
+            loops = self.solvable_loops(comps, conns, experiment.algorithm)
+            self.fail_if_problems(AlgebraicLoopError)
+        exec_order, cycle = order(comps, conns, loops)
         if cycle:
-            wires = set(itertools.pairwise(cycle))
-            loc = next((c.location for c in conns
-                        if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
-                       self.spec.at("connections"))
+            loc = self.cycle_location(cycle, conns)
             raise AlgebraicLoopError(Problem(
                 loc, f"algebraic loop: {describe_cycle(cycle)} — each output in this cycle "
                 f"depends directly ('=>', declared by its block's `depends_on`) on the input "
                 f"before it, so no order can compute them.",
-                "break the loop with a `delay` component on one of these wires, or use a block "
+                "break the loop with a `delay` component on one of these wires, use a block "
                 "whose output does not depend directly on its input (e.g. a state-space block "
-                "with D = 0). A block may declare feedthrough conservatively: check that each "
-                "'=>' output really reads that input at the same instant."))
+                "with D = 0), or let the master iterate it ('loops: solve' under 'experiment:', "
+                "docs/algorithms.md). A block may declare feedthrough conservatively: check "
+                "that each '=>' output really reads that input at the same instant."))
         record = self.record(comps)
         self.fail_if_problems()
         multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
         return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source)
+
+    def cycle_location(self, cycle: list[tuple[str, str]], conns: list[Connection]) -> Location:
+        """Where the first wire of `cycle` (a closed walk of ports) is written."""
+        wires = set(itertools.pairwise(cycle))
+        return next((c.location for c in conns
+                     if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
+                    self.spec.at("connections"))
+
+    def solvable_loops(self, comps: dict[str, Component], conns: list[Connection],
+                       algorithm: str) -> list[Loop]:
+        """The loops `loops: solve` iterates (`find_loops`), after a problem for each that cannot
+        be: one through no Real input, one under Jacobi, one whose blocks differ in
+        step_multiple."""
+        loops, stuck = find_loops(comps, conns)
+        for cycle in stuck:
+            self.problems.append(Problem(
+                self.cycle_location(cycle, conns), f"algebraic loop: {describe_cycle(cycle)} "
+                f"passes through no Real input, so the master cannot iterate it (the unknowns "
+                f"of the iteration are Real inputs).", "break the loop with a `delay` "
+                "component on one of these wires."))
+        where = self.spec.experiment.loops
+        at = where.where if where is not None else self.spec.at("experiment")
+        if loops and algorithm == "jacobi":
+            self.problems.append(Problem(at, f"'loops: solve' iterates a loop at each "
+                                         f"communication point in the Gauss-Seidel order, but "
+                                         f"the algorithm is jacobi (every input from one "
+                                         f"snapshot); the loop through "
+                                         f"{', '.join(loops[0].components)} is not solved.",
+                                         "use algorithm gauss_seidel or adaptive."))
+        for lp in loops:
+            multiples = {n: int(self.spec.components[n].step_multiple.value)
+                         for n in lp.components}
+            if len(set(multiples.values())) > 1:
+                self.problems.append(Problem(
+                    at, f"the algebraic loop through {', '.join(lp.components)} mixes step "
+                    f"multiples ({', '.join(f'{n}: {m}' for n, m in multiples.items())}); a "
+                    f"loop is solved at the points where all its blocks sample their inputs.",
+                    "give the loop's blocks one step_multiple."))
+        return loops
 
     def components(self) -> dict[str, Component]:
         comps: dict[str, Component] = {}
@@ -336,7 +379,24 @@ class _Builder:
         ending = e.fmu_terminate.value if e.fmu_terminate is not None else None
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
                           **self.adaptive_options(step, stop - start),
-                          fmu_terminate=ending or "error")
+                          fmu_terminate=ending or "error", **self.loop_options())
+
+    def loop_options(self) -> dict[str, Any]:
+        """The experiment's `loops` and `loop_solver` (the schema checked their values;
+        `loop_solver` needs `loops: solve`)."""
+        e = self.spec.experiment
+        loops = e.loops.value if e.loops is not None and e.loops.value is not None else "refuse"
+        given = e.loop_solver.value if e.loop_solver is not None else None
+        if not given:
+            return {"loops": loops}
+        assert e.loop_solver is not None
+        if loops != "solve":
+            self.problems.append(Problem(e.loop_solver.where, "'loop_solver' applies to "
+                                         "'loops: solve' only, but algebraic loops are "
+                                         "refused.", "set 'loops: solve', or remove "
+                                         "'loop_solver'."))
+            return {"loops": loops}
+        return {"loops": loops, "loop_solver": LoopSolver(**given)}
 
     def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
         """The experiment's `rtol`, `atol`, `min_step`, `max_step` as given (algorithm
