@@ -250,6 +250,12 @@ class Component:
         parameters the scenario set (the others hold their defaults)."""
         return []
 
+    def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
+        """Problems that involve the other components of the same system (`peers`, by instance
+        name, this one included), such as a parameter naming another component, found when the
+        scenario is built, as `check`'s."""
+        return []
+
     def check_step(self, h: float) -> list[tuple[str, str, str]]:
         """Problems of the parameters with communication steps of h [s] (the base step times
         the component's step_multiple), found when the scenario is built, as `check`'s."""

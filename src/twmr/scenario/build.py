@@ -219,6 +219,8 @@ class _Builder:
             given = frozenset(params) | frozenset(construction)
             self.report(name, comp.check(given))
             comps[name] = comp
+        for name, comp in comps.items():
+            self.report(name, comp.check_peers(comps))
         return comps
 
     def report(self, name: str, problems: list[tuple[str, str, str]]) -> None:
