@@ -103,10 +103,13 @@ class BusRunner:
         if last:
             self._stop()
 
-    def submit(self, sender: str, frame: can.Message) -> str:
-        """Queue `frame` of `sender` now; '' or why the bus refuses it."""
+    def submit(self, sender: str, frame: can.Message, at: float | None = None) -> str:
+        """Queue `frame` of `sender` now (or at run time `at` [s], for a participant stepped in
+        simulated time); '' or why the bus refuses it."""
         with self._cond:
             now = time.monotonic()
+            if at is not None and not math.isnan(self.offset):
+                now = at - self.offset
             problem = self.model.submit(sender, frame, now)
             if problem:
                 self._record(BusEvent("bus_error", now, frame, sender, problem))

@@ -54,8 +54,7 @@ def bus_problem(own: str, ref: str, peers: Mapping[str, Component]) -> str:
 
 
 class CanBus(Component):
-    """A CAN bus in time (classic or FD) that drives, emulated drives and python-can buses
-    join."""
+    """A CAN bus in time (classic or FD) that drives and python-can buses join."""
 
     kind = "can_bus"
     needs_realtime: ClassVar[bool] = True

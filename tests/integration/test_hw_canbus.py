@@ -20,8 +20,8 @@ from twmr.core import HardwareError
 from twmr.hw import protocol as p
 from twmr.hw.canbus import BlockBus, BusRunner, Gateway, read_log
 from twmr.hw.canbus_block import CanBus
-from twmr.hw.drive import CanMotorDrive
 from twmr.hw.cansim import BusEvent, CanBusModel
+from twmr.hw.drive import CanMotorDrive
 
 BENCH = Path(__file__).resolve().parents[2] / "scenarios" / "bench_odrive_trajectory1.yaml"
 OWN_BUS = "interface: virtual, channel: bench,"

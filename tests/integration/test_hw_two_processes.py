@@ -1,8 +1,8 @@
-"""The bench in two processes, as docs/bench.md describes it: `twmr emulate-drive` in one, `twmr run`
-with `emulate: false` in another, over python-can's `udp_multicast` on loopback (a group and port
-of this test's own, in a python-can config file both read). Watchdogs are sized for a loaded
-machine (start-up 20 s, feedback 50 periods, heartbeat 2 s); what is asserted is what the frame
-log and the emulator show, not deadlines."""
+"""The bench in two processes, as docs/bench.md describes it: `twmr emulate-drive` in one,
+`twmr run` with `emulate: false` in another, over python-can's `udp_multicast` on loopback (a
+group and port of this test's own, in a python-can config file both read). Watchdogs are sized
+for a loaded machine (start-up 20 s, feedback 50 periods, heartbeat 2 s); what is asserted is
+what the frame log and the emulator show, not deadlines."""
 from __future__ import annotations
 
 import os

@@ -8,7 +8,7 @@ import random
 import can
 import pytest
 
-from twmr.hw.cansim import CanBusModel, crc15, frame_timing, frame_problem, stuff_bits
+from twmr.hw.cansim import CanBusModel, crc15, frame_problem, frame_timing, stuff_bits
 
 
 def std(ident: int, data: bytes = b"", **kw: object) -> can.Message:
