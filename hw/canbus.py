@@ -21,9 +21,10 @@ import math
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import can
 
@@ -254,9 +255,17 @@ class Gateway:
     received from it are submitted as from participant `name` (a store-and-forward gateway:
     one simulated frame time later)."""
 
+    #: python-can interfaces that hand a bus its own frames back (udp_multicast: the multicast
+    #: loop of the host), and how long [s] after sending one its echo is expected
+    ECHOING: ClassVar[frozenset[str]] = frozenset({"udp_multicast"})
+    ECHO_WINDOW = 0.05
+
     def __init__(self, bus: BusRunner, options: dict[str, Any], name: str):
         self.name = name
         self._runner = bus
+        self._echoes: deque[tuple[float, tuple[Any, ...]]] | None = \
+            deque() if options.get("interface") in self.ECHOING else None
+        self._echo_lock = threading.Lock()
         self._bus = can.Bus(**options)
         self._stop = threading.Event()
         bus.join(self)
@@ -266,6 +275,9 @@ class Gateway:
 
     def deliver(self, event: BusEvent) -> None:
         if event.kind == "transmit":
+            if self._echoes is not None:
+                with self._echo_lock:
+                    self._echoes.append((time.monotonic(), _key(event.frame)))
             try:
                 self._bus.send(can.Message(
                     arbitration_id=event.frame.arbitration_id, data=bytes(event.frame.data),
@@ -281,12 +293,27 @@ class Gateway:
         while not self._stop.is_set():
             try:
                 msg = self._bus.recv(timeout=0.05)
-                if msg is not None and not msg.is_error_frame:
+                if msg is not None and not msg.is_error_frame and not self._echo(msg):
                     self._runner.submit(self.name, msg)
             except Exception as err:  # noqa: BLE001 - a bad frame or adapter never ends it
                 self._runner.failures.append(f"bus '{self._runner.name}': gateway {self.name}: "
                                              f"{type(err).__name__}: {err}")
                 time.sleep(0.05)
+
+    def _echo(self, msg: can.Message) -> bool:
+        """Whether `msg` is the echo of a frame this gateway sent (interfaces in `ECHOING`):
+        the same frame, sent within `ECHO_WINDOW`, each frame sent taken back once."""
+        if self._echoes is None:
+            return False
+        key, now = _key(msg), time.monotonic()
+        with self._echo_lock:
+            while self._echoes and now - self._echoes[0][0] > self.ECHO_WINDOW:
+                self._echoes.popleft()
+            for i, (_, sent) in enumerate(self._echoes):
+                if sent == key:
+                    del self._echoes[i]
+                    return True
+        return False
 
     def close(self) -> None:
         self._stop.set()
@@ -294,6 +321,11 @@ class Gateway:
         self._runner.leave(self.name, flush=0.0)
         with contextlib.suppress(Exception):
             self._bus.shutdown()
+
+
+def _key(frame: can.Message) -> tuple[Any, ...]:
+    return (frame.arbitration_id, bool(frame.is_extended_id), bool(frame.is_remote_frame),
+            bool(frame.is_fd), int(frame.dlc), bytes(frame.data or b""))
 
 
 def write_log(bus: BusRunner, path: Path) -> None:

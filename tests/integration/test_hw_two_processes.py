@@ -18,6 +18,7 @@ import pytest
 
 from tests.hostile.runner import BENCH, assert_clean_error, assert_ok, run_cli
 from twmr.hw import protocol as p
+from twmr.hw.canbus import read_log
 
 OWN_BUS = "interface: virtual, channel: bench,"
 
@@ -30,9 +31,16 @@ def config(folder: Path) -> Path:
     return ini
 
 
-def bench(folder: Path, stop: float = 1.0, start_timeout: float = 20.0) -> str:
+def bench(folder: Path, stop: float = 1.0, start_timeout: float = 20.0,
+          through_bus: bool = False) -> str:
+    """The bench scenario on can.ini: the drive's own bus, or (`through_bus`) a can_bus block
+    `can0` bridging it, which the drive joins."""
     text = BENCH.read_text().replace("stop: 10.0", f"stop: {stop}")
     assert OWN_BUS in text and "emulate: true}" in text
+    if through_bus:
+        text = text.replace(OWN_BUS, "bus: can0,").replace(
+            "  plant:\n", "  can0:\n    kind: can_bus\n    parameters: {can_config: can.ini}\n"
+            "  plant:\n", 1)
     text = text.replace(OWN_BUS, "can_config: can.ini,").replace(
         "emulate: true}", f"emulate: false, watchdog_periods: 50, heartbeat_timeout: 2.0, "
         f"start_timeout: {start_timeout}}}")
@@ -72,6 +80,11 @@ class Emulator:
                 self.proc.wait()
 
 
+def config_of(folder: Path) -> str:
+    return next(line.split(" = ")[1] for line in (folder / "can.ini").read_text().splitlines()
+                if line.startswith("channel"))
+
+
 @pytest.fixture
 def cwd(tmp_path: Path) -> Path:
     folder = tmp_path / "cwd"
@@ -80,8 +93,10 @@ def cwd(tmp_path: Path) -> Path:
     return folder
 
 
-def test_the_bench_runs_against_drives_emulated_in_another_process(cwd: Path) -> None:
-    name = bench(cwd)
+@pytest.mark.parametrize("through_bus", [False, True], ids=["own-bus", "through-can_bus"])
+def test_the_bench_runs_against_drives_emulated_in_another_process(cwd: Path,
+                                                                   through_bus: bool) -> None:
+    name = bench(cwd, through_bus=through_bus)
     emulator = Emulator(cwd)
     try:
         o = run_cli(["run", name, "-q"], cwd, timeout=300)
@@ -111,6 +126,18 @@ def test_the_bench_runs_against_drives_emulated_in_another_process(cwd: Path) ->
         assert sent[node][-2:] == [(p.SET_INPUT_TORQUE, p.encode_torque(node, 0.0, 1.0)[1]),
                                    (p.SET_AXIS_STATE, p.encode_axis_state(node, p.AXIS_IDLE)[1])]
         assert sum(cmd == p.SET_INPUT_TORQUE for cmd, _ in sent[node]) >= 500  # every step
+    if through_bus:
+        log = read_log(cwd / "results" / "bench" / "can0_frames.arrow")
+        moved = log[log.event == "transmit"]
+        outside = moved[moved.sender != "motor"]
+        assert set(moved.sender) == {"motor", f"udp_multicast:{config_of(cwd)}"}
+        # what came in through the gateway is the drives' (no echo of the host's own frames)
+        assert not any(p.split_id(int(i))[1] == p.SET_INPUT_TORQUE for i in outside.id)
+        host = moved[moved.sender == "motor"]
+        tx = [m for m in frames if not m.is_rx]
+        assert [(m.arbitration_id, bytes(m.data)) for m in tx] == \
+            list(zip(host.id.astype(int), host.data, strict=True))
+        assert (log.event == "bus_error").sum() == 0
 
 
 def test_no_drive_on_the_bus_says_no_heartbeat_arrived(cwd: Path) -> None:
