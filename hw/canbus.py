@@ -54,7 +54,8 @@ def runner(channel: str) -> BusRunner | None:
 
 
 class BusRunner:
-    """`model` on the monotonic clock, for the bus block `name` reached as `channel`."""
+    """`model` on the monotonic clock, for the bus block `name` reached as `channel`;
+    `on_close(self)` once it has stopped (every participant that keeps it open gone)."""
 
     def __init__(self, name: str, channel: str, model: CanBusModel,
                  on_close: Callable[[BusRunner], None] | None = None):
@@ -66,6 +67,7 @@ class BusRunner:
         self.failures: list[str] = []
         self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
         self._members: dict[str, Participant] = {}
+        self._keepers: set[str] = set()
         self._cond = threading.Condition()
         self._closing = False
         self._stopped = False
@@ -75,8 +77,9 @@ class BusRunner:
         self._thread.start()
 
     # -- participants ------------------------------------------------------------------------
-    def join(self, member: Participant) -> str:
-        """Add `member`; its name on the bus (made unique with '#2', '#3', ...)."""
+    def join(self, member: Participant, keeps_open: bool = True) -> str:
+        """Add `member`; its name on the bus (made unique with '#2', '#3', ...). A closed bus
+        stops when the last member that `keeps_open` has left (a gateway does not)."""
         with self._cond:
             if self._stopped:
                 raise can.CanInitializationError(f"bus '{self.name}' has stopped")
@@ -86,21 +89,24 @@ class BusRunner:
                 name = f"{member.name}#{n}"
             member.name = name
             self._members[name] = member
+            if keeps_open:
+                self._keepers.add(name)
             self.model.join(name)
             return name
 
-    def leave(self, name: str, flush: float = 0.1) -> None:
+    def leave(self, name: str, flush: float = 0.5) -> None:
         """`name` leaves once its frames are on the wire (at most `flush` [s] of waiting); the
-        last participant to leave a closed bus stops it."""
+        last participant that keeps a closed bus open stops it."""
         deadline = time.monotonic() + flush
         with self._cond:
             while self.model.pending(name) and time.monotonic() < deadline and \
                     self._thread.is_alive():
                 self._cond.wait(deadline - time.monotonic())
             self._members.pop(name, None)
+            self._keepers.discard(name)
             self.model.leave(name)
             self.model.closed = True  # participants leave when the run stops
-            last = self._closing and not self._members
+            last = self._closing and not self._keepers
         if last:
             self._stop()
 
@@ -177,7 +183,7 @@ class BusRunner:
         """The block is done: stop now if no participant is left, else when the last leaves."""
         with self._cond:
             self._closing = self.model.closed = True
-            empty = not self._members
+            empty = not self._keepers
         if empty:
             self._stop()
 
@@ -190,8 +196,11 @@ class BusRunner:
         if threading.current_thread() is not self._thread:
             self._thread.join(timeout=1.0)
         with self._cond:
-            for event in self.model.advance(math.inf):  # what was still queued: no one hears it
+            events = self.model.advance(math.inf)  # what was still queued goes at once
+            for event in events:
                 self._record(event)
+            members = dict(self._members)
+        self._dispatch(events, members)
         with _RUNNERS_LOCK:
             if _RUNNERS.get(self.channel) is self:
                 del _RUNNERS[self.channel]
@@ -256,9 +265,11 @@ class Gateway:
     one simulated frame time later)."""
 
     #: python-can interfaces that hand a bus its own frames back (udp_multicast: the multicast
-    #: loop of the host), and how long [s] after sending one its echo is expected
+    #: loop of the host), and how long [s] after sending one its echo may come (a loaded
+    #: machine delays it by tens of ms; an identical frame from another node in that time is
+    #: taken for the echo, and the echo passed on in its place: the same frame either way)
     ECHOING: ClassVar[frozenset[str]] = frozenset({"udp_multicast"})
-    ECHO_WINDOW = 0.05
+    ECHO_WINDOW = 2.0
 
     def __init__(self, bus: BusRunner, options: dict[str, Any], name: str):
         self.name = name
@@ -268,7 +279,7 @@ class Gateway:
         self._echo_lock = threading.Lock()
         self._bus = can.Bus(**options)
         self._stop = threading.Event()
-        bus.join(self)
+        bus.join(self, keeps_open=False)
         self._thread = threading.Thread(target=self._receive, name=f"can-gateway {name}",
                                         daemon=True)
         self._thread.start()

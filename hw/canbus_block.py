@@ -187,11 +187,9 @@ class CanBus(Component):
         return out
 
     def terminate(self) -> None:
-        """Close the link outside; the bus stops when its last participant has left (a drive's
-        zero torque and disable still pass), and then writes its log."""
-        gateway, self.gateway = getattr(self, "gateway", None), None
-        if gateway is not None:
-            gateway.close()
+        """The bus stops when its last participant has left (a drive's zero torque and disable
+        still pass, and go out through the link outside), then closes that link and writes its
+        log."""
         bus, self.bus = getattr(self, "bus", None), None
         if bus is not None:
             self.bus_done = bus
@@ -200,6 +198,10 @@ class CanBus(Component):
             bus.close()
 
     def _closed(self, bus: BusRunner) -> None:
+        """The bus has stopped: close the link outside, write the log."""
+        gateway, self.gateway = getattr(self, "gateway", None), None
+        if gateway is not None:
+            gateway.close()
         out = getattr(self, "_run_folder", None)
         if not self.log_file or out is None:
             return

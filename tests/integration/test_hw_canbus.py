@@ -198,3 +198,27 @@ def test_a_drive_naming_no_running_bus_is_a_clear_hardware_error() -> None:
             d.setup(0.0, None)
     finally:
         d.terminate()
+
+
+def test_frames_sent_after_the_block_stopped_still_go_out_through_the_gateway() -> None:
+    """The block's terminate may come before its participants' (the run's order): a drive's
+    last frames (zero torque, disable) then still reach the bus outside, and the log is written
+    once the last participant has left."""
+    bus, (host,) = runner_with("host")
+    outside = f"gw-{uuid.uuid4().hex[:8]}"
+    closed: list[str] = []
+    bus.on_close = lambda b: (gateway.close(), closed.append(b.name))
+    gateway = Gateway(bus, {"interface": "virtual", "channel": outside}, f"virtual:{outside}")
+    other = can.Bus(interface="virtual", channel=outside)
+    try:
+        bus.close()  # the block is done; its participant is not
+        last = [p.encode_torque(0, 0.0, 1.0), p.encode_axis_state(0, p.AXIS_IDLE)]
+        for ident, data in last:
+            host.send(can.Message(arbitration_id=ident, data=data, is_extended_id=False))
+        assert not closed
+        host.shutdown()
+        assert closed == ["can0"]
+        got = [other.recv(timeout=2.0) for _ in last]
+        assert [(m.arbitration_id, bytes(m.data)) for m in got if m is not None] == last
+    finally:
+        other.shutdown()

@@ -1,7 +1,7 @@
 """The bench in two processes, as docs/bench.md describes it: `twmr emulate-drive` in one,
 `twmr run` with `emulate: false` in another, over python-can's `udp_multicast` on loopback (a
 group and port of this test's own, in a python-can config file both read). Watchdogs are sized
-for a loaded machine (start-up 20 s, feedback 50 periods, heartbeat 2 s); what is asserted is
+for a loaded machine (start-up 20 s, feedback 250 periods, heartbeat 2 s); what is asserted is
 what the frame log and the emulator show, not deadlines."""
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ def bench(folder: Path, stop: float = 1.0, start_timeout: float = 20.0,
             "  plant:\n", "  can0:\n    kind: can_bus\n    parameters: {can_config: can.ini}\n"
             "  plant:\n", 1)
     text = text.replace(OWN_BUS, "can_config: can.ini,").replace(
-        "emulate: true}", f"emulate: false, watchdog_periods: 50, heartbeat_timeout: 2.0, "
+        "emulate: true}", f"emulate: false, watchdog_periods: 250, heartbeat_timeout: 2.0, "
         f"start_timeout: {start_timeout}}}")
     (folder / "bench.yaml").write_text(text)
     return "bench.yaml"
