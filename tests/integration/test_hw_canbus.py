@@ -222,3 +222,39 @@ def test_frames_sent_after_the_block_stopped_still_go_out_through_the_gateway() 
         assert [(m.arbitration_id, bytes(m.data)) for m in got if m is not None] == last
     finally:
         other.shutdown()
+
+
+def test_ctrl_c_through_the_bus_block_zeroes_and_disables_the_drives(tmp_path: Path) -> None:
+    import signal
+    import struct
+    import subprocess
+    import sys
+    import time
+
+    (tmp_path / "bus.yaml").write_text(bench(10.0, True))
+    proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "run", str(tmp_path / "bus.yaml"),
+                             "--quiet", "--out", str(tmp_path / "run")],
+                            stderr=subprocess.PIPE, text=True)
+    def stored() -> int:
+        return sum(f.stat().st_size for f in tmp_path.glob("run.partial-*/result.arrows"))
+
+    deadline = time.monotonic() + 120
+    while not stored() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    first = stored()
+    while stored() == first and time.monotonic() < deadline:
+        time.sleep(0.05)  # rows came: the paced run steps, the drives under torque
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    log = read_log(tmp_path / "run.incomplete" / "can0_frames.arrow")
+    host = log[(log.event == "transmit") & (log.sender == "motor")]
+    per_node = last_commands(zip(host.id, host.data, strict=True))
+    for node in (0, 1):
+        torques = [struct.unpack_from("<f", d)[0] for c, d in per_node[node]
+                   if c == p.SET_INPUT_TORQUE]
+        assert any(abs(v) > 1.0 for v in torques), (max(map(abs, torques)), err)  # driving
+        assert per_node[node][-2:] == [(p.SET_INPUT_TORQUE, p.encode_torque(node, 0.0, 1.0)[1]),
+                                       (p.SET_AXIS_STATE, p.encode_axis_state(node,
+                                                                              p.AXIS_IDLE)[1])]
