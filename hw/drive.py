@@ -4,7 +4,8 @@ simulated motor driver, so a scenario swaps one for the other by its `kind:` alo
 Protocols: any `Link` registered under `twmr.can_protocols` (`protocol:`), shipped: ODrive CAN
 Simple (`odrive`) and CiA 402 over CANopen (`cia402`); the block knows them only through that
 interface. The bus is python-can's (`interface`, `channel`, `bitrate`, or a python-can config file
-`can_config`).
+`can_config`), or a `can_bus` block of the scenario that the drives join (`bus:`,
+`twmr.hw.canbus_block`).
 
 Each step: `evaluate(t)` limits the torque command to `torque_limit` and sends it at once (the
 torque output depends directly on the command, as for the simulated driver, and is what the drives

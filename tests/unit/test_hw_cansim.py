@@ -162,3 +162,16 @@ def test_a_frame_that_cannot_exist_on_the_bus_is_refused(frame: can.Message, fd:
     assert says in model.submit("a", frame, 0.5)
     events = model.advance(1.0)
     assert [(e.kind, e.sender, e.time) for e in events] == [("bus_error", "a", 0.5)]
+
+
+def test_a_bus_reference_is_found_beside_the_drive_first_then_outward() -> None:
+    from twmr.hw.canbus_block import CanBus, bus_problem, candidates
+    from twmr.hw.drive import CanMotorDrive
+
+    assert candidates("robot.base.motor", "can0") == ["robot.base.can0", "robot.can0", "can0"]
+    peers = {"robot.can0": CanBus("robot.can0"), "robot.motor": CanMotorDrive("robot.motor"),
+             "plant": CanMotorDrive("plant")}
+    assert bus_problem("robot.motor", "can0", peers) == ""
+    assert "not a can_bus" in bus_problem("robot.motor", "plant", peers)
+    missing = bus_problem("motor", "can0", peers)
+    assert "no component" in missing and "robot.can0" in missing
