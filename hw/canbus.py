@@ -66,6 +66,7 @@ class BusRunner:
         self.rows: list[tuple[Any, ...]] = []
         self.failures: list[str] = []
         self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
+        model.live = False  # until `begin`: the drives power up before the host joins
         self._members: dict[str, Participant] = {}
         self._keepers: set[str] = set()
         self._cond = threading.Condition()
@@ -105,7 +106,7 @@ class BusRunner:
             self._members.pop(name, None)
             self._keepers.discard(name)
             self.model.leave(name)
-            self.model.closed = True  # participants leave when the run stops
+            self.model.live = False  # participants leave when the run stops
             last = self._closing and not self._keepers
         if last:
             self._stop()
@@ -122,6 +123,19 @@ class BusRunner:
                 self._record(BusEvent("bus_error", now, frame, sender, problem))
             self._cond.notify_all()
         return problem
+
+    def begin(self, t: float) -> None:
+        """The run's first step, at run time `t` [s]: bus time is run time from now, and a
+        frame no one acknowledges is an ACK error."""
+        with self._cond:
+            self.offset = t - time.monotonic()
+            self.model.live = not self._closing
+
+    def take_rows(self) -> list[tuple[Any, ...]]:
+        """The events recorded since the last call (for the log)."""
+        with self._cond:
+            rows, self.rows = self.rows, []
+        return rows
 
     def now(self) -> float:
         """Bus time [s] (the run's time once the block has stepped)."""
@@ -182,7 +196,8 @@ class BusRunner:
     def close(self) -> None:
         """The block is done: stop now if no participant is left, else when the last leaves."""
         with self._cond:
-            self._closing = self.model.closed = True
+            self._closing = True
+            self.model.live = False
             empty = not self._keepers
         if empty:
             self._stop()
@@ -339,38 +354,82 @@ def _key(frame: can.Message) -> tuple[Any, ...]:
             bool(frame.is_fd), int(frame.dlc), bytes(frame.data or b""))
 
 
-def write_log(bus: BusRunner, path: Path) -> None:
-    """The bus's events as an Arrow IPC file: time (end of EOF, or of the refusal) and start
-    [s, run time], event, id, extended, remote, fd, brs, dlc, data, sender, detail."""
-    import pyarrow as pa
+class FrameLog:
+    """A bus's events streamed to an Arrow IPC stream file (readable after a crash, like the
+    run's `result.arrows`) by a thread of its own, every `period` [s] once the bus has its run
+    time (its block's first step): time (end of EOF, or of the refusal) and start [s, run
+    time], event, id, extended, remote, fd, brs, dlc, data, sender, detail."""
 
-    off = 0.0 if math.isnan(bus.offset) else bus.offset
-    rows = list(bus.rows)
-    frames = [r[3] for r in rows]
-    table = pa.table({
-        "time": pa.array([r[1] + off for r in rows], pa.float64()),
-        "start": pa.array([r[2] + off for r in rows], pa.float64()),
-        "event": pa.array([r[0] for r in rows], pa.string()),
-        "id": pa.array([f.arbitration_id for f in frames], pa.uint32()),
-        "extended": pa.array([bool(f.is_extended_id) for f in frames], pa.bool_()),
-        "remote": pa.array([bool(f.is_remote_frame) for f in frames], pa.bool_()),
-        "fd": pa.array([bool(f.is_fd) for f in frames], pa.bool_()),
-        "brs": pa.array([bool(f.bitrate_switch) for f in frames], pa.bool_()),
-        "dlc": pa.array([int(f.dlc) for f in frames], pa.uint8()),
-        "data": pa.array([bytes(f.data or b"") for f in frames], pa.binary()),
-        "sender": pa.array([r[4] for r in rows], pa.string()),
-        "detail": pa.array([r[5] for r in rows], pa.string()),
-    }, metadata={"bus": bus.name, "bitrate": str(bus.model.bitrate),
-                 "data_bitrate": str(bus.model.data_bitrate), "stuffing": bus.model.stuffing,
-                 "time": "s; end of EOF (start: first bit); before 0: before the first step"})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with pa.OSFile(str(path), "wb") as sink, pa.ipc.new_file(sink, table.schema) as writer:
-        writer.write_table(table)
+    def __init__(self, bus: BusRunner, path: Path, period: float = 0.5):
+        self.bus, self.path, self.period = bus, path, period
+        self.error = ""
+        self._writer: Any = None
+        self._sink: Any = None
+        self._schema: Any = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"can-log {bus.name}",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period):
+            if not math.isnan(self.bus.offset):
+                self._write()
+
+    def _write(self) -> None:
+        import pyarrow as pa
+
+        rows = self.bus.take_rows()
+        if self.error or (not rows and self._writer is not None):
+            return
+        try:
+            off = self.bus.offset
+            frames = [r[3] for r in rows]
+            batch = pa.record_batch({
+                "time": pa.array([r[1] + off for r in rows], pa.float64()),
+                "start": pa.array([r[2] + off for r in rows], pa.float64()),
+                "event": pa.array([r[0] for r in rows], pa.string()),
+                "id": pa.array([f.arbitration_id for f in frames], pa.uint32()),
+                "extended": pa.array([bool(f.is_extended_id) for f in frames], pa.bool_()),
+                "remote": pa.array([bool(f.is_remote_frame) for f in frames], pa.bool_()),
+                "fd": pa.array([bool(f.is_fd) for f in frames], pa.bool_()),
+                "brs": pa.array([bool(f.bitrate_switch) for f in frames], pa.bool_()),
+                "dlc": pa.array([int(f.dlc) for f in frames], pa.uint8()),
+                "data": pa.array([bytes(f.data or b"") for f in frames], pa.binary()),
+                "sender": pa.array([r[4] for r in rows], pa.string()),
+                "detail": pa.array([r[5] for r in rows], pa.string()),
+            })
+            if self._writer is None:
+                model = self.bus.model
+                schema = batch.schema.with_metadata({
+                    "bus": self.bus.name, "bitrate": str(model.bitrate),
+                    "data_bitrate": str(model.data_bitrate), "stuffing": model.stuffing,
+                    "time": "s; end of EOF (start: first bit); before 0: before the first step"})
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self._sink = pa.OSFile(str(self.path), "wb")
+                self._writer = pa.ipc.new_stream(self._sink, schema)
+                self._schema = schema
+            self._writer.write_batch(batch.replace_schema_metadata(self._schema.metadata))
+            self._sink.flush()
+        except Exception as err:  # noqa: BLE001 - a log never stops the bus or the run
+            self.error = f"{type(err).__name__}: {err}"
+
+    def close(self) -> None:
+        """Write what is left and close the file (after the bus has stopped)."""
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+        if math.isnan(self.bus.offset):
+            self.bus.offset = 0.0
+        self._write()
+        for part in (self._writer, self._sink):
+            if part is not None:
+                with contextlib.suppress(Exception):
+                    part.close()
 
 
 def read_log(path: str | Path) -> Any:
-    """A bus block's frame log (`write_log`) as a pandas DataFrame."""
+    """A bus block's frame log (`FrameLog`) as a pandas DataFrame."""
     import pyarrow as pa
 
-    with pa.memory_map(str(path)) as source:
-        return pa.ipc.open_file(source).read_all().to_pandas()
+    with pa.OSFile(str(path), "rb") as source:
+        return pa.ipc.open_stream(source).read_all().to_pandas()

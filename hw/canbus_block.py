@@ -8,7 +8,7 @@ from `bitrate` (CAN FD with `fd: true` and `data_bitrate`), stuff bits `exact` o
 delivery and confirmation at the end of EOF, ACK errors when no one else is there, refusal of
 frames that cannot exist on the bus. In a run with hardware the bus runs on the wall clock; the
 log's times are run times (the block's first step is its time 0 on the bus). Every event is
-written to `<name>_frames.arrow` (Arrow IPC file; `twmr.hw.canbus.read_log`). Outputs: frames
+streamed to `<name>_frames.arrows` (Arrow IPC stream; `twmr.hw.canbus.read_log`). Outputs: frames
 carried so far, bus errors so far, the bus load over the last step.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 from twmr.core import BOOLEAN, STRING, Component, HardwareError, Output, Parameter
 from twmr.hw.bus import bus_options, describe, interface_problem
-from twmr.hw.canbus import INTERFACE, BusRunner, Gateway, runner, write_log
+from twmr.hw.canbus import INTERFACE, BusRunner, FrameLog, Gateway, runner
 from twmr.hw.cansim import STUFFING, CanBusModel
 
 
@@ -73,8 +73,8 @@ class CanBus(Component):
     can_config = Parameter("", type=STRING, description="python-can config file (INI) of that "
                            "bus; replaces interface/channel")
     can_context = Parameter("default", type=STRING, description="section of can_config")
-    log_file = Parameter("auto", type=STRING, description="frame log (.arrow) in the results "
-                         "folder; 'auto' = <name>_frames.arrow, '' = none")
+    log_file = Parameter("auto", type=STRING, description="frame log (.arrows) in the results "
+                         "folder; 'auto' = <name>_frames.arrows, '' = none")
 
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
@@ -111,10 +111,10 @@ class CanBus(Component):
                                  "or '' for a bus with no link outside."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
-                                                  log.suffix.lower() != ".arrow"):
-            problems.append(("log_file", f"log_file '{self.log_file}' must be an .arrow file "
+                                                  log.suffix.lower() != ".arrows"):
+            problems.append(("log_file", f"log_file '{self.log_file}' must be an .arrows file "
                              f"name inside the results folder.", "give a plain name such as "
-                             "bus.arrow, 'auto' or ''."))
+                             "bus.arrows, 'auto' or ''."))
         return problems
 
     def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
@@ -140,6 +140,10 @@ class CanBus(Component):
                             str(self.stuffing))
         self.bus: BusRunner | None = BusRunner(self.name, channel_of(id(run), self.name),
                                                model, self._closed)
+        out = self._run_folder
+        name = f"{self.name}_frames.arrows" if self.log_file == "auto" else self.log_file
+        self.log: FrameLog | None = FrameLog(self.bus, Path(out) / name) \
+            if self.log_file and out is not None else None
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
@@ -166,7 +170,7 @@ class CanBus(Component):
         bus = self.bus
         assert bus is not None
         if math.isnan(bus.offset):
-            bus.offset = t - time.monotonic()
+            bus.begin(t)
         self.frames = float(bus.counts["transmit"])
         self.errors = float(bus.counts["bus_error"])
         busy = bus.model.busy_time
@@ -202,14 +206,11 @@ class CanBus(Component):
         gateway, self.gateway = getattr(self, "gateway", None), None
         if gateway is not None:
             gateway.close()
-        out = getattr(self, "_run_folder", None)
-        if not self.log_file or out is None:
-            return
-        name = f"{self.name}_frames.arrow" if self.log_file == "auto" else self.log_file
-        try:
-            write_log(bus, Path(out) / name)
-        except OSError as err:
-            bus.failures.append(f"bus '{self.name}': frame log not written ({err})")
+        log, self.log = getattr(self, "log", None), None
+        if log is not None:
+            log.close()
+            if log.error:
+                bus.failures.append(f"bus '{self.name}': frame log {log.path.name}: {log.error}")
 
 
 def drive_options(own: str, ref: str, run: Any, participant: str) -> dict[str, Any]:

@@ -19,11 +19,11 @@ shares its 11 bits; equal keys go in submission order); the others are told `arb
 and contend again when the bus is free. A frame is received by every other participant, and
 confirmed to its sender, at the end of its EOF; the bus is free 3 intermission bits later. A frame
 that no other participant is there to acknowledge ends in an ACK error (`bus_error` to its
-sender, not delivered, not retransmitted; once the bus is `closed`, as its runner marks it when
-the run stops, it is only `unheard`). A frame that cannot exist on the bus (data longer
-than its DLC, more than 8 bytes in classic CAN, an FD length that is no DLC, an identifier out of
-range, FD on a bus without `fd`) is refused at submission: `submit` returns why, and the sender
-is told `bus_error` at once.
+sender, not delivered, not retransmitted; while the bus is not `live`, as its runner keeps it
+before the run's first step and once the run stops, it is only `unheard`). A frame that cannot
+exist on the bus (data longer than its DLC, more than 8 bytes in classic CAN, an FD length that
+is no DLC, an identifier out of range, FD on a bus without `fd`) is refused at submission:
+`submit` returns why, and the sender is told `bus_error` at once.
 """
 from __future__ import annotations
 
@@ -246,7 +246,7 @@ class CanBusModel:
     stuffing: str = "exact"
     members: set[str] = field(default_factory=set)
     busy_time: float = 0.0  # [s] of bus time carrying frames (intermission included)
-    closed: bool = False  # the run is over: a frame no one hears is `unheard`, not an error
+    live: bool = True  # False while the bus comes up or winds down: no ACK errors then
 
     def __post_init__(self) -> None:
         self._queues: dict[str, deque[_Pending]] = {}
@@ -304,9 +304,10 @@ class CanBusModel:
                                            start=start))
                     events.append(BusEvent("confirm", end, item.frame, item.sender,
                                            start=start))
-                elif self.closed:
+                elif not self.live:
                     events.append(BusEvent("unheard", end, item.frame, item.sender,
-                                           "sent after the others left", start=start))
+                                           "no one else on the bus yet, or any more",
+                                           start=start))
                 else:
                     events.append(BusEvent("bus_error", end, item.frame, item.sender,
                                            "ACK error: no other participant on the bus "

@@ -58,7 +58,7 @@ def test_the_bench_through_the_bus_block_gives_the_same_rows(tmp_path: Path) -> 
         np.testing.assert_array_equal(rows[name].to_numpy(), alone[name].to_numpy(),
                                       err_msg=name)
 
-    log = read_log(tmp_path / "run" / "can0_frames.arrow")
+    log = read_log(tmp_path / "run" / "can0_frames.arrows")
     sent = log[log.event == "transmit"]
     assert set(sent.sender) == {"motor", "motor (emulated)"}
     assert (log.event == "bus_error").sum() == 0
@@ -106,7 +106,7 @@ def test_a_fault_through_the_bus_block_ends_in_zero_torque_and_estop(tmp_path: P
     finally:
         block.terminate()  # before the drive: the bus waits for its participants to leave
         drive.terminate()
-    log = read_log(tmp_path / "can0_frames.arrow")
+    log = read_log(tmp_path / "can0_frames.arrows")
     host = log[(log.event == "transmit") & (log.sender == "motor")]
     per_node = last_commands(zip(host.id, host.data, strict=True))
     for node in (0, 1):
@@ -248,7 +248,7 @@ def test_ctrl_c_through_the_bus_block_zeroes_and_disables_the_drives(tmp_path: P
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    log = read_log(tmp_path / "run.incomplete" / "can0_frames.arrow")
+    log = read_log(tmp_path / "run.incomplete" / "can0_frames.arrows")
     host = log[(log.event == "transmit") & (log.sender == "motor")]
     per_node = last_commands(zip(host.id, host.data, strict=True))
     for node in (0, 1):

@@ -127,7 +127,7 @@ def test_the_bench_runs_against_drives_emulated_in_another_process(cwd: Path,
                                    (p.SET_AXIS_STATE, p.encode_axis_state(node, p.AXIS_IDLE)[1])]
         assert sum(cmd == p.SET_INPUT_TORQUE for cmd, _ in sent[node]) >= 500  # every step
     if through_bus:
-        log = read_log(cwd / "results" / "bench" / "can0_frames.arrow")
+        log = read_log(cwd / "results" / "bench" / "can0_frames.arrows")
         moved = log[log.event == "transmit"]
         outside = moved[moved.sender != "motor"]
         assert set(moved.sender) == {"motor", f"udp_multicast:{config_of(cwd)}"}
