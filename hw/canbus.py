@@ -64,7 +64,8 @@ class BusRunner:
         self.offset = math.nan  # bus time = monotonic + offset (set at the block's first step)
         #: (event, monotonic time, start, frame, sender, detail)
         self.rows: list[tuple[Any, ...]] = []
-        self.failures: list[str] = []
+        self.failures: list[str] = []  # of participants, gateways, the log, the thread
+        self._errors: list[BusEvent] = []  # the first bus errors
         self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
         model.live = False  # until `begin`: the drives power up before the host joins
         self._members: dict[str, Participant] = {}
@@ -141,6 +142,11 @@ class BusRunner:
         """Bus time [s] (the run's time once the block has stepped)."""
         return time.monotonic() + (0.0 if math.isnan(self.offset) else self.offset)
 
+    def problems(self) -> list[str]:
+        """The first bus errors (each naming the participant, the frame and its run time),
+        then any other failure."""
+        return [self.describe(e) for e in list(self._errors)] + list(self.failures)
+
     def describe(self, event: BusEvent) -> str:
         """One line naming the bus, the participant, the frame and the bus time."""
         t = event.time + (0.0 if math.isnan(self.offset) else self.offset)
@@ -154,8 +160,8 @@ class BusRunner:
         if event.kind != "confirm":
             self.rows.append((event.kind, event.time, event.start, event.frame, event.sender,
                               event.detail))
-        if event.kind == "bus_error" and len(self.failures) < 20:
-            self.failures.append(self.describe(event))
+        if event.kind == "bus_error" and len(self._errors) < 20:
+            self._errors.append(event)
 
     def _run(self) -> None:
         while True:

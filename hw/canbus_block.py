@@ -186,8 +186,9 @@ class CanBus(Component):
         out: dict[str, Any] = {"frames": bus.counts["transmit"],
                                "bus_errors": bus.counts["bus_error"],
                                "arbitration_lost": bus.counts["arbitration_lost"]}
-        if bus.failures:
-            out["problems"] = bus.failures[:5]
+        problems = bus.problems()
+        if problems:
+            out["problems"] = problems[:5]
         return out
 
     def terminate(self) -> None:

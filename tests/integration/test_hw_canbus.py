@@ -33,7 +33,8 @@ def bench(stop: float, on_bus: bool) -> str:
     assert OWN_BUS in text
     if not on_bus:
         return text.replace(OWN_BUS, f"interface: virtual, channel: t-{uuid.uuid4().hex[:10]},")
-    text = text.replace(OWN_BUS, "bus: can0,")
+    text = text.replace(OWN_BUS, "bus: can0,").replace(
+        "  signals: [", "  signals: [can0.frames, can0.errors, can0.load, ", 1)
     return text.replace("  plant:\n", "  can0:\n    kind: can_bus\n    parameters: {bitrate: "
                         "1000000}\n  plant:\n", 1)
 
@@ -53,7 +54,8 @@ def test_the_bench_through_the_bus_block_gives_the_same_rows(tmp_path: Path) -> 
         simulate(tmp_path / f"{name}.yaml", out=tmp_path / name)
     alone = read_result(tmp_path / "alone").to_pandas()
     rows = read_result(tmp_path / "run").to_pandas()
-    assert list(rows.columns) == list(alone.columns) and len(rows) == len(alone) > 10
+    assert set(rows.columns) - set(alone.columns) == {"can0.frames", "can0.errors", "can0.load"}
+    assert len(rows) == len(alone) > 10
     for name in alone.columns:
         np.testing.assert_array_equal(rows[name].to_numpy(), alone[name].to_numpy(),
                                       err_msg=name)
@@ -61,7 +63,12 @@ def test_the_bench_through_the_bus_block_gives_the_same_rows(tmp_path: Path) -> 
     log = read_log(tmp_path / "run" / "can0_frames.arrows")
     sent = log[log.event == "transmit"]
     assert set(sent.sender) == {"motor", "motor (emulated)"}
-    assert (log.event == "bus_error").sum() == 0
+    assert (log.event == "bus_error").sum() == 0 and rows["can0.errors"].max() == 0
+    # the bus outputs: frames carried so far (never more than the log holds), bus load in (0, 1]
+    carried = rows["can0.frames"].to_numpy()
+    assert np.all(np.diff(carried) >= 0) and 0 < carried[-1] <= len(sent)
+    load = rows["can0.load"].to_numpy()[1:]
+    assert np.all((load >= 0) & (load <= 1)) and load.max() > 0
     # no two frames on the wire at once: each starts after the last ended and its 3
     # intermission bits (3 us at 1 Mbit/s) passed
     starts, ends = sent.start.to_numpy(), sent.time.to_numpy()
@@ -134,8 +141,9 @@ def test_a_frame_longer_than_classic_can_is_refused_naming_bus_participant_and_t
         got = monitor.recv(timeout=2.0)
         assert got is not None and got.arbitration_id == 0x11 and bytes(got.data) == b"\x2a"
         assert bus.counts["bus_error"] == 2
-        assert "bus 'can0'" in bus.failures[0] and "participant 'ecu'" in bus.failures[0]
-        assert "0x010 [9]" in bus.failures[0] and "at t = " in bus.failures[0]
+        first = bus.problems()[0]
+        assert "bus 'can0'" in first and "participant 'ecu'" in first
+        assert "0x010 [9]" in first and "at t = " in first
     finally:
         ecu.shutdown()
         monitor.shutdown()
@@ -181,7 +189,7 @@ def test_the_gateway_bridges_a_python_can_bus_and_refuses_its_bad_frames() -> No
         out = other.recv(timeout=2.0)
         assert out is not None and out.arbitration_id == 0x57
         assert any(f"participant 'virtual:{outside}'" in f and "0x055 [12]" in f
-                   for f in bus.failures), bus.failures
+                   for f in bus.problems()), bus.problems()
         assert all(t.is_alive() for t in threading.enumerate() if t.name.startswith("can-"))
     finally:
         gateway.close()
