@@ -239,7 +239,9 @@ def test_ctrl_c_through_the_bus_block_zeroes_and_disables_the_drives(tmp_path: P
     import sys
     import time
 
-    (tmp_path / "bus.yaml").write_text(bench(10.0, True))
+    text = bench(10.0, True).replace(f"watchdog_periods: {WATCHDOG}",
+                                     "watchdog_periods: 250, heartbeat_timeout: 2.0")
+    (tmp_path / "bus.yaml").write_text(text)  # watchdogs for a loaded machine: only Ctrl-C stops
     proc = subprocess.Popen([sys.executable, "-m", "twmr.cli", "run", str(tmp_path / "bus.yaml"),
                              "--quiet", "--out", str(tmp_path / "run")],
                             stderr=subprocess.PIPE, text=True)
