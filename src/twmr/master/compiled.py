@@ -47,6 +47,7 @@ import numpy as np
 
 from twmr.core.errors import CosimError
 from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.master import driver
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Write, guard
 from twmr.master.schedule import FixedStep
@@ -102,6 +103,10 @@ class CompiledStep(Algorithm):
         self._pending = False
         self.reason = ""
         self.compile_seconds = float("nan")
+        #: the driver of the system's kinds (None: the generated loop, for FMUs, or not compiled)
+        self._driver: driver.Driver | None = None
+        #: whether numba compiled (or loaded from its cache) the driver for this run
+        self.driver_compiled = False
 
     # -- Algorithm ---------------------------------------------------------------------------
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
@@ -116,13 +121,20 @@ class CompiledStep(Algorithm):
         first chunk has run in Python (mode 'auto': a stop signal during compilation then
         finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`)."""
         self._pending = False
-        if self.mode == "on" or self._system.paced:
+        if self.mode == "on" or self._system.paced or self._ready():
             self._compile()
         elif self._system.experiment.n_steps >= AUTO_MIN_STEPS:
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
-                          f"{AUTO_MIN_STEPS} steps)"
+                          f"{AUTO_MIN_STEPS} steps) whose kinds have no compiled driver yet"
+
+    def _ready(self) -> bool:
+        """Mode 'auto': whether the driver of the system's kinds is compiled already (in this
+        process or in numba's cache), so the whole run can be compiled from its first step."""
+        kernels, _ = _kernels(self._system, self._record, False)
+        kinds = _kinds(self._system, kernels) if kernels is not None else None
+        return kinds is not None and driver.cached(list(kinds.values()), cache_dir())
 
     def _compile(self) -> None:
         """Collect the kernels from the components as they are now (initialized, maybe stepped
@@ -142,6 +154,10 @@ class CompiledStep(Algorithm):
         exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
+        kinds = _kinds(system, kernels)
+        if kinds is not None:
+            self._compile_driver(kinds, kernels, t0)
+            return
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
         self._Y = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.outputs.items())
@@ -164,17 +180,65 @@ class CompiledStep(Algorithm):
             self._finish.compile(tuple(typeof(a) for a in (
                 0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
-            self.reason = f"numba could not compile it ({type(exc).__name__}: " \
-                          f"{str(exc).splitlines()[0] if str(exc) else ''})"
-            if self.mode == "on":
-                raise CompileError(
-                    f"the run cannot be compiled: {self.reason}. Fix: correct the kernel or run "
-                    f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
-            log.warning("running the Python schedule: %s", self.reason)
+            self._refuse(exc)
             return
         self.compile_seconds = time.perf_counter() - t0
         self.source = source
         self.compiled = True
+
+    def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
+                        t0: float) -> None:
+        """Take (or compile) the driver of the system's kinds and lay the plan out for it."""
+        try:
+            self._driver, self.driver_compiled = driver.load(list(kinds.values()), cache_dir())
+        except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
+            self._refuse(exc)
+            return
+        assert self.python.plan is not None
+        self._layout = driver.layout(self._system, self.python.plan, kernels, self._driver.ids,
+                                     kinds)
+        self._ncols = 1 + len(self._layout.rec) if self._record else 1
+        self.compile_seconds = time.perf_counter() - t0
+        self.source = self._driver.source
+        self.compiled = True
+
+    def _refuse(self, exc: Exception) -> None:
+        """numba failed on the loop: the Python schedule (mode 'auto') or `CompileError`."""
+        self.reason = f"numba could not compile it ({type(exc).__name__}: " \
+                      f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        if self.mode == "on":
+            raise CompileError(
+                f"the run cannot be compiled: {self.reason}. Fix: correct the kernel or run "
+                f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
+        log.warning("running the Python schedule: %s", self.reason)
+
+    def _run_driver(self, n0: int, n1: int, buf: np.ndarray, rows: list[Any]) -> None:
+        lay, exp = self._layout, self._system.experiment
+        k, bad = self._driver.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
+                                  lay.gains, lay.blocks, lay.steps, lay.H, lay.chk, lay.rec, buf,
+                                  self._decimation)
+        self._sync_driver(rows, buf, k, bad)
+
+    def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
+        """As `_sync`, from the driver's vectors."""
+        lay = self._layout
+        S = lay.S
+        for comp, kern, o, (xo, shape) in zip(self._comps, self._kernels, lay.signal,
+                                              lay.state, strict=True):
+            d = comp.__dict__
+            for port, var in {**comp.outputs, **comp.inputs}.items():
+                if var.size is None:
+                    d[port] = float(S[o])
+                else:
+                    d[port] = tuple(S[o:o + var.width].tolist())
+                o += var.width
+            if kern.sync is not None:
+                kern.sync(driver.rebuild(lay.X, xo, shape)[0])
+        if k and self._record:
+            rows.append(buf[:k])
+        if bad >= 0:
+            exp = self._system.experiment
+            raise NonFinite(exp.start + bad * exp.step)
 
     def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int, int, int]:
         exp = self._system.experiment
@@ -215,7 +279,10 @@ class CompiledStep(Algorithm):
         d = self._decimation
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
         buf = np.empty((count, self._ncols))
-        self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
+        if self._driver is not None:
+            self._run_driver(n0, n1, buf, rows)
+        else:
+            self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
 
     def finish(self, n: int, rows: list[Any]) -> None:
@@ -224,6 +291,12 @@ class CompiledStep(Algorithm):
             return
         exp = self._system.experiment
         buf = np.empty((1, self._ncols))
+        if self._driver is not None:
+            lay = self._layout
+            self._sync_driver(rows, buf, *self._driver.finish(
+                n, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops, lay.gains, lay.blocks,
+                lay.chk, lay.rec, buf))
+            return
         self._X, self._Y, self._U, *rest = self._finish(n, exp.start, exp.step, self._P,
                                                         self._X, self._Y, self._U, buf)
         self._sync(rows, buf, *rest)
@@ -235,6 +308,9 @@ class CompiledStep(Algorithm):
         out: dict[str, Any] = {"compiled": self.compiled}
         if self.compiled:
             out["compile_s"] = self.compile_seconds
+            out["driver"] = self._driver is not None
+            if self._driver is not None:
+                out["driver_compiled"] = self.driver_compiled
         elif self.reason:
             out["not_compiled"] = self.reason
         return out
@@ -290,6 +366,18 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
         kernels[name] = kern
     return kernels, ""
+
+
+def _kinds(system: System, kernels: dict[str, Kernel]) -> dict[str, driver.KindSpec] | None:
+    """Every component's kind for the driver, or None: an FMU among them, or a value the
+    driver cannot hold (the generated loop then runs it)."""
+    if any(k.fmu is not None for k in kernels.values()):
+        return None
+    try:
+        return {n: driver.kind_of(system.components[n], kernels[n]) for n in system.order}
+    except driver.Unsupported as exc:
+        log.debug("compiling the loop of this scenario (not the driver of its kinds): %s", exc)
+        return None
 
 
 class _Lines:

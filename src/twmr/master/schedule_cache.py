@@ -35,16 +35,7 @@ def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
     """(run, finish) of the generated `source` (which imports the kernels in `names`), as the
     module `schedule_<key>.py` in `folder`, with numba's cache of it verified. OSError when the
     folder cannot be written."""
-    import numba
-
-    digest = hashlib.sha256(source.encode())
-    digest.update(numba.__version__.encode())
-    # the kernels' modules and their sibling modules (helpers they call)
-    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
-                                        for fn in names.values()) if f}
-    for file in sorted(f for folder_ in folders for f in folder_.glob("*.py")):
-        digest.update(file.read_bytes())
-    key = digest.hexdigest()[:20]
+    key = _key(source, names)
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"schedule_{key}.py"
     _ensure_text(path, source)
@@ -59,6 +50,28 @@ def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
         for fn in (module.run, module.finish):
             verified.wrap(fn._cache)
     return module.run, module.finish
+
+
+def _key(source: str, names: dict[str, Any]) -> str:
+    """The hash naming the module of `source`: its text, numba's version and the source files
+    of the kernels' packages (their modules and the sibling modules holding their helpers)."""
+    import numba
+
+    digest = hashlib.sha256(source.encode())
+    digest.update(numba.__version__.encode())
+    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
+                                        for fn in names.values()) if f}
+    for file in sorted(f for folder_ in folders for f in folder_.glob("*.py")):
+        digest.update(file.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+def has_machine_code(source: str, names: dict[str, Any], folder: Path) -> bool:
+    """Whether `folder` holds the module of `source` and numba's cache of it (index files),
+    i.e. a later `load` finds compiled code (unless the cache fails its check)."""
+    stem = f"schedule_{_key(source, names)}"
+    return (folder / f"{stem}.py").is_file() and \
+        any((folder / "__pycache__").glob(f"{stem}.*.nbi"))
 
 
 def _digest(data: bytes) -> str:

@@ -1,0 +1,521 @@
+"""The compiled step loop without a compile per scenario: one numba driver per set of block kinds,
+stepping any wiring of those kinds from flat arrays.
+
+A scenario's `Plan` is laid out as arrays (`Layout`): one float64 vector S of every port element
+(each block's outputs, then its inputs, declared order; under Jacobi a snapshot area after them),
+one of every block's private state X and one of its parameters P (scalars as themselves, ints and
+bools as floats, arrays as their shape then their elements), a table of blocks (kind id, offsets
+into S, X and P, step), a program of the point (element copies, scaled copies with their unit
+gain and offset, evaluations, each with its step multiple), the steps, the terms of the NaN/Inf
+check and the recorded elements. The driver (`run`, `finish`) interprets them; a block's call goes
+through its kind's adapter, which rebuilds the kernel's own arguments (tuples, NamedTuples, arrays)
+from its slices, calls the unchanged kernel functions and writes their results back.
+
+A kind is the pair of kernel functions with the shapes of x, y, u and p (`KindSpec`): a thousand
+gain blocks are one kind. The driver's source is a function of the set of kinds only; its
+argument types never change, so a rewired scenario, or one with more blocks, reuses the compiled
+driver of its kinds (in this process: at once; in another: from numba's cache), and a driver
+compiled for more kinds serves a scenario with fewer. Every element is computed by the same
+expression, in the same order, as the Python schedule, so the rows are bit-identical.
+"""
+from __future__ import annotations
+
+import hashlib
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from twmr.core.kernel import Kernel
+from twmr.master.plan import Evaluate, Plan, Write, input_elements
+from twmr.scenario.system import Connection, System
+
+#: the shape of a kernel value: 'f' float, 'i' int, 'b' bool, ('a', ndim) a float64 array,
+#: ('t', NamedTuple class or None, (shapes...)) a tuple
+Shape = Any
+#: opcodes of the point's program
+COPY, SCALE, EVAL = 0, 1, 2
+
+
+class Unsupported(Exception):
+    """A value the driver cannot hold in its float vectors (its text says which)."""
+
+
+def shape_of(value: Any) -> Shape:
+    """The shape of a kernel state or parameter value; `Unsupported` for anything else."""
+    if isinstance(value, (bool, np.bool_)):
+        return "b"
+    if isinstance(value, (int, np.integer)):
+        return "i"
+    if isinstance(value, (float, np.floating)) and np.dtype(type(value)) == np.float64:
+        return "f"
+    if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim >= 1:
+        return ("a", value.ndim)
+    if isinstance(value, tuple):
+        cls = type(value) if hasattr(value, "_fields") else None
+        if cls is not None and not _importable(cls):
+            raise Unsupported(f"its NamedTuple {cls.__qualname__} is not importable")
+        return ("t", cls, tuple(shape_of(v) for v in value))
+    raise Unsupported(f"a value of type {type(value).__name__}")
+
+
+def flatten(value: Any, shape: Shape, out: list[float]) -> None:
+    """Append `value`'s elements (arrays: shape, then elements) to `out`."""
+    if shape in ("f", "i", "b"):
+        out.append(float(value))
+    elif shape[0] == "a":
+        out.extend(float(d) for d in value.shape)
+        out.extend(np.ravel(value).tolist())
+    else:
+        for v, s in zip(value, shape[2], strict=True):
+            flatten(v, s, out)
+
+
+def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
+    """(the Python value of `shape` stored in `vec` from `o`, the offset after it)."""
+    if shape == "f":
+        return float(vec[o]), o + 1
+    if shape == "i":
+        return int(vec[o]), o + 1
+    if shape == "b":
+        return bool(vec[o]), o + 1
+    if shape[0] == "a":
+        dims = tuple(int(d) for d in vec[o:o + shape[1]])
+        o += shape[1]
+        n = int(np.prod(dims))
+        return vec[o:o + n].reshape(dims).copy(), o + n
+    items = []
+    for s in shape[2]:
+        v, o = rebuild(vec, o, s)
+        items.append(v)
+    return (shape[1](*items) if shape[1] is not None else tuple(items)), o
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    """One kind of block as the driver sees it: its kernel functions and value shapes (sizes of
+    the output and input ports: None a scalar, n a tuple of n)."""
+
+    evaluate: Any
+    step: Any
+    state: Shape
+    params: Shape
+    outputs: tuple[int | None, ...]
+    inputs: tuple[int | None, ...]
+
+    @property
+    def key(self) -> str:
+        """The adapters' source with the kind's place left open: equal keys, one adapter."""
+        return _adapters(self, "{i}")
+
+
+def kind_of(comp: Any, kern: Kernel) -> KindSpec:
+    """The `KindSpec` of component `comp` with kernel `kern` (`Unsupported`: cannot be held)."""
+    for fn in (kern.evaluate, kern.step):
+        if fn is not None and not _importable(fn):
+            raise Unsupported(f"its kernel function {getattr(fn, '__qualname__', fn)!r} is "
+                              f"not importable by name")
+    return KindSpec(kern.evaluate, kern.step, shape_of(kern.state), shape_of(kern.params),
+                    tuple(v.size for v in comp.outputs.values()),
+                    tuple(v.size for v in comp.inputs.values()))
+
+
+def _importable(obj: Any) -> bool:
+    mod = sys.modules.get(getattr(obj, "__module__", ""), None)
+    name = getattr(obj, "__qualname__", "<none>")
+    return mod is not None and getattr(mod, name, None) is obj and "<" not in name
+
+
+def _width(size: int | None) -> int:
+    return 1 if size is None else size
+
+
+# -- the generated source ----------------------------------------------------------------------
+class _Src:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.n = 0
+
+    def add(self, indent: int, text: str) -> None:
+        self.lines.append("    " * indent + text)
+
+    def var(self) -> str:
+        self.n += 1
+        return f"v{self.n}"
+
+
+def _read(src: _Src, ind: int, vec: str, shape: Shape, imports: dict[str, str]) -> str:
+    """Lines that read `shape` from `vec` at the running offset `o`; the expression of it."""
+    if shape in ("f", "i", "b"):
+        v = src.var()
+        conv = {"f": "{}", "i": "int({})", "b": "{} != 0.0"}[shape]
+        src.add(ind, f"{v} = {conv.format(f'{vec}[o]')}")
+        src.add(ind, "o += 1")
+        return v
+    if shape[0] == "a":
+        v, nd = src.var(), shape[1]
+        dims = [f"int({vec}[o + {d}])" for d in range(nd)]
+        src.add(ind, f"{v}n = {' * '.join(dims)}")
+        if nd == 1:
+            src.add(ind, f"{v} = {vec}[o + 1:o + 1 + {v}n]")
+        else:
+            src.add(ind, f"{v} = {vec}[o + {nd}:o + {nd} + {v}n].reshape(({', '.join(dims)},))")
+        src.add(ind, f"o += {nd} + {v}n")
+        return v
+    items = [_read(src, ind, vec, s, imports) for s in shape[2]]
+    tup = "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+    if shape[1] is None:
+        return tup
+    alias = f"nt_{shape[1].__module__.replace('.', '_')}_{shape[1].__qualname__}"
+    imports[alias] = f"from {shape[1].__module__} import {shape[1].__qualname__} as {alias}"
+    return f"{alias}{tup if items else '()'}"
+
+
+def _write(src: _Src, ind: int, expr: str, shape: Shape) -> None:
+    """Lines that store `expr` of `shape` into X at the running offset `o`."""
+    if shape in ("f", "i", "b"):
+        src.add(ind, f"X[o] = {expr}")
+        src.add(ind, "o += 1")
+    elif shape[0] == "a":
+        v = src.var()
+        src.add(ind, f"{v} = np.ascontiguousarray({expr}).ravel()")
+        src.add(ind, f"X[o + {shape[1]}:o + {shape[1]} + {v}.size] = {v}")
+        src.add(ind, f"o += {shape[1]} + {v}.size")
+    else:
+        if not shape[2]:
+            return
+        t = src.var()
+        src.add(ind, f"{t} = {expr}")
+        for j, s in enumerate(shape[2]):
+            _write(src, ind, f"{t}[{j}]", s)
+
+
+def _ports(sizes: tuple[int | None, ...], start: int) -> tuple[str, int]:
+    """(tuple expression of the ports of `sizes` read from S at so + start, the offset after)."""
+    items, o = [], start
+    for size in sizes:
+        if size is None:
+            items.append(f"S[so + {o}]")
+        else:
+            items.append("(" + ", ".join(f"S[so + {o + e}]" for e in range(size)) +
+                         ("," if size == 1 else "") + ")")
+        o += _width(size)
+    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")", o
+
+
+def _adapters(kind: KindSpec, i: str, imports: dict[str, str] | None = None) -> str:
+    """Source of `ev{i}` / `st{i}` (those the kind has): rebuild x, y, u, p from the vectors,
+    call the kernel, store x and y back."""
+    imports = {} if imports is None else imports
+    src = _Src()
+    for fn, name, head in ((kind.evaluate, "ev", "t"), (kind.step, "st", "t, h")):
+        if fn is None:
+            continue
+        alias = f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}"
+        imports[alias] = f"from {fn.__module__} import {fn.__qualname__} as {alias}"
+        src.add(0, "@njit(cache=True, error_model='numpy')")
+        src.add(0, f"def {name}{i}({head}, S, X, P, so, xo, po):")
+        src.add(1, "o = po")
+        p = _read(src, 1, "P", kind.params, imports)
+        src.add(1, "o = xo")
+        x = _read(src, 1, "X", kind.state, imports)
+        y, end = _ports(kind.outputs, 0)
+        u, _ = _ports(kind.inputs, end)
+        src.add(1, f"r = {alias}({head}, {x}, {y}, {u}, {p})")
+        src.add(1, "o = xo")
+        _write(src, 1, "r[0]", kind.state)
+        src.add(1, "ry = r[1]")
+        o = 0
+        for j, size in enumerate(kind.outputs):
+            if size is None:
+                src.add(1, f"S[so + {o}] = ry[{j}]")
+            else:
+                for e in range(size):
+                    src.add(1, f"S[so + {o + e}] = ry[{j}][{e}]")
+            o += _width(size)
+        src.add(0, "")
+    return "\n".join(src.lines)
+
+
+_LOOP = '''
+@njit(cache=True, error_model='numpy')
+def point(n, t, final, S, X, P, ops, gains, blocks):
+    for i in range(ops.shape[0]):
+        m = ops[i, 3]
+        if not final and m != 1 and n % m != 0:
+            continue
+        code = ops[i, 0]
+        if code == 0:
+            S[ops[i, 1]] = S[ops[i, 2]]
+        elif code == 1:
+            S[ops[i, 1]] = S[ops[i, 2]] * gains[i, 0] + gains[i, 1]
+        else:
+            b = ops[i, 1]
+            evaluate(blocks[b, 0], t, S, X, P, blocks[b, 1], blocks[b, 2], blocks[b, 3])
+
+
+@njit(cache=True, error_model='numpy')
+def nonfinite(S, chk):
+    v = 0.0
+    cs = 0.0
+    cur = -1
+    for i in range(chk.shape[0]):
+        o = chk[i, 0]
+        term = S[o]
+        for e in range(1, chk[i, 1]):
+            term = term + S[o + e]
+        if chk[i, 2] != cur:
+            if cur >= 0:
+                v = v + cs
+            cs = term
+            cur = chk[i, 2]
+        else:
+            cs = cs + term
+    if cur >= 0:
+        v = v + cs
+    return v - v != 0.0
+
+
+@njit(cache=True, error_model='numpy')
+def record(k, t, S, rec, buf):
+    buf[k, 0] = t
+    for j in range(rec.shape[0]):
+        buf[k, 1 + j] = S[rec[j]]
+
+
+@njit(cache=True, error_model='numpy')
+def run(n0, n1, start, h, S, X, P, ops, gains, blocks, steps, H, chk, rec, buf, dec):
+    k = 0
+    bad = -1
+    for n in range(n0, n1):
+        t = start + n * h
+        point(n, t, False, S, X, P, ops, gains, blocks)
+        if chk.shape[0] and nonfinite(S, chk):
+            bad = n
+            break
+        if buf.shape[1] > 1 and n % dec == 0:
+            record(k, t, S, rec, buf)
+            k += 1
+        for i in range(steps.shape[0]):
+            b = steps[i, 0]
+            m = steps[i, 1]
+            if m == 1:
+                step(blocks[b, 0], t, H[b], S, X, P, blocks[b, 1], blocks[b, 2], blocks[b, 3])
+            elif n % m == m - 1:
+                step(blocks[b, 0], t - (m - 1) * h, H[b], S, X, P, blocks[b, 1], blocks[b, 2],
+                     blocks[b, 3])
+    return k, bad
+
+
+@njit(cache=True, error_model='numpy')
+def finish(n, start, h, S, X, P, ops, gains, blocks, chk, rec, buf):
+    t = start + n * h
+    point(n, t, True, S, X, P, ops, gains, blocks)
+    if chk.shape[0] and nonfinite(S, chk):
+        return 0, n
+    if buf.shape[1] > 1:
+        record(0, t, S, rec, buf)
+        return 1, -1
+    return 0, -1
+'''
+
+
+def _dispatch(name: str, head: str, ids: list[int]) -> str:
+    lines = ["@njit(cache=True, error_model='numpy')",
+             f"def {'evaluate' if name == 'ev' else 'step'}(kd, {head}, S, X, P, so, xo, po):"]
+    for j, i in enumerate(ids):
+        lines.append(f"    {'if' if j == 0 else 'elif'} kd == {i}:")
+        lines.append(f"        {name}{i}({head}, S, X, P, so, xo, po)")
+    if not ids:
+        lines.append("    pass")
+    return "\n".join(lines) + "\n"
+
+
+def generate(kinds: Sequence[KindSpec]) -> tuple[str, dict[str, Any]]:
+    """(source of the driver of `kinds`, {alias: kernel function}); kind i is `kinds[i]`."""
+    imports: dict[str, str] = {}
+    names: dict[str, Any] = {}
+    parts = []
+    for i, kind in enumerate(kinds):
+        parts.append(_adapters(kind, str(i), imports))
+        for fn in (kind.evaluate, kind.step):
+            if fn is not None:
+                names[f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}"] = fn
+    head = ["# generated by twmr.master.driver: the step loop of these kinds",
+            *[f"# kind {i}: {getattr(k.evaluate, '__qualname__', None)} "
+              f"{getattr(k.step, '__qualname__', None)}" for i, k in enumerate(kinds)],
+            "import numpy as np", "from numba import njit", *sorted(imports.values()), "", ""]
+    ev = [i for i, k in enumerate(kinds) if k.evaluate is not None]
+    st = [i for i, k in enumerate(kinds) if k.step is not None]
+    source = "\n".join(head) + "\n".join(parts) + "\n" + _dispatch("ev", "t", ev) + "\n" + \
+        _dispatch("st", "t, h", st) + _LOOP
+    return source, names
+
+
+# -- the arrays of one scenario ------------------------------------------------------------------
+@dataclass
+class Layout:
+    """The flat arrays of one system's plan (see the module docstring)."""
+
+    S: np.ndarray
+    X: np.ndarray
+    P: np.ndarray
+    ops: np.ndarray
+    gains: np.ndarray
+    blocks: np.ndarray
+    steps: np.ndarray
+    H: np.ndarray
+    chk: np.ndarray
+    rec: np.ndarray
+    #: per block (in plan order): its offset in S, in X and its state's shape
+    signal: list[int]
+    state: list[tuple[int, Shape]]
+
+
+def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str, int],
+           kinds: dict[str, KindSpec]) -> Layout:
+    """The arrays of `plan` over `kernels`; `ids[key]` is the driver's number of kind `key`,
+    `kinds[name]` the kind of component `name`."""
+    comps = system.components
+    exp = system.experiment
+    slot: dict[tuple[str, str], int] = {}
+    S: list[float] = []
+    X: list[float] = []
+    P: list[float] = []
+    blocks, signal, state = [], [], []
+    for b, name in enumerate(plan.order):
+        comp, kern, kind = comps[name], kernels[name], kinds[name]
+        so = len(S)
+        for port, var in {**comp.outputs, **comp.inputs}.items():
+            slot[(name, port)] = len(S)
+            value = comp.__dict__[port]
+            S.extend([float(value)] if var.size is None else [float(v) for v in value])
+        xo, po = len(X), len(P)
+        flatten(kern.state, kind.state, X)
+        flatten(kern.params, kind.params, P)
+        blocks.append((ids[kind.key], so, xo, po))
+        signal.append(so)
+        state.append((xo, kind.state))
+        assert b == len(blocks) - 1
+    snap: dict[tuple[str, str], int] = {}
+    for src, port in plan.snapshot:
+        snap[(src, port)] = len(S)
+        S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
+    incoming: dict[tuple[str, str], list[Connection]] = {}
+    for conn in system.connections:
+        incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
+    ops: list[tuple[int, int, int, int]] = []
+    gains: list[tuple[float, float]] = []
+    for (src, port), at in snap.items():
+        for e in range(comps[src].variables[port].width):
+            ops.append((COPY, at + e, slot[(src, port)] + e, 1))
+            gains.append((1.0, 0.0))
+    index = {name: b for b, name in enumerate(plan.order)}
+    for action in plan.point:
+        if isinstance(action, Write):
+            base = snap if snap else slot
+            for d, src, port, s, gain, offset in input_elements(
+                    system, incoming[(action.name, action.port)]):
+                dst = slot[(action.name, action.port)] + d
+                frm = base[(src, port)] + (s or 0)
+                ops.append((COPY if gain is None else SCALE, dst, frm, action.multiple))
+                gains.append((1.0, 0.0) if gain is None else (gain, offset))
+        else:
+            assert isinstance(action, Evaluate)
+            ops.append((EVAL, index[action.name], 0, action.multiple))
+            gains.append((0.0, 0.0))
+    steps = [(index[s.name], s.multiple) for s in plan.steps if kernels[s.name].step is not None]
+    chk = [(slot[(s.name, s.port)], _width(s.size), c)
+           for c, chunk in enumerate(plan.check) for s in chunk]
+    rec = [slot[(s.name, s.port)] + e for s in plan.record for e in range(_width(s.size))]
+    H = [system.multiple(n) * exp.step for n in plan.order]
+
+    def ints(rows: list[Any], cols: int) -> np.ndarray:
+        return np.array(rows, dtype=np.int64).reshape(len(rows), cols)
+
+    return Layout(np.array(S, dtype=np.float64), np.array(X + [0.0], dtype=np.float64),
+                  np.array(P + [0.0], dtype=np.float64), ints(ops, 4),
+                  np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 4),
+                  ints(steps, 2), np.array(H, dtype=np.float64), ints(chk, 3),
+                  np.array(rec, dtype=np.int64), signal, state)
+
+
+def kind_set_key(kinds: Sequence[KindSpec]) -> str:
+    """A short name of a set of kinds (log lines, benchmarks)."""
+    return hashlib.sha256("\n".join(sorted(k.key for k in kinds)).encode()).hexdigest()[:12]
+
+
+# -- the compiled drivers --------------------------------------------------------------------------
+@dataclass
+class Driver:
+    """A loaded driver: its kinds' numbers by `KindSpec.key`, `run`, `finish` and its source."""
+
+    ids: dict[str, int]
+    run: Any
+    finish: Any
+    source: str
+
+
+#: the drivers this process has compiled (or loaded from numba's cache)
+_LOADED: list[Driver] = []
+
+
+def signatures() -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """numba's argument types of `run` and `finish` (the same for every scenario)."""
+    from numba import types as nt
+
+    f1, f2 = nt.float64[::1], nt.float64[:, ::1]
+    i1, i2 = nt.int64[::1], nt.int64[:, ::1]
+    i, f = nt.int64, nt.float64
+    return ((i, i, f, f, f1, f1, f1, i2, f2, i2, i2, f1, i2, i1, f2, i),
+            (i, f, f, f1, f1, f1, i2, f2, i2, i2, i1, f2))
+
+
+def loaded(kinds: Sequence[KindSpec]) -> Driver | None:
+    """A driver of this process whose kinds include `kinds` (None: none yet)."""
+    keys = {k.key for k in kinds}
+    return next((d for d in _LOADED if keys <= d.ids.keys()), None)
+
+
+def ordered(kinds: Sequence[KindSpec]) -> list[KindSpec]:
+    """`kinds` without repeats, in the order that numbers them in their driver."""
+    return sorted({k.key: k for k in kinds}.values(), key=lambda k: k.key)
+
+
+def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[Driver, bool]:
+    """(the driver of `kinds`, whether numba compiled or loaded it now): one this process holds,
+    else generated, loaded through the verified cache in `folder` (`twmr.master.schedule_cache`;
+    exec'd without a cache when `folder` cannot be written) and compiled for `signatures()`."""
+    found = loaded(kinds)
+    if found is not None:
+        return found, False
+    kinds = ordered(kinds)
+    source, names = generate(kinds)
+    from twmr.master import schedule_cache
+
+    try:
+        run, finish = schedule_cache.load(source, names, folder)
+    except OSError:
+        env: dict[str, Any] = dict(names)
+        exec(compile(source.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
+                     "<twmr compiled driver>", "exec"), env)
+        run, finish = env["run"], env["finish"]
+    run_sig, finish_sig = signatures()
+    run.compile(run_sig)
+    finish.compile(finish_sig)
+    driver = Driver({k.key: i for i, k in enumerate(kinds)}, run, finish, source)
+    _LOADED.append(driver)
+    return driver, True
+
+
+def cached(kinds: Sequence[KindSpec], folder: Any) -> bool:
+    """Whether a driver of `kinds` is ready without compiling: held by this process, or its
+    machine code in numba's cache in `folder`."""
+    if loaded(kinds) is not None:
+        return True
+    from twmr.master import schedule_cache
+
+    source, names = generate(ordered(kinds))
+    return schedule_cache.has_machine_code(source, names, folder)
