@@ -93,11 +93,14 @@ class CompiledStep(Algorithm):
     """Fixed base step h, 'gauss_seidel' or 'jacobi', compiled with numba when every component
     offers a kernel (`mode` 'auto' | 'on'); else the Python `FixedStep` runs (mode 'auto')."""
 
-    def __init__(self, method: str = "gauss_seidel", mode: str = "auto"):
+    def __init__(self, method: str = "gauss_seidel", mode: str = "auto", driver: bool = True):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
         self.mode = mode
+        #: False: the loop generated for this scenario even where the driver of its kinds would
+        #: run (the benchmark's "before")
+        self.use_driver = driver
         self.python = FixedStep(method)
         self.compiled = False
         self._pending = False
@@ -133,7 +136,8 @@ class CompiledStep(Algorithm):
         """Mode 'auto': whether the driver of the system's kinds is compiled already (in this
         process or in numba's cache), so the whole run can be compiled from its first step."""
         kernels, _ = _kernels(self._system, self._record, False)
-        kinds = _kinds(self._system, kernels) if kernels is not None else None
+        kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
+            else None
         return kinds is not None and driver.cached(list(kinds.values()), cache_dir())
 
     def _compile(self) -> None:
@@ -154,7 +158,7 @@ class CompiledStep(Algorithm):
         exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
-        kinds = _kinds(system, kernels)
+        kinds = _kinds(system, kernels) if self.use_driver else None
         if kinds is not None:
             self._compile_driver(kinds, kernels, t0)
             return

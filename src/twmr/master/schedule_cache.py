@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import hashlib
+import importlib.metadata
 import json
 import logging
 import os
@@ -55,15 +57,21 @@ def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
 def _key(source: str, names: dict[str, Any]) -> str:
     """The hash naming the module of `source`: its text, numba's version and the source files
     of the kernels' packages (their modules and the sibling modules holding their helpers)."""
-    import numba
-
     digest = hashlib.sha256(source.encode())
-    digest.update(numba.__version__.encode())
     folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
                                         for fn in names.values()) if f}
-    for file in sorted(f for folder_ in folders for f in folder_.glob("*.py")):
-        digest.update(file.read_bytes())
+    digest.update(_packages(frozenset(folders)).encode())
     return digest.hexdigest()[:20]
+
+
+@functools.cache
+def _packages(folders: frozenset[Path]) -> str:
+    """A hash of numba's version (read without importing numba) and of the source files in
+    `folders`, once per process (the modules it holds are imported once too)."""
+    digest = hashlib.sha256(importlib.metadata.version("numba").encode())
+    for file in sorted(f for folder in folders for f in folder.glob("*.py")):
+        digest.update(file.read_bytes())
+    return digest.hexdigest()
 
 
 def has_machine_code(source: str, names: dict[str, Any], folder: Path) -> bool:
