@@ -16,7 +16,7 @@ import pytest
 from numba.core import event
 
 from tests.integration.test_compiled import ROOT, rewired, run
-from twmr.master import Execution, driver
+from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
 from twmr.master.compiled import CompiledStep
 from twmr.observers.store import ResultStore
@@ -122,8 +122,8 @@ def test_auto_finds_the_driver_in_numba_cache_in_a_new_process(tmp_path: Path) -
 def test_a_block_whose_parameters_the_driver_cannot_hold_runs_the_generated_loop() -> None:
     """A kernel with a parameter of a type the float vectors do not hold (a complex number)
     is compiled the old way: one loop for the scenario, bit-identical as well."""
-    from tests.integration.test_compiled import LowPass
     from tests.helpers import system
+    from tests.integration.test_compiled import LowPass
     from twmr.blocks import Sine
 
     class Odd(LowPass):

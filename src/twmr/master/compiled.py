@@ -93,14 +93,14 @@ class CompiledStep(Algorithm):
     """Fixed base step h, 'gauss_seidel' or 'jacobi', compiled with numba when every component
     offers a kernel (`mode` 'auto' | 'on'); else the Python `FixedStep` runs (mode 'auto')."""
 
-    def __init__(self, method: str = "gauss_seidel", mode: str = "auto", driver: bool = True):
+    def __init__(self, method: str = "gauss_seidel", mode: str = "auto", use_driver: bool = True):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
         self.mode = mode
         #: False: the loop generated for this scenario even where the driver of its kinds would
         #: run (the benchmark's "before")
-        self.use_driver = driver
+        self.use_driver = use_driver
         self.python = FixedStep(method)
         self.compiled = False
         self._pending = False
@@ -216,9 +216,10 @@ class CompiledStep(Algorithm):
                 f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
         log.warning("running the Python schedule: %s", self.reason)
 
-    def _run_driver(self, n0: int, n1: int, buf: np.ndarray, rows: list[Any]) -> None:
+    def _run_driver(self, drv: driver.Driver, n0: int, n1: int, buf: np.ndarray,
+                    rows: list[Any]) -> None:
         lay, exp = self._layout, self._system.experiment
-        k, bad = self._driver.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
+        k, bad = drv.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
                                   lay.gains, lay.blocks, lay.steps, lay.H, lay.chk, lay.rec, buf,
                                   self._decimation)
         self._sync_driver(rows, buf, k, bad)
@@ -284,7 +285,7 @@ class CompiledStep(Algorithm):
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
         buf = np.empty((count, self._ncols))
         if self._driver is not None:
-            self._run_driver(n0, n1, buf, rows)
+            self._run_driver(self._driver, n0, n1, buf, rows)
         else:
             self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1

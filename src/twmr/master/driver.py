@@ -5,8 +5,8 @@ A scenario's `Plan` is laid out as arrays (`Layout`): one float64 vector S of ev
 (each block's outputs, then its inputs, declared order; under Jacobi a snapshot area after them),
 one of every block's private state X and one of its parameters P (scalars as themselves, ints and
 bools as floats, arrays as their shape then their elements), a table of blocks (kind id, offsets
-into S, X and P, step), a program of the point (element copies, scaled copies with their unit
-gain and offset, evaluations, each with its step multiple), the steps, the terms of the NaN/Inf
+into S, X and P, step), a program of the point (runs of element copies, scaled copies with their
+unit gain and offset, evaluations, each with its step multiple), the steps, the terms of the NaN/Inf
 check and the recorded elements. The driver (`run`, `finish`) interprets them; a block's call goes
 through its kind's adapter, which rebuilds the kernel's own arguments (tuples, NamedTuples, arrays)
 from its slices, calls the unchanged kernel functions and writes their results back.
@@ -248,7 +248,10 @@ def point(n, t, final, S, X, P, ops, gains, blocks):
             continue
         code = ops[i, 0]
         if code == 0:
-            S[ops[i, 1]] = S[ops[i, 2]]
+            a = ops[i, 1]
+            b = ops[i, 2]
+            for e in range(ops[i, 4]):
+                S[a + e] = S[b + e]
         elif code == 1:
             S[ops[i, 1]] = S[ops[i, 2]] * gains[i, 0] + gains[i, 1]
         else:
@@ -406,12 +409,23 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str
     incoming: dict[tuple[str, str], list[Connection]] = {}
     for conn in system.connections:
         incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
-    ops: list[tuple[int, int, int, int]] = []
+    ops: list[list[int]] = []
     gains: list[tuple[float, float]] = []
+
+    def op(code: int, a: int, b: int, m: int, gain: tuple[float, float] = (1.0, 0.0)) -> None:
+        """Append an op; a copy that continues the previous one joins it (one run of
+        elements)."""
+        last = ops[-1] if ops else None
+        if code == COPY and last is not None and last[0] == COPY and last[3] == m and \
+                last[1] + last[4] == a and last[2] + last[4] == b:
+            last[4] += 1
+            return
+        ops.append([code, a, b, m, 1])
+        gains.append(gain)
+
     for (src, port), at in snap.items():
         for e in range(comps[src].variables[port].width):
-            ops.append((COPY, at + e, slot[(src, port)] + e, 1))
-            gains.append((1.0, 0.0))
+            op(COPY, at + e, slot[(src, port)] + e, 1)
     index = {name: b for b, name in enumerate(plan.order)}
     for action in plan.point:
         if isinstance(action, Write):
@@ -420,12 +434,13 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str
                     system, incoming[(action.name, action.port)]):
                 dst = slot[(action.name, action.port)] + d
                 frm = base[(src, port)] + (s or 0)
-                ops.append((COPY if gain is None else SCALE, dst, frm, action.multiple))
-                gains.append((1.0, 0.0) if gain is None else (gain, offset))
+                if gain is None:
+                    op(COPY, dst, frm, action.multiple)
+                else:
+                    op(SCALE, dst, frm, action.multiple, (gain, offset))
         else:
             assert isinstance(action, Evaluate)
-            ops.append((EVAL, index[action.name], 0, action.multiple))
-            gains.append((0.0, 0.0))
+            op(EVAL, index[action.name], 0, action.multiple)
     steps = [(index[s.name], s.multiple) for s in plan.steps if kernels[s.name].step is not None]
     chk = [(slot[(s.name, s.port)], _width(s.size), c)
            for c, chunk in enumerate(plan.check) for s in chunk]
@@ -435,8 +450,8 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str
     def ints(rows: list[Any], cols: int) -> np.ndarray:
         return np.array(rows, dtype=np.int64).reshape(len(rows), cols)
 
-    return Layout(np.array(S, dtype=np.float64), np.array(X + [0.0], dtype=np.float64),
-                  np.array(P + [0.0], dtype=np.float64), ints(ops, 4),
+    return Layout(np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
+                  np.array(P, dtype=np.float64), ints(ops, 5),
                   np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 4),
                   ints(steps, 2), np.array(H, dtype=np.float64), ints(chk, 3),
                   np.array(rec, dtype=np.int64), signal, state)
