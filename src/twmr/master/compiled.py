@@ -1,13 +1,16 @@
-"""`CompiledStep`: the fixed-step Gauss-Seidel / Jacobi loop of `twmr.master.schedule`, generated
-over the components' compiled kernels and compiled as one numba function.
+"""`CompiledStep`: the fixed-step Gauss-Seidel / Jacobi loop of `twmr.master.schedule`, compiled
+with numba over the components' kernels, bit-identical to the Python schedule.
 
 When every component of a system offers a kernel (`Component.kernel(h)` returns a `Kernel`), the
-master generates the whole step loop — input writes with unit gains and element selections, the
-evaluation order of the port graph, step multiples, the NaN/Inf check and the recording into a
-preallocated block of rows — and compiles it with numba. Every port value is a local variable of
-that function (a float or a tuple of floats); nothing is looked up or boxed inside the loop. The
-results are bit-identical to the Python schedule: the same expressions in the same order on the
-same kernels.
+loop runs compiled, in one of two forms:
+
+- the driver of the system's block kinds (`twmr.master.driver`): compiled once per set of kinds
+  (kernel functions and value shapes), never per wiring or block count; the plan is laid out in
+  flat arrays that the driver interprets. A rewired scenario of known kinds runs compiled at once.
+- the loop generated for this system (below): every port value a local variable, one call per
+  block, compiled per scenario. It runs the scenarios the driver does not hold: those with an FMU
+  (called through its C functions), or a kernel value the driver's float vectors cannot hold
+  (e.g. a complex number, an integer array, a NamedTuple that is not importable).
 
 A kernel is two pure numba functions of the component's private state x (a tuple), its outputs y
 (the tuple of its output and state ports, declared order), its inputs u (the tuple of its input
@@ -20,19 +23,21 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-An FMI 2.0 co-simulation FMU joins the loop in mode 'on': the loop calls its C functions itself,
-through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
+An FMI 2.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
+functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
 
-The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
+The generated module (driver or loop) is written to the cache folder (`TWMR_CACHE_DIR`, default
 ~/.cache/twmr/schedules) under a name hashing its source, the source files of the kernels'
 packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
 every later process (sweep workers included). Parameters, initial values, the step and the
 start time are arguments, so a sweep over parameter values compiles once.
 
-Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) compiles a run
-of at least `AUTO_MIN_STEPS` steps whose every component (FMUs excepted) offers a kernel, once the
-first chunk has run in Python, and runs the Python schedule otherwise; `on` compiles before the
-first step and makes a missing kernel an error; `off` always runs the Python schedule.
+Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
+from the first step when the driver of the system's kinds is compiled already (in this process or
+in numba's cache), whatever the run's length; else it compiles a run of at least
+`AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a shorter one in Python;
+FMUs and blocks without a kernel keep the Python schedule. `on` compiles before the first step
+and makes a missing kernel an error; `off` always runs the Python schedule.
 """
 from __future__ import annotations
 
@@ -54,8 +59,8 @@ from twmr.master.schedule import FixedStep
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto' compiles runs of at least this many base steps (a shorter one is over before
-#: numba would be loaded)
+#: mode 'auto', kinds without a compiled driver yet: runs of at least this many base steps are
+#: compiled (a shorter one is over before numba would have compiled the driver)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
 

@@ -20,6 +20,7 @@ expression, in the same order, as the Python schedule, so the rows are bit-ident
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import sys
 from collections.abc import Sequence
@@ -105,7 +106,7 @@ class KindSpec:
     outputs: tuple[int | None, ...]
     inputs: tuple[int | None, ...]
 
-    @property
+    @functools.cached_property
     def key(self) -> str:
         """The adapters' source with the kind's place left open: equal keys, one adapter."""
         return _adapters(self, "{i}")
@@ -118,8 +119,8 @@ def kind_of(comp: Any, kern: Kernel) -> KindSpec:
             raise Unsupported(f"its kernel function {getattr(fn, '__qualname__', fn)!r} is "
                               f"not importable by name")
     return KindSpec(kern.evaluate, kern.step, shape_of(kern.state), shape_of(kern.params),
-                    tuple(v.size for v in comp.outputs.values()),
-                    tuple(v.size for v in comp.inputs.values()))
+                    tuple(None if v.size is None else v.width for v in comp.outputs.values()),
+                    tuple(None if v.size is None else v.width for v in comp.inputs.values()))
 
 
 def _importable(obj: Any) -> bool:
