@@ -1,7 +1,8 @@
 """The compiled fixed-step algorithm against a hand-written numba loop and the Python schedule,
-and the driver of the blocks' kinds (`twmr.master.driver`, "driver") against the loop generated
-and compiled for each scenario ("loop", the compiled path before the driver; `CompiledStep(...,
-use_driver=False)`), measured in this one run.
+and the driver (`twmr.master.driver`: each kind of block compiled once, one loop for every
+scenario; "driver") against the loop generated and compiled for each scenario ("loop", the
+compiled path before the driver; `CompiledStep(..., use_driver=False)`), measured in this one
+run.
 
 The paper's trajectory-1 scenario (ASMC, 1 ms step, 16 columns recorded every 10 steps) cut to
 3 s, 30 s (as written) and 300 s:
@@ -25,8 +26,12 @@ compiled or loaded from numba's cache):
   plain scenario has run: in the same process, and in a fresh process whose caches the plain
   scenario filled (target <= 0.3 s). The loop compiles the rewired scenario anew (a new source);
 - a chain of N gain blocks fed by a sine (N = 10, 100, 1000, 10,000 steps): the driver's
-  compile_s once {sine, gain} is compiled, and the stepping per block and step against the Python
-  schedule (the loop is not run here: 35 s to compile at N = 100, a failure at N = 1000).
+  compile_s (at N = 10 it compiles the kinds sine and gain), and the stepping per block and step
+  against the Python schedule (the loop is not run here: 35 s to compile at N = 100, a failure
+  at N = 1000).
+- new kinds: the sensors scenario (the paper's kinds and `encoder`, `imu`) after the paper
+  scenario, in the same process (this process keeps its adapters in an empty cache folder; the
+  kernel functions' own numba cache stays as it is).
 
 FMUs (`compiled='on'` only; these keep the generated loop): (d) the chain of three `lag2` test
 FMUs of benchmarks/fmu_overhead.py (100,000 steps, c.y recorded every 100) and (e) the paper
@@ -270,12 +275,18 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
+    # this process's adapters and loops in an empty folder: the new kinds below compile
+    os.environ["TWMR_CACHE_DIR"] = tempfile.mkdtemp(prefix="twmr-bench-cache-")
     compile_s = {how: compile_times(how) for how in ("driver", "loop")}
     print(f"compile in fresh processes: {compile_s}", flush=True)
     python_rows, _, _ = master_run("off")
     assert np.array_equal(python_rows, master_run("on")[0]), "compiled != Python schedule"
     rewired_s = {how: rewired_in_process(how) for how in ("driver", "loop")}
     print(f"rewired, same process: {rewired_s}", flush=True)
+    sensors = load(SCENARIO.with_name("paper_trajectory1_asmc_sensors.yaml"),
+                   ["experiment.stop=0.1"])
+    new_kinds_s = master_run("on", system=sensors)[2]["algorithm.compile_s"]
+    print(f"two new kinds: {new_kinds_s:.3f} s", flush=True)
     steps = {"3s": per_step(3.0, args.repeats, True), "30s": per_step(30.0, args.repeats, True),
              "300s": per_step(300.0, 3, False)}
     chains = [chain_case(n) for n in (10, 100, 1000)]
@@ -303,6 +314,7 @@ def main() -> None:
         "compile_s_rewired_warm_kinds_same_process":
             {h: round(v, 4) for h, v in rewired_s.items()},
         "target_compile_s_rewired": 0.3,
+        "compile_s_two_new_kinds_driver": round(new_kinds_s, 4),
         "gain_chains": chains,
         "mixed_random_slip_auto_s": round(mixed_auto, 4),
         "mixed_random_slip_off_s": round(mixed_off, 4),

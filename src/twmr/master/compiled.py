@@ -4,9 +4,10 @@ with numba over the components' kernels, bit-identical to the Python schedule.
 When every component of a system offers a kernel (`Component.kernel(h)` returns a `Kernel`), the
 loop runs compiled, in one of two forms:
 
-- the driver of the system's block kinds (`twmr.master.driver`): compiled once per set of kinds
-  (kernel functions and value shapes), never per wiring or block count; the plan is laid out in
-  flat arrays that the driver interprets. A rewired scenario of known kinds runs compiled at once.
+- the driver (`twmr.master.driver`): each kind of block (kernel functions and value shapes)
+  compiled once, one driver loop for every scenario, never a compile per wiring or block count;
+  the plan is laid out in flat arrays that the driver interprets. A rewired scenario of known
+  kinds runs compiled at once.
 - the loop generated for this system (below): every port value a local variable, one call per
   block, compiled per scenario. It runs the scenarios the driver does not hold: those with an FMU
   (called through its C functions), or a kernel value the driver's float vectors cannot hold
@@ -26,15 +27,15 @@ discretisation) are made in Python once.
 An FMI 2.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
 functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
 
-The generated module (driver or loop) is written to the cache folder (`TWMR_CACHE_DIR`, default
-~/.cache/twmr/schedules) under a name hashing its source, the source files of the kernels'
-packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
+The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
+(`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
+files of the kernels' packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
 every later process (sweep workers included). Parameters, initial values, the step and the
 start time are arguments, so a sweep over parameter values compiles once.
 
 Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
-from the first step when the driver of the system's kinds is compiled already (in this process or
-in numba's cache), whatever the run's length; else it compiles a run of at least
+from the first step when every kind of the system is compiled already (in this process or in
+numba's cache), whatever the run's length; else it compiles a run of at least
 `AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a shorter one in Python;
 FMUs and blocks without a kernel keep the Python schedule. `on` compiles before the first step
 and makes a missing kernel an error; `off` always runs the Python schedule.
@@ -59,8 +60,8 @@ from twmr.master.schedule import FixedStep
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto', kinds without a compiled driver yet: runs of at least this many base steps are
-#: compiled (a shorter one is over before numba would have compiled the driver)
+#: mode 'auto', kinds not compiled yet: runs of at least this many base steps are compiled (a
+#: shorter one is over before numba would have compiled them)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
 
@@ -103,7 +104,7 @@ class CompiledStep(Algorithm):
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
         self.mode = mode
-        #: False: the loop generated for this scenario even where the driver of its kinds would
+        #: False: the loop generated for this scenario even where the driver would
         #: run (the benchmark's "before")
         self.use_driver = use_driver
         self.python = FixedStep(method)
@@ -111,9 +112,10 @@ class CompiledStep(Algorithm):
         self._pending = False
         self.reason = ""
         self.compile_seconds = float("nan")
-        #: the driver of the system's kinds (None: the generated loop, for FMUs, or not compiled)
-        self._driver: driver.Driver | None = None
-        #: whether numba compiled (or loaded from its cache) the driver for this run
+        #: the driver's loop (`twmr.master.driver_loop`; None: the generated loop, or Python)
+        self._driver: Any = None
+        #: whether numba compiled (or loaded from its cache) a kind's adapters or the driver for
+        #: this run
         self.driver_compiled = False
 
     # -- Algorithm ---------------------------------------------------------------------------
@@ -135,11 +137,11 @@ class CompiledStep(Algorithm):
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
-                          f"{AUTO_MIN_STEPS} steps) whose kinds have no compiled driver yet"
+                          f"{AUTO_MIN_STEPS} steps) with kinds not compiled yet"
 
     def _ready(self) -> bool:
-        """Mode 'auto': whether the driver of the system's kinds is compiled already (in this
-        process or in numba's cache), so the whole run can be compiled from its first step."""
+        """Mode 'auto': whether every kind of the system is compiled already (in this process or
+        in numba's cache), so the whole run can be compiled from its first step."""
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
@@ -197,18 +199,21 @@ class CompiledStep(Algorithm):
 
     def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
                         t0: float) -> None:
-        """Take (or compile) the driver of the system's kinds and lay the plan out for it."""
+        """Take (or compile) the adapters of the system's kinds and lay the plan out for the
+        driver."""
         try:
-            self._driver, self.driver_compiled = driver.load(list(kinds.values()), cache_dir())
+            addresses, fresh = driver.load(list(kinds.values()), cache_dir())
+            from twmr.master import driver_loop
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self._refuse(exc)
             return
         assert self.python.plan is not None
-        self._layout = driver.layout(self._system, self.python.plan, kernels, self._driver.ids,
-                                     kinds)
+        self._layout = driver.layout(self._system, self.python.plan, kernels, addresses, kinds)
         self._ncols = 1 + len(self._layout.rec) if self._record else 1
+        self._driver = driver_loop
+        self.driver_compiled = fresh > 0
         self.compile_seconds = time.perf_counter() - t0
-        self.source = self._driver.source
+        self.source = "\n".join(dict.fromkeys(driver.generate(k)[0] for k in kinds.values()))
         self.compiled = True
 
     def _refuse(self, exc: Exception) -> None:
@@ -221,7 +226,7 @@ class CompiledStep(Algorithm):
                 f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
         log.warning("running the Python schedule: %s", self.reason)
 
-    def _run_driver(self, drv: driver.Driver, n0: int, n1: int, buf: np.ndarray,
+    def _run_driver(self, drv: Any, n0: int, n1: int, buf: np.ndarray,
                     rows: list[Any]) -> None:
         lay, exp = self._layout, self._system.experiment
         k, bad = drv.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
@@ -386,7 +391,7 @@ def _kinds(system: System, kernels: dict[str, Kernel]) -> dict[str, driver.KindS
     try:
         return {n: driver.kind_of(system.components[n], kernels[n]) for n in system.order}
     except driver.Unsupported as exc:
-        log.debug("compiling the loop of this scenario (not the driver of its kinds): %s", exc)
+        log.debug("compiling the loop of this scenario (not the driver): %s", exc)
         return None
 
 

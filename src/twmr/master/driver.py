@@ -1,27 +1,28 @@
-"""The compiled step loop without a compile per scenario: one numba driver per set of block kinds,
-stepping any wiring of those kinds from flat arrays.
+"""The compiled step loop without a compile per scenario: each kind of block compiled once, one
+driver loop for every scenario.
 
 A scenario's `Plan` is laid out as arrays (`Layout`): one float64 vector S of every port element
 (each block's outputs, then its inputs, declared order; under Jacobi a snapshot area after them),
 one of every block's private state X and one of its parameters P (scalars as themselves, ints and
-bools as floats, arrays as their shape then their elements), a table of blocks (kind id, offsets
-into S, X and P, step), a program of the point (runs of element copies, scaled copies with their
-unit gain and offset, evaluations, each with its step multiple), the steps, the terms of the NaN/Inf
-check and the recorded elements. The driver (`run`, `finish`) interprets them; a block's call goes
-through its kind's adapter, which rebuilds the kernel's own arguments (tuples, NamedTuples, arrays)
-from its slices, calls the unchanged kernel functions and writes their results back.
+bools as floats, arrays as their shape then their elements), a table of blocks (the C addresses of
+its kind's adapters, offsets into S, X and P), a program of the point (runs of element copies,
+scaled copies with their unit gain and offset, evaluations, each with its step multiple), the
+steps, the terms of the NaN/Inf check and the recorded elements. The driver
+(`twmr.master.driver_loop`, compiled once) interprets them and calls each block through its
+kind's adapter, which rebuilds the kernel's own arguments (tuples, NamedTuples, arrays) from its
+slices, calls the unchanged kernel functions and writes their results back.
 
 A kind is the pair of kernel functions with the shapes of x, y, u and p (`KindSpec`): a thousand
-gain blocks are one kind. The driver's source is a function of the set of kinds only; its
-argument types never change, so a rewired scenario, or one with more blocks, reuses the compiled
-driver of its kinds (in this process: at once; in another: from numba's cache), and a driver
-compiled for more kinds serves a scenario with fewer. Every element is computed by the same
-expression, in the same order, as the Python schedule, so the rows are bit-identical.
+gain blocks are one kind. Its adapters are a module of their own (`kind_<hash>.py` in the cache
+folder, numba's machine code beside it), compiled the first time the kind is met and loaded
+after that; the driver's argument types never change. So a rewired scenario, one with more
+blocks, or another mix of known kinds runs compiled without compiling anything, and a new kind
+costs the compile of that kind alone. Every element is computed by the same expression, in the
+same order, as the Python schedule, so the rows are bit-identical.
 """
 from __future__ import annotations
 
 import functools
-import hashlib
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -108,8 +109,8 @@ class KindSpec:
 
     @functools.cached_property
     def key(self) -> str:
-        """The adapters' source with the kind's place left open: equal keys, one adapter."""
-        return _adapters(self, "{i}")
+        """The adapters' source: equal keys, one adapter."""
+        return _adapters(self)
 
 
 def kind_of(comp: Any, kern: Kernel) -> KindSpec:
@@ -206,25 +207,27 @@ def _ports(sizes: tuple[int | None, ...], start: int) -> tuple[str, int]:
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")", o
 
 
-def _adapters(kind: KindSpec, i: str, imports: dict[str, str] | None = None) -> str:
-    """Source of `ev{i}` / `st{i}` (those the kind has): rebuild x, y, u, p from the vectors,
-    call the kernel, store x and y back."""
+def _adapters(kind: KindSpec, imports: dict[str, str] | None = None) -> str:
+    """Source of `ev` and `st` (those the kind has), of the signature `driver_loop.ADAPTER`:
+    rebuild x, y, u, p from the vectors, call the kernel, store x and y back."""
     imports = {} if imports is None else imports
     src = _Src()
-    for fn, name, head in ((kind.evaluate, "ev", "t"), (kind.step, "st", "t, h")):
+    for fn, name in ((kind.evaluate, "ev"), (kind.step, "st")):
         if fn is None:
             continue
         alias = f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}"
         imports[alias] = f"from {fn.__module__} import {fn.__qualname__} as {alias}"
         src.add(0, "@njit(cache=True, error_model='numpy')")
-        src.add(0, f"def {name}{i}({head}, S, X, P, so, xo, po):")
+        src.add(0, f"def {name}(t, h, Sp, Xp, Pp, nS, nX, nP, so, xo, po):")
+        for vec in "SXP":
+            src.add(1, f"{vec} = carray({vec}p, (n{vec},))")
         src.add(1, "o = po")
         p = _read(src, 1, "P", kind.params, imports)
         src.add(1, "o = xo")
         x = _read(src, 1, "X", kind.state, imports)
         y, end = _ports(kind.outputs, 0)
         u, _ = _ports(kind.inputs, end)
-        src.add(1, f"r = {alias}({head}, {x}, {y}, {u}, {p})")
+        src.add(1, f"r = {alias}({'t' if name == 'ev' else 't, h'}, {x}, {y}, {u}, {p})")
         src.add(1, "o = xo")
         _write(src, 1, "r[0]", kind.state)
         src.add(1, "ry = r[1]")
@@ -236,126 +239,22 @@ def _adapters(kind: KindSpec, i: str, imports: dict[str, str] | None = None) -> 
                 for e in range(size):
                     src.add(1, f"S[so + {o + e}] = ry[{j}][{e}]")
             o += _width(size)
+        src.add(1, "return 0")
+        src.add(0, "")
         src.add(0, "")
     return "\n".join(src.lines)
 
 
-_LOOP = '''
-@njit(cache=True, error_model='numpy')
-def point(n, t, final, S, X, P, ops, gains, blocks):
-    for i in range(ops.shape[0]):
-        m = ops[i, 3]
-        if not final and m != 1 and n % m != 0:
-            continue
-        code = ops[i, 0]
-        if code == 0:
-            a = ops[i, 1]
-            b = ops[i, 2]
-            for e in range(ops[i, 4]):
-                S[a + e] = S[b + e]
-        elif code == 1:
-            S[ops[i, 1]] = S[ops[i, 2]] * gains[i, 0] + gains[i, 1]
-        else:
-            b = ops[i, 1]
-            evaluate(blocks[b, 0], t, S, X, P, blocks[b, 1], blocks[b, 2], blocks[b, 3])
-
-
-@njit(cache=True, error_model='numpy')
-def nonfinite(S, chk):
-    v = 0.0
-    cs = 0.0
-    cur = -1
-    for i in range(chk.shape[0]):
-        o = chk[i, 0]
-        term = S[o]
-        for e in range(1, chk[i, 1]):
-            term = term + S[o + e]
-        if chk[i, 2] != cur:
-            if cur >= 0:
-                v = v + cs
-            cs = term
-            cur = chk[i, 2]
-        else:
-            cs = cs + term
-    if cur >= 0:
-        v = v + cs
-    return v - v != 0.0
-
-
-@njit(cache=True, error_model='numpy')
-def record(k, t, S, rec, buf):
-    buf[k, 0] = t
-    for j in range(rec.shape[0]):
-        buf[k, 1 + j] = S[rec[j]]
-
-
-@njit(cache=True, error_model='numpy')
-def run(n0, n1, start, h, S, X, P, ops, gains, blocks, steps, H, chk, rec, buf, dec):
-    k = 0
-    bad = -1
-    for n in range(n0, n1):
-        t = start + n * h
-        point(n, t, False, S, X, P, ops, gains, blocks)
-        if chk.shape[0] and nonfinite(S, chk):
-            bad = n
-            break
-        if buf.shape[1] > 1 and n % dec == 0:
-            record(k, t, S, rec, buf)
-            k += 1
-        for i in range(steps.shape[0]):
-            b = steps[i, 0]
-            m = steps[i, 1]
-            if m == 1:
-                step(blocks[b, 0], t, H[b], S, X, P, blocks[b, 1], blocks[b, 2], blocks[b, 3])
-            elif n % m == m - 1:
-                step(blocks[b, 0], t - (m - 1) * h, H[b], S, X, P, blocks[b, 1], blocks[b, 2],
-                     blocks[b, 3])
-    return k, bad
-
-
-@njit(cache=True, error_model='numpy')
-def finish(n, start, h, S, X, P, ops, gains, blocks, chk, rec, buf):
-    t = start + n * h
-    point(n, t, True, S, X, P, ops, gains, blocks)
-    if chk.shape[0] and nonfinite(S, chk):
-        return 0, n
-    if buf.shape[1] > 1:
-        record(0, t, S, rec, buf)
-        return 1, -1
-    return 0, -1
-'''
-
-
-def _dispatch(name: str, head: str, ids: list[int]) -> str:
-    lines = ["@njit(cache=True, error_model='numpy')",
-             f"def {'evaluate' if name == 'ev' else 'step'}(kd, {head}, S, X, P, so, xo, po):"]
-    for j, i in enumerate(ids):
-        lines.append(f"    {'if' if j == 0 else 'elif'} kd == {i}:")
-        lines.append(f"        {name}{i}({head}, S, X, P, so, xo, po)")
-    if not ids:
-        lines.append("    pass")
-    return "\n".join(lines) + "\n"
-
-
-def generate(kinds: Sequence[KindSpec]) -> tuple[str, dict[str, Any]]:
-    """(source of the driver of `kinds`, {alias: kernel function}); kind i is `kinds[i]`."""
+def generate(kind: KindSpec) -> tuple[str, dict[str, Any]]:
+    """(source of the module of `kind`'s adapters, {alias: kernel function})."""
     imports: dict[str, str] = {}
-    names: dict[str, Any] = {}
-    parts = []
-    for i, kind in enumerate(kinds):
-        parts.append(_adapters(kind, str(i), imports))
-        for fn in (kind.evaluate, kind.step):
-            if fn is not None:
-                names[f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}"] = fn
-    head = ["# generated by twmr.master.driver: the step loop of these kinds",
-            *[f"# kind {i}: {getattr(k.evaluate, '__qualname__', None)} "
-              f"{getattr(k.step, '__qualname__', None)}" for i, k in enumerate(kinds)],
-            "import numpy as np", "from numba import njit", *sorted(imports.values()), "", ""]
-    ev = [i for i, k in enumerate(kinds) if k.evaluate is not None]
-    st = [i for i, k in enumerate(kinds) if k.step is not None]
-    source = "\n".join(head) + "\n".join(parts) + "\n" + _dispatch("ev", "t", ev) + "\n" + \
-        _dispatch("st", "t, h", st) + _LOOP
-    return source, names
+    body = _adapters(kind, imports)
+    names = {f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}": fn
+             for fn in (kind.evaluate, kind.step) if fn is not None}
+    head = ["# generated by twmr.master.driver: the adapters of one kind of block",
+            "import numpy as np", "from numba import carray, njit", *sorted(imports.values()),
+            "", ""]
+    return "\n".join(head) + body, names
 
 
 # -- the arrays of one scenario ------------------------------------------------------------------
@@ -378,10 +277,10 @@ class Layout:
     state: list[tuple[int, Shape]]
 
 
-def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str, int],
-           kinds: dict[str, KindSpec]) -> Layout:
-    """The arrays of `plan` over `kernels`; `ids[key]` is the driver's number of kind `key`,
-    `kinds[name]` the kind of component `name`."""
+def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
+           addresses: dict[str, tuple[int, int]], kinds: dict[str, KindSpec]) -> Layout:
+    """The arrays of `plan` over `kernels`; `kinds[name]` is the kind of component `name`,
+    `addresses[key]` the C addresses of kind `key`'s evaluate and step adapters (0: none)."""
     comps = system.components
     exp = system.experiment
     slot: dict[tuple[str, str], int] = {}
@@ -399,7 +298,7 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str
         xo, po = len(X), len(P)
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
-        blocks.append((ids[kind.key], so, xo, po))
+        blocks.append((*addresses[kind.key], so, xo, po))
         signal.append(so)
         state.append((xo, kind.state))
         assert b == len(blocks) - 1
@@ -453,85 +352,56 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel], ids: dict[str
 
     return Layout(np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
                   np.array(P, dtype=np.float64), ints(ops, 5),
-                  np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 4),
+                  np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 5),
                   ints(steps, 2), np.array(H, dtype=np.float64), ints(chk, 3),
                   np.array(rec, dtype=np.int64), signal, state)
 
 
-def kind_set_key(kinds: Sequence[KindSpec]) -> str:
-    """A short name of a set of kinds (log lines, benchmarks)."""
-    return hashlib.sha256("\n".join(sorted(k.key for k in kinds)).encode()).hexdigest()[:12]
+# -- the compiled kinds ------------------------------------------------------------------------
+#: the C addresses of the adapters of the kinds this process has compiled (or loaded), by key
+_LOADED: dict[str, tuple[int, int]] = {}
 
 
-# -- the compiled drivers --------------------------------------------------------------------------
-@dataclass
-class Driver:
-    """A loaded driver: its kinds' numbers by `KindSpec.key`, `run`, `finish` and its source."""
+def _address(fn: Any) -> int:
+    """The C address of adapter `fn` compiled for `driver_loop.ADAPTER`."""
+    from twmr.master.driver_loop import ADAPTER
 
-    ids: dict[str, int]
-    run: Any
-    finish: Any
-    source: str
+    fn.compile(ADAPTER)
+    cres = fn.overloads[ADAPTER.args]
+    return int(cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name))
 
 
-#: the drivers this process has compiled (or loaded from numba's cache)
-_LOADED: list[Driver] = []
+def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, int]], int]:
+    """({key: (evaluate, step) adapter addresses} of `kinds`, how many kinds numba compiled or
+    loaded now): those this process holds, the others generated, loaded through the verified
+    cache in `folder` (`twmr.master.schedule_cache`; exec'd without a cache when `folder` cannot
+    be written) and compiled."""
+    from twmr.master import driver_loop, schedule_cache
 
-
-def signatures() -> tuple[tuple[Any, ...], tuple[Any, ...]]:
-    """numba's argument types of `run` and `finish` (the same for every scenario)."""
-    from numba import types as nt
-
-    f1, f2 = nt.float64[::1], nt.float64[:, ::1]
-    i1, i2 = nt.int64[::1], nt.int64[:, ::1]
-    i, f = nt.int64, nt.float64
-    return ((i, i, f, f, f1, f1, f1, i2, f2, i2, i2, f1, i2, i1, f2, i),
-            (i, f, f, f1, f1, f1, i2, f2, i2, i2, i1, f2))
-
-
-def loaded(kinds: Sequence[KindSpec]) -> Driver | None:
-    """A driver of this process whose kinds include `kinds` (None: none yet)."""
-    keys = {k.key for k in kinds}
-    return next((d for d in _LOADED if keys <= d.ids.keys()), None)
-
-
-def ordered(kinds: Sequence[KindSpec]) -> list[KindSpec]:
-    """`kinds` without repeats, in the order that numbers them in their driver."""
-    return sorted({k.key: k for k in kinds}.values(), key=lambda k: k.key)
-
-
-def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[Driver, bool]:
-    """(the driver of `kinds`, whether numba compiled or loaded it now): one this process holds,
-    else generated, loaded through the verified cache in `folder` (`twmr.master.schedule_cache`;
-    exec'd without a cache when `folder` cannot be written) and compiled for `signatures()`."""
-    found = loaded(kinds)
-    if found is not None:
-        return found, False
-    kinds = ordered(kinds)
-    source, names = generate(kinds)
-    from twmr.master import schedule_cache
-
-    try:
-        run, finish = schedule_cache.load(source, names, folder)
-    except OSError:
-        env: dict[str, Any] = dict(names)
-        exec(compile(source.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
-                     "<twmr compiled driver>", "exec"), env)
-        run, finish = env["run"], env["finish"]
-    run_sig, finish_sig = signatures()
-    run.compile(run_sig)
-    finish.compile(finish_sig)
-    driver = Driver({k.key: i for i, k in enumerate(kinds)}, run, finish, source)
-    _LOADED.append(driver)
-    return driver, True
+    fresh = 0
+    for kind in {k.key: k for k in kinds}.values():
+        if kind.key in _LOADED:
+            continue
+        source, names = generate(kind)
+        try:
+            module = schedule_cache.load_module(source, names, folder, "kind")
+            env: dict[str, Any] = vars(module)
+        except OSError:
+            env = dict(names)
+            exec(compile(source.replace("cache=True", "cache=False"),  # noqa: S102 - generated
+                         "<twmr compiled kind>", "exec"), env)
+        _LOADED[kind.key] = tuple(_address(env[n]) if n in env else 0  # type: ignore[assignment]
+                                  for n in ("ev", "st"))
+        fresh += 1
+    for fn in (driver_loop.run, driver_loop.finish):
+        fresh += not fn.signatures
+    return {k.key: _LOADED[k.key] for k in kinds}, fresh
 
 
 def cached(kinds: Sequence[KindSpec], folder: Any) -> bool:
-    """Whether a driver of `kinds` is ready without compiling: held by this process, or its
+    """Whether every kind of `kinds` is ready without compiling: held by this process, or its
     machine code in numba's cache in `folder`."""
-    if loaded(kinds) is not None:
-        return True
     from twmr.master import schedule_cache
 
-    source, names = generate(ordered(kinds))
-    return schedule_cache.has_machine_code(source, names, folder)
+    return all(k.key in _LOADED or schedule_cache.has_machine_code(*generate(k), folder, "kind")
+               for k in kinds)

@@ -1,11 +1,12 @@
 """The compiled loop's cache: each generated step loop as a module file, and numba's machine code
 of it, both used only when their content is what was written.
 
-- `schedule_<key>.py` (<key>: a hash of the generated source, the source files of the kernels'
-  packages and numba's version). Before anything is imported, the file's text is compared with the
-  source generated now; a file that differs (edited, truncated, a line prepended) is rewritten,
-  with a log line. The module is executed from the generated source, never from the file: the
-  file is there for numba, whose cache is keyed by it.
+- `schedule_<key>.py` (a scenario's generated loop) or `kind_<key>.py` (the adapters of one
+  kind of block, `twmr.master.driver`); <key>: a hash of the generated source, the source files
+  of the kernels' packages and numba's version. Before anything is imported, the file's text is
+  compared with the source generated now; a file that differs (edited, truncated, a line
+  prepended) is rewritten, with a log line. The module is executed from the generated source,
+  never from the file: the file is there for numba, whose cache is keyed by it.
 - numba's cache of it (`<module>.*.nbi` / `.nbc` in numba's cache folder: pickles, i.e. code).
   The SHA-256 of each of these files is recorded in `schedule_<key>.manifest.json` (written whole,
   then renamed) right after numba writes them; before numba reads them they are checked against
@@ -34,24 +35,34 @@ _NUMBA_SUFFIXES = (".nbi", ".nbc")
 
 
 def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
-    """(run, finish) of the generated `source` (which imports the kernels in `names`), as the
-    module `schedule_<key>.py` in `folder`, with numba's cache of it verified. OSError when the
-    folder cannot be written."""
+    """(run, finish) of the generated loop `source` (`load_module`)."""
+    module = load_module(source, names, folder, "schedule")
+    return module.run, module.finish
+
+
+def load_module(source: str, names: dict[str, Any], folder: Path, prefix: str
+                ) -> types.ModuleType:
+    """The generated `source` (which imports the kernels in `names`) as the module
+    `<prefix>_<key>.py` in `folder`, with numba's cache of it verified. OSError when the folder
+    cannot be written."""
     key = _key(source, names)
     folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"schedule_{key}.py"
+    path = folder / f"{prefix}_{key}.py"
     _ensure_text(path, source)
-    modname = f"twmr_schedule_{key}"
+    modname = f"twmr_{prefix}_{key}"
     module = sys.modules.get(modname)
     if module is None:
         module = types.ModuleType(modname)
         module.__file__ = str(path)
         exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - generated here
         sys.modules[modname] = module
-        verified = _VerifiedCache(path, [module.run, module.finish])
-        for fn in (module.run, module.finish):
+        # every numba function of the module (the driver's adapters and helpers too)
+        own = [v for v in vars(module).values() if hasattr(v, "_cache") and
+               getattr(getattr(v, "py_func", None), "__module__", None) == modname]
+        verified = _VerifiedCache(path, own)
+        for fn in own:
             verified.wrap(fn._cache)
-    return module.run, module.finish
+    return module
 
 
 def _key(source: str, names: dict[str, Any]) -> str:
@@ -74,10 +85,11 @@ def _packages(folders: frozenset[Path]) -> str:
     return digest.hexdigest()
 
 
-def has_machine_code(source: str, names: dict[str, Any], folder: Path) -> bool:
+def has_machine_code(source: str, names: dict[str, Any], folder: Path,
+                     prefix: str = "schedule") -> bool:
     """Whether `folder` holds the module of `source` and numba's cache of it (index files),
-    i.e. a later `load` finds compiled code (unless the cache fails its check)."""
-    stem = f"schedule_{_key(source, names)}"
+    i.e. a later `load_module` finds compiled code (unless the cache fails its check)."""
+    stem = f"{prefix}_{_key(source, names)}"
     return (folder / f"{stem}.py").is_file() and \
         any((folder / "__pycache__").glob(f"{stem}.*.nbi"))
 
