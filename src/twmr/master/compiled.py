@@ -29,9 +29,10 @@ functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuC
 
 The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
 (`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
-files of the kernels' packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
-every later process (sweep workers included). Parameters, initial values, the step and the
-start time are arguments, so a sweep over parameter values compiles once.
+files of the kernels' packages and numba's version; numba's own cache (`cache=True`) then
+reuses the machine code in every later process (sweep workers included). Parameters, initial
+values, the step and the start time are arguments, so a sweep over parameter values compiles
+once.
 
 Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
 from the first step when every kind of the system is compiled already (in this process or in
