@@ -360,6 +360,8 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
 # -- the compiled kinds ------------------------------------------------------------------------
 #: the C addresses of the adapters of the kinds this process has compiled (or loaded), by key
 _LOADED: dict[str, tuple[int, int]] = {}
+#: the adapters compiled without the cache folder (their machine code lives as long as they do)
+_HELD: list[dict[str, Any]] = []
 
 
 def _address(fn: Any) -> int:
@@ -390,11 +392,15 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
             env = dict(names)
             exec(compile(source.replace("cache=True", "cache=False"),  # noqa: S102 - generated
                          "<twmr compiled kind>", "exec"), env)
+            _HELD.append(env)
         _LOADED[kind.key] = tuple(_address(env[n]) if n in env else 0  # type: ignore[assignment]
                                   for n in ("ev", "st"))
         fresh += 1
-    for fn in (driver_loop.run, driver_loop.finish):
-        fresh += not fn.signatures
+    loops: tuple[Any, Any] = (driver_loop.run, driver_loop.finish)
+    for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
+        if not fn.signatures:
+            fn.compile(sig)
+            fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh
 
 

@@ -16,6 +16,15 @@ ADAPTER = types.int64(types.float64, types.float64, types.CPointer(types.float64
                       *(types.int64,) * 6)
 
 
+def signatures() -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """numba's argument types of `run` and `finish` (the same for every scenario)."""
+    f1, f2 = types.float64[::1], types.float64[:, ::1]
+    i1, i2 = types.int64[::1], types.int64[:, ::1]
+    i, f = types.int64, types.float64
+    return ((i, i, f, f, f1, f1, f1, i2, f2, i2, i2, f1, i2, i1, f2, i),
+            (i, f, f, f1, f1, f1, i2, f2, i2, i2, i1, f2))
+
+
 @intrinsic
 def _call(typingctx: Any, addr: Any, t: Any, h: Any, sp: Any, xp: Any, pp: Any, ns: Any,
           nx: Any, np_: Any, so: Any, xo: Any, po: Any) -> Any:
