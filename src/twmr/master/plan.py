@@ -228,6 +228,34 @@ def input_value(system: System, conns: list[Connection], cur: str,
     return "(" + ", ".join(elems) + ("," if len(elems) == 1 else "") + ")"
 
 
+#: one element of an input write: (destination element, source component, source port, source
+#: element (None: a scalar), unit gain and offset (None, 0.0: copied as is))
+Element = tuple[int, str, str, int | None, float | None, float]
+
+
+def input_elements(system: System, conns: list[Connection]) -> list[Element]:
+    """The elements that `input_value(system, conns, ...)` writes, one by one, in its order and
+    with its arithmetic (`e * gain + offset` where a wire has a gain or offset; elements it
+    leaves at their value are not listed)."""
+    comps = system.components
+    c0 = conns[0]
+    var = comps[c0.dst].variables[c0.dst_port]
+    out: dict[int, Element] = {}
+    for c in conns:
+        src_var = comps[c.src].variables[c.src_port]
+        sidx = c.src_index if c.src_index is not None else (
+            (None,) if src_var.size is None else tuple(range(src_var.width)))
+        if len(conns) == 1 and c.dst_index is None:
+            didx: tuple[int, ...] = tuple(range(len(sidx) if var.size is not None else 1))
+        else:
+            didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
+        scaled = c.gain != 1.0 or c.offset != 0.0
+        for s_, d in zip(sidx, didx, strict=False):
+            out[d] = (d, c.src, c.src_port, s_, c.gain if scaled else None,
+                      c.offset if scaled else 0.0)
+    return list(out.values())
+
+
 def _value_expr(conn: Connection, src_expr: str, src_size: int | None,
                 dst_size: int | None) -> str:
     """Expression giving the destination input's new value from `src_expr` (the source port
