@@ -348,8 +348,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        realisations=args.realisations, trials=args.trials, seed=args.seed,
                        aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
                        overrides=args.set, method=args.method, out=args.out,
-                       workers=args.workers, scheduler=args.scheduler,
-                       progress=not args.quiet)
+                       workers=args.workers, scheduler=args.scheduler, batch=args.batch,
+                       baseline=args.baseline, progress=not args.quiet)
     best = outcome.best
     if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
         from twmr.tune import TuneError
@@ -508,6 +508,10 @@ def parser() -> argparse.ArgumentParser:
                             help="1 (default): runs in this process; more: local Dask workers")
     tune_where.add_argument("--scheduler", metavar="ADDRESS",
                             help="an existing Dask cluster you trust (it runs code here)")
+    tu.add_argument("--batch", type=int, metavar="B",
+                    help="trials asked and run together (default: the workers)")
+    tu.add_argument("--baseline", metavar="SCENARIO",
+                    help="run once over the same realisations; its figures are base_<figure>")
     tu.add_argument("--out", help="the tune's folder (default tunes/<scenario name>)")
     with_set(tu)
     tu.set_defaults(fn=cmd_tune)
