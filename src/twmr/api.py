@@ -323,8 +323,8 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
          metrics: Sequence[str] = ("tracking",), overrides: Sequence[str] = (),
          method: str = "random", out: str | Path | None = None, workers: int | None = 1,
          scheduler: str | None = None, batch: int | None = None,
-         baseline: str | Path | None = None, report: bool = True, progress: bool = False
-         ) -> Any:
+         baseline: str | Path | None = None, start: Sequence[dict[str, Any]] = (),
+         report: bool = True, progress: bool = False) -> Any:
     """Tune `params` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC LO:HI, log:LO:HI, int:LO:HI or
     values:A,B,C) of `scenario` to minimise `aggregate` (mean, median, max, qP) of the metric
     expression `objective` over `realisations` runs drawn once from `vary` and `seed` (the same
@@ -332,7 +332,8 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     `trials` Optuna TPE trials in all (a folder holding fewer continues), asked `batch` at a time
     (default: the workers). `workers` 1 runs in this process; more on local Dask workers on
     127.0.0.1. `baseline`: a scenario run once over the same realisations, its figures named
-    `base_<figure>` in `objective` and `constraints`. Writes `out` (default
+    `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
+    param) tried first, in order, before the sampler proposes. Writes `out` (default
     tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet, best.yaml,
     report/. Returns a `twmr.tune.TuneOutcome`."""
     from twmr.sweeps import parse_vary
@@ -347,7 +348,8 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
                     Expression(objective), [parse_vary(t) for t in texts(vary)], realisations,
                     trials, seed, aggregate, [parse_constraint(c) for c in constraints],
                     list(metrics), list(overrides), method,
-                    str(baseline) if baseline is not None else None)
+                    str(baseline) if baseline is not None else None,
+                    [dict(p) for p in start])
     folder = Path(out) if out is not None else Path("tunes") / (Path(str(scenario)).stem or
                                                                   "scenario")
     outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, batch=batch,

@@ -116,6 +116,19 @@ def test_dask_workers_give_the_same_trials(tmp_path):
     assert walls[0] == walls[1] and walls[2] == walls[3]  # trials 0, 1 ran as one batch, 2, 3
 
 
+def test_start_points_are_tried_first(tmp_path):
+    outcome = tune(tmp_path, 3, start=[{"ctrl.k": 3.0}, {"ctrl.k": 0.5}])
+    assert [t["ctrl.k"] for t in outcome.trials[:2]] == [3.0, 0.5]
+    assert outcome.best["ctrl.k"] == 3.0  # the optimum is near 3.1: no random trial beats it
+    assert tune(tmp_path, 4, start=[{"ctrl.k": 3.0}, {"ctrl.k": 0.5}]).ran == 1
+    with pytest.raises(SweepError, match=r"ctrl.k=50.0 is outside its range log:0.3:30"):
+        tune(tmp_path, 2, out=tmp_path / "out", start=[{"ctrl.k": 50.0}])
+    assert main(["tune", LOOP, "--param", "ctrl.k=log:0.3:30", "--objective", OBJECTIVE,
+                 "--metrics", "signals", "--trials", "1", "--start", "ctrl.k=2.5",
+                 "--out", str(tmp_path / "cli"), "-q"]) == 0
+    assert pd.read_parquet(tmp_path / "cli" / "trials.parquet")["ctrl.k"].tolist() == [2.5]
+
+
 def test_a_batch_spreads_its_trials(tmp_path):
     """The pending trials of a batch count as constant liars: the trials of a batch of 4, after
     the random start-up, are not proposed at one point."""
@@ -165,6 +178,9 @@ def test_a_baseline_gives_its_figures_per_realisation(tmp_path):
     (["--param", "ctrl.k=1:5", "--objective", "ms_err_z"], "'ms_err_z' is not a figure"),
     (["--param", "ctrl.k=1:5", "--objective", "__import__('os')"], "is not allowed in it"),
     (["--param", "ctrl.k=1:5", "--constraint", "peak_ctrl_y<3"], "no <= or >="),
+    (["--param", "ctrl.k=1:5", "--start", "ctrl.kk=2"], "--start 1: no value of ctrl.k"),
+    (["--param", "ctrl.k=1:5", "--objective", "base_ms_err_y"], "no baseline is given"),
+    (["--param", "ctrl.k=1:5", "--batch", "0"], "--batch 0 is not a positive"),
 ])
 def test_bad_input_is_one_paragraph(tmp_path, capsys, extra, expected):
     args = ["tune", LOOP, "--metrics", "signals", "--trials", "2", "--out",

@@ -58,6 +58,14 @@ class Param:
             return IntDistribution(int(self.args[0]), int(self.args[1]))
         return FloatDistribution(self.args[0], self.args[1], log=self.kind == "log")
 
+    def contains(self, value: Any) -> bool:
+        """Whether `value` lies in this range (is one of its values)."""
+        dist = self.distribution()
+        try:
+            return bool(dist._contains(dist.to_internal_repr(value)))
+        except (ValueError, TypeError):
+            return False
+
     def as_vary(self) -> Vary:
         """The same NAME as a sweep's Vary (for the scenario's name check)."""
         return Vary(self.name, "values", (0,))

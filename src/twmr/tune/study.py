@@ -80,6 +80,7 @@ class TuneSpec:
     fixed: list[str] = field(default_factory=list)
     method: str = "random"
     baseline: str | None = None
+    start: list[dict[str, Any]] = field(default_factory=list)
 
     def check(self) -> None:
         """TuneError when the tune is ill-formed."""
@@ -104,6 +105,18 @@ class TuneSpec:
         if not self.metrics:
             raise TuneError("no metric set. Fix: give --metrics NAME (e.g. tracking, signals).")
         check_aggregate(self.aggregate)
+        names = {p.name: p for p in self.params}
+        for i, point in enumerate(self.start, 1):
+            missing = sorted(set(names) - set(point))
+            extra = sorted(set(point) - set(names))
+            if missing or extra:
+                what = f"no value of {missing[0]}" if missing else f"{extra[0]} is not tuned"
+                raise TuneError(f"--start {i}: {what}. Fix: give every --param NAME=VALUE once "
+                                f"in each --start, and nothing else.")
+            for name, value in point.items():
+                if not names[name].contains(value):
+                    raise TuneError(f"--start {i}: {name}={value!r} is outside its range "
+                                    f"{names[name].text}. Fix: give a value inside it.")
         uses_base = [n for n in self.names() if n.startswith(BASE)]
         if uses_base and not self.baseline:
             raise TuneError(f"'{uses_base[0]}' is a baseline figure, and no baseline is given. "
@@ -131,6 +144,7 @@ class TuneSpec:
                 "vary": {v.name: v.text for v in self.vary}, "realisations": self.realisations,
                 "method": self.method, "seed": self.seed, "metrics": list(self.metrics),
                 "set": list(self.fixed), "baseline": self.baseline,
+                "start": [dict(sorted(p.items())) for p in self.start],
                 "baseline_sha256": hashlib.sha256(baseline.encode()).hexdigest()
                 if self.baseline else None}
 
@@ -203,6 +217,8 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
         if batch is None:
             batch = _workers_of(client) if client is not None else 1
         study = _study(spec, outcome.trials)
+        for point in spec.start[len(outcome.trials):]:
+            study.enqueue_trial(point)
         dists = {p.name: p.distribution() for p in spec.params}
         while left > 0:
             asked = [study.ask(dists) for _ in range(min(batch, left))]
