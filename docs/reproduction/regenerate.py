@@ -45,8 +45,10 @@ BANDS = (0.10, 0.15, 0.20)
 R_WHEEL = 0.15          # [m], Table I
 T_LATE, E_CIRCLE = 10.0, 0.07
 PAPER = {"asmc": (2.0, 0.8, 0.19, 0.19, 0.054, 0.145), "smc": (5.2, 4.0, 0.45, 0.54, 0.127, 0.258)}
-AS_PRINTED = ["ctrl.torque_limit=0", "motor.torque_max=0", "ctrl.eps_singular=0.001", "ctrl.phi=0"]
-AS_PRINTED_ASMC = ["ctrl.eta=7", "ctrl.hold_saturated=false"]
+AS_PRINTED = ["ctrl.torque_limit=0", "motor.torque_max=0", "ctrl.eps_singular=0.001", "ctrl.phi=0",
+              "ctrl.lam=13", "ctrl.vartheta=20", "ctrl.k=20", "ctrl.lookahead=0.05",
+              "ctrl.drive=backward"]  # Table II, and the 5 cm look-ahead behind M
+AS_PRINTED_ASMC = ["ctrl.eta=7", "ctrl.hold_saturated=false", "ctrl.d_hat_limit=0"]
 SWEEPS = ("trajectory1_asmc", "trajectory1_smc", "circle_asmc")
 VARIANTS = ("bounded", "as_printed")
 

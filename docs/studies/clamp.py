@@ -30,7 +30,7 @@ T0 = 2.0  # [s] after the start transient
 SIGNALS = ["ref.position", "ref.velocity", "plant.pose", "plant.wheel_speed", "ctrl.error",
            "ctrl.torque", "ctrl.d_hat"]
 CONFIGS = {
-    "shipped": [],
+    "as shipped": [],
     "before the tune (eta 0.1, eps 0.5, L 0.05, phi 0.2, Table II gains)":
         ["ctrl.eta=0.1", "ctrl.eps_singular=0.5", "ctrl.lookahead=0.05", "ctrl.phi=0.2",
          "ctrl.lam=13", "ctrl.vartheta=20", "ctrl.k=20", "ctrl.d_hat_limit=0",
@@ -124,7 +124,8 @@ def main() -> None:
                     f"| {config} | {label} | {eps:.3g} | {f['active']:.1%} | "
                     f"{f['e1_median']:.3g} | {f['abs_e1_p95']:.3g} | {f['corr_law']:.2f} | "
                     f"{f['corr_eq15']:.2f} | {f['rms_law']:.3g} | {f['rms_eq15']:.3g} | "
-                    f"{f['rms_true']:.3g} | {f['rms_clamp']:.3g} | {f['d_hat1_mean']:.3g} | {f['torque_peak']:.3g} |")
+                    f"{f['rms_true']:.3g} | {f['rms_clamp']:.3g} | {f['d_hat1_mean']:.3g} | "
+                    f"{f['torque_peak']:.3g} |")
                 figure(series, eps, f"{label}, {config}",
                        FIGS / f"clamp_{c}_{label.replace(' ', '')}.png")
     wall = time.perf_counter() - t0

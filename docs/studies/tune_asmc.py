@@ -4,7 +4,7 @@ steady error measured against look-ahead and slip. Writes docs/studies/tune_asmc
 docs/figures/studies/tune_asmc_*.png; prints every command and its own wall time.
 
     .venv/bin/python docs/studies/tune_asmc.py              # tune, validate, circle
-    .venv/bin/python docs/studies/tune_asmc.py 40 5         # a quick check: 40 trials x 5
+    .venv/bin/python docs/studies/tune_asmc.py 40 5         # fewer: 40 trials x 5 realisations
 
 Folders go to $TA_OUT (default: twmr_tune_asmc in the system's temporary folder; an existing
 folder is resumed: a tune goes on to the number of trials asked, a sweep runs only what it lacks).
@@ -16,12 +16,16 @@ Definitions, fixed before the tune ran (docs/studies/tune_asmc.md explains them)
   as shipped (Table II gains), run once over the same realisations;
 - realisations: those of docs/reproduction (start within +-1 mm, RK4 substep 1 or 0.1 ms, slip
   phase over its period), drawn with seed 2 for the tune and seed 1 (docs/reproduction's 100)
-  for the validation;
+  for the validation; the tune keeps the RK4 substep at 1 ms (the 0.1 ms runs cost ten times
+  more, and docs/reproduction measures the bounded loop insensitive to it);
 - per run, the worst of the six ratios ASMC / SMC of the Table III metrics (settling times
   capped at the run's 30 s, so never against never is 1, a loss); the ASMC wins a run when it is
-  below 1; the tune minimises its largest value over the realisations, with no lost track (peak
-  errors <= 2 m) in every realisation;
-- circle: a realisation passes when max |e_x| and max |e_y| over t >= 10 s are <= 0.07 m.
+  below 1; the tune minimises its mean over the realisations (a realisation lost on one metric
+  counts about 1, one won counts its margin), with no lost track (peak errors <= 2 m) in every
+  realisation;
+- circle: a realisation passes when max |e_x| and max |e_y| over t >= 10 s are <= 0.07 m; the
+  circle's steady error is measured against the look-ahead and the slip's gain with the circle
+  scenario as shipped (scenarios/paper_circle_asmc.yaml).
 """
 from __future__ import annotations
 
@@ -46,6 +50,7 @@ STOP = 30.0  # [s] the run of trajectory 1: the cap of a settling time that neve
 VARY = {"plant.pose[1]": "uniform:0.499:0.501", "plant.pose[2]": "uniform:-0.001:0.001",
         "plant.internal_step": "values:0.001,0.0001", "slip.phase": "uniform:0:6.283185307179586"}
 CIRCLE_VARY = {**VARY, "plant.pose[1]": "uniform:5.999:6.001"}
+TUNE_VARY = {k: v for k, v in VARY.items() if k != "plant.internal_step"}  # RK4 step 1 ms
 PARAMS = {"ctrl.lam": "log:2:40", "ctrl.vartheta": "log:2:40", "ctrl.k": "log:2:60",
           "ctrl.eta": "log:0.01:10", "ctrl.eps_singular": "log:0.005:1",
           "ctrl.phi": "log:0.02:2", "ctrl.d_hat_limit": "values:0,5,10,20,40",
@@ -76,21 +81,27 @@ def tune(trials: int, realisations: int) -> pd.Series:
     import twmr
 
     out = OUT / "tune"
-    say(f"$ twmr tune scenarios/paper_trajectory1_asmc.yaml "
+    say("$ twmr tune scenarios/paper_trajectory1_asmc.yaml "
         + " ".join(f"--param {k}={v}" for k, v in PARAMS.items())
-        + f" --objective '{OBJECTIVE}' --aggregate max --constraint '{LOST}'"
+        + f" --objective '{OBJECTIVE}' --aggregate mean --constraint '{LOST}'"
         + " --baseline scenarios/paper_trajectory1_smc.yaml "
-        + " ".join(f"--vary '{k}={v}'" for k, v in VARY.items())
+        + " ".join(f"--vary '{k}={v}'" for k, v in TUNE_VARY.items())
         + "".join(" --start '" + ",".join(f"{k}={v}" for k, v in p.items()) + "'"
                   for p in START)
         + f" --realisations {realisations} --trials {trials} --seed 2 --workers 2 --out {out}")
-    outcome = twmr.tune(SC / "paper_trajectory1_asmc.yaml", PARAMS, OBJECTIVE, vary=VARY,
-                        realisations=realisations, trials=trials, seed=2, aggregate="max",
+    outcome = twmr.tune(SC / "paper_trajectory1_asmc.yaml", PARAMS, OBJECTIVE, vary=TUNE_VARY,
+                        realisations=realisations, trials=trials, seed=2, aggregate="mean",
                         constraints=[LOST], baseline=SC / "paper_trajectory1_smc.yaml",
                         start=START, workers=2, out=out)
     if outcome.best is None:
         raise SystemExit(f"no feasible trial in {out}")
     return pd.Series(outcome.best)
+
+
+def won_all(folder: Path) -> int:
+    """Trials whose every run has a worst ratio below 1 (the ASMC wins all six in each)."""
+    runs = pd.read_parquet(folder / "realisations.parquet")
+    return int(runs.groupby("trial")["value"].apply(lambda v: bool((v < 1).all())).sum())
 
 
 def sets(best: pd.Series, names: tuple[str, ...] | list[str]) -> list[str]:
@@ -135,25 +146,23 @@ def pairing_lines(a: pd.DataFrame, s: pd.DataFrame, title: str) -> list[str]:
 def circle_lines(c: pd.DataFrame) -> list[str]:
     ok = c[c["status"] == "ok"]
     passed = int(((ok["late_ex"] <= E_CIRCLE) & (ok["late_ey"] <= E_CIRCLE)).sum())
-    return ["### Circle (best configuration)", "",
+    return ["### Circle: the best configuration of trajectory 1 on the circle", "",
             "| failed | max abs e_x, t >= 10 s [m] | max abs e_y, t >= 10 s [m] | within 0.07 m "
             "| peak torque [N·m] | RMS torque [N·m] |", "|---|---|---|---|---|---|",
             f"| {len(c) - len(ok)}/{len(c)} | {cell(ok['late_ex'])} | {cell(ok['late_ey'])} | "
             f"{passed}/{len(c)} | {cell(ok['torque_peak'])} | {cell(ok['torque_rms'])} |", ""]
 
 
-def mechanism(best: pd.Series, phases: int) -> tuple[list[str], pd.DataFrame]:
+def mechanism(phases: int) -> tuple[list[str], pd.DataFrame]:
     """The circle's steady error against the look-ahead |L| and the slip's gain (the rest of
-    the best configuration kept); `phases` slip phases each."""
+    the circle scenario as shipped); `phases` slip phases each."""
     import twmr
 
     rows = []
-    others = [n for n in PARAMS if n != "ctrl.lookahead"]
     vary = {"ctrl.lookahead": "values:" + ",".join(f"{L:g}" for L in LOOKAHEADS),
             "slip.slip_gain": "values:" + ",".join(f"{g:g}" for g in SLIP_GAINS),
             "slip.phase": f"grid:0:{2 * np.pi * (phases - 1) / phases}:{phases}"}
-    folder = sweep("mechanism", "paper_circle_asmc.yaml", sets(best, others), vary, 1,
-                   method="grid")
+    folder = sweep("mechanism", "paper_circle_asmc.yaml", [], vary, 1, method="grid")
     df, _ = per_run(folder)
     for _, r in df.iterrows():
         row = {"L": float(r["ctrl.lookahead"]), "slip_gain": float(r["slip.slip_gain"]),
@@ -167,7 +176,7 @@ def mechanism(best: pd.Series, phases: int) -> tuple[list[str], pd.DataFrame]:
         rows.append(row)
     m = pd.DataFrame(rows)
     lines = ["### Circle: steady error against look-ahead and slip", "",
-             f"Best configuration, |L| and the slip's gain varied; {phases} slip phases each. "
+             f"The circle as shipped, |L| and the slip's gain varied; {phases} slip phases each. "
              "Cells: max over the phases of max(max |e_x|, max |e_y|) over t >= 10 s, and the "
              "mean distance |p_T - p_M| over t >= 10 s [m].", "",
              "| abs L [m] | " + " | ".join(f"slip x{g:g}: late max / mean dist" for g in SLIP_GAINS)
@@ -206,17 +215,17 @@ def mechanism_figure(m: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-def main(trials: int = 150, realisations: int = 10, validate: int = 100, phases: int = 4) -> None:
+def main(trials: int = 120, realisations: int = 10, validate: int = 100, phases: int = 4) -> None:
     t0 = time.perf_counter()
     best = tune(trials, realisations)
     t_tune = time.perf_counter() - t0
     tuned = list(PARAMS)
     text = ["# Numbers of docs/studies/tune_asmc.md", "",
             "Generated by `.venv/bin/python docs/studies/tune_asmc.py"
-            f"{'' if (trials, realisations) == (150, 10) else f' {trials} {realisations}'}`; "
+            f"{'' if (trials, realisations) == (120, 10) else f' {trials} {realisations}'}`; "
             "do not edit. Cells: median (5 %–95 %).", "",
             f"## Tune: {trials} trials x {realisations} realisations (seed 2)", "",
-            f"Best trial {int(best['trial'])}: largest worst-ratio over the realisations "
+            f"Best trial {int(best['trial'])}: mean worst ratio over the realisations "
             f"{best['objective']:.4g}.", "", "| parameter | best |", "|---|---|"]
     text += [f"| {n} | {best[n]:.4g} |" if isinstance(best[n], float) else f"| {n} | {best[n]} |"
              for n in tuned]
@@ -224,7 +233,7 @@ def main(trials: int = 150, realisations: int = 10, validate: int = 100, phases:
     text += ["", f"Trials: {int((trials_df['status'] == 'ok').sum())} feasible, "
              f"{int((trials_df['status'] == 'infeasible').sum())} lost the track, "
              f"{int((trials_df['status'] == 'failed').sum())} failed; "
-             f"{int((trials_df['objective'] < 1).sum())} won all {realisations} realisations.", ""]
+             f"{won_all(OUT / 'tune')} won all {realisations} realisations.", ""]
     t1 = time.perf_counter()
     runs = {
         "asmc": sweep("validate/asmc", "paper_trajectory1_asmc.yaml", sets(best, tuned), VARY,
@@ -244,13 +253,16 @@ def main(trials: int = 150, realisations: int = 10, validate: int = 100, phases:
     text += circle_lines(frames["circle"][0])
     t_validate = time.perf_counter() - t1
     t2 = time.perf_counter()
-    lines, m = mechanism(best, phases)
+    lines, m = mechanism(phases)
     text += lines
     t_mechanism = time.perf_counter() - t2
     wall = time.perf_counter() - t0
-    text += [f"Wall time of this script, measured by it: {wall / 60:.1f} min (tune "
+    batches = float(trials_df["wall_time_s"].drop_duplicates().sum())
+    text += [f"Wall time of this call of the script, measured by it: {wall / 60:.1f} min (tune "
              f"{t_tune / 60:.1f}, validation {t_validate / 60:.1f}, circle mechanism "
-             f"{t_mechanism / 60:.1f}), on {os.cpu_count()} cores.", ""]
+             f"{t_mechanism / 60:.1f}), on {os.cpu_count()} cores; a call that resumes its "
+             f"folders runs only what they lack. The tune's batches took {batches / 60:.1f} min "
+             f"in all (trials.parquet, wall_time_s of each batch).", ""]
     (HERE / "tune_asmc_numbers.md").write_text("\n".join(text))
     FIGS.mkdir(parents=True, exist_ok=True)
     band_figure({"a": frames["asmc"][1], "s": frames["smc"][1]}, [("a", "ASMC (tuned)"),

@@ -8,6 +8,8 @@ not from our code.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -143,7 +145,7 @@ def test_a_baseline_gives_its_figures_per_realisation(tmp_path):
     its ms(e) in the same realisation, so the ratio does not depend on the drawn height."""
     import yaml
 
-    data = yaml.safe_load(open(LOOP, encoding="utf-8"))
+    data = yaml.safe_load(Path(LOOP).read_text(encoding="utf-8"))
     data["components"]["ctrl"]["parameters"]["k"] = 2.0
     baseline = tmp_path / "baseline.yaml"
     baseline.write_text(yaml.safe_dump(data))
