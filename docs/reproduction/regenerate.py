@@ -287,8 +287,9 @@ def main(samples: int = 100) -> None:
              for v in VARIANTS}
     text += table3(runs) + sensitivity(fixed, runs) + circle(runs)
     wall = time.perf_counter() - t0
-    text += [f"Wall time of regenerate.py, measured by it: {wall / 60:.1f} min on "
-             f"{os.cpu_count()} cores.", ""]
+    text += [f"Wall time of this call of regenerate.py, measured by it: {wall / 60:.1f} min on "
+             f"{os.cpu_count()} cores (sweep folders already complete in $REPRO_OUT are read, "
+             f"not run again).", ""]
     (HERE / "numbers.md").write_text("\n".join(text))
     print("\n".join(text))
     FIGS.mkdir(parents=True, exist_ok=True)

@@ -105,18 +105,18 @@ class TuneSpec:
         if not self.metrics:
             raise TuneError("no metric set. Fix: give --metrics NAME (e.g. tracking, signals).")
         check_aggregate(self.aggregate)
-        names = {p.name: p for p in self.params}
+        by_name = {p.name: p for p in self.params}
         for i, point in enumerate(self.start, 1):
-            missing = sorted(set(names) - set(point))
-            extra = sorted(set(point) - set(names))
+            missing = sorted(set(by_name) - set(point))
+            extra = sorted(set(point) - set(by_name))
             if missing or extra:
                 what = f"no value of {missing[0]}" if missing else f"{extra[0]} is not tuned"
                 raise TuneError(f"--start {i}: {what}. Fix: give every --param NAME=VALUE once "
                                 f"in each --start, and nothing else.")
             for name, value in point.items():
-                if not names[name].contains(value):
+                if not by_name[name].contains(value):
                     raise TuneError(f"--start {i}: {name}={value!r} is outside its range "
-                                    f"{names[name].text}. Fix: give a value inside it.")
+                                    f"{by_name[name].text}. Fix: give a value inside it.")
         uses_base = [n for n in self.names() if n.startswith(BASE)]
         if uses_base and not self.baseline:
             raise TuneError(f"'{uses_base[0]}' is a baseline figure, and no baseline is given. "
@@ -210,6 +210,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
         if base_scenario is not None and not outcome.baseline:
             outcome.baseline = _run_baseline(spec, base_scenario, base_content, table, client)
+            assert journal is not None
             append_row(journal, {"baseline": outcome.baseline})
         base = {r["sample"]: {f"{BASE}{k}": v for k, v in r.items()
                               if isinstance(v, int | float) and not isinstance(v, bool)}
@@ -225,6 +226,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             for trial, (row, runs) in zip(asked, _evaluate(spec, scenario, content, bases, table,
                                                             asked, client, base), strict=True):
                 _tell(study, trial, row)
+                assert journal is not None  # opened when trials are left
                 append_row(journal, {"trial": row, "runs": runs})
                 outcome.trials.append(row)
                 outcome.runs.extend(runs)
