@@ -363,6 +363,22 @@ def _is_sweep_file(path: Path) -> bool:
     return isinstance(data, dict) and "vary" in data
 
 
+def _start_point(text: str) -> dict[str, object]:
+    """`NAME=VALUE,NAME=VALUE` of --start as {NAME: value} (values read as YAML scalars)."""
+    import yaml
+
+    from twmr.tune import TuneError
+
+    point: dict[str, object] = {}
+    for part in text.split(","):
+        name, sep, value = part.partition("=")
+        if not sep or not name.strip():
+            raise TuneError(f"--start {text!r}: '{part}' is not NAME=VALUE. Fix: write "
+                            f"--start 'ctrl.k=20,ctrl.phi=0.2' (every --param once).")
+        point[name.strip()] = yaml.safe_load(value)
+    return point
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
     from twmr import api
 
@@ -371,7 +387,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        realisations=args.realisations, trials=args.trials, seed=args.seed,
                        aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
                        overrides=args.set, method=args.method, out=args.out,
-                       workers=args.workers, scheduler=args.scheduler,
+                       workers=args.workers, scheduler=args.scheduler, batch=args.batch,
+                       baseline=args.baseline, start=[_start_point(t) for t in args.start],
                        progress=not args.quiet)
     best = outcome.best
     if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
@@ -534,6 +551,12 @@ def parser() -> argparse.ArgumentParser:
                             help="1 (default): runs in this process; more: local Dask workers")
     tune_where.add_argument("--scheduler", metavar="ADDRESS",
                             help="an existing Dask cluster you trust (it runs code here)")
+    tu.add_argument("--batch", type=int, metavar="B",
+                    help="trials asked and run together (default: the workers)")
+    tu.add_argument("--start", action="append", default=[], metavar="NAME=VALUE,...",
+                    help="a point tried first (every --param once); repeatable, in order")
+    tu.add_argument("--baseline", metavar="SCENARIO",
+                    help="run once over the same realisations; its figures are base_<figure>")
     tu.add_argument("--out", help="the tune's folder (default tunes/<scenario name>)")
     with_set(tu)
     tu.set_defaults(fn=cmd_tune)
