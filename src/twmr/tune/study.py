@@ -33,6 +33,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from twmr.core.warned import SweepWarnings
 from twmr.sweeps.engine import (
     check_names,
     close_client,
@@ -202,6 +203,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
     client = cluster = bar = None
     done, done_runs, done_base = _read_journal(folder)
     outcome = TuneOutcome(done, done_runs, 0, folder, baseline=done_base)
+    warned = SweepWarnings(log)
     try:
         left = spec.trials - len(outcome.trials)
         if left > 0 or (base_scenario is not None and not outcome.baseline):
@@ -210,6 +212,8 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
         if base_scenario is not None and not outcome.baseline:
             outcome.baseline = _run_baseline(spec, base_scenario, base_content, table, client)
+            for r in outcome.baseline:
+                warned.add(r["run_id"], r.get("warnings", []))
             assert journal is not None
             append_row(journal, {"baseline": outcome.baseline})
         base = {r["sample"]: {f"{BASE}{k}": v for k, v in r.items()
@@ -230,6 +234,8 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
                 append_row(journal, {"trial": row, "runs": runs})
                 outcome.trials.append(row)
                 outcome.runs.extend(runs)
+                for r in runs:
+                    warned.add(r["run_id"], r.get("warnings", []))
                 outcome.ran += 1
                 left -= 1
                 if progress and bar is None:  # after the first trial: its figures are checked
@@ -255,6 +261,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             if journal is not None:
                 journal.close()
             close_client(client, cluster, [])
+            warned.close()
             outcome.best = _best(outcome.trials)
             _write(outcome, spec, scenario)
             release_lock(lock)
@@ -284,7 +291,7 @@ def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str,
     return [f.result() if f.status == "finished" else
             {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
              "error": lost_error(f.exception()), "wall_time_s": math.nan,
-             "step_time_s": math.nan, "worker": ""}
+             "step_time_s": math.nan, "worker": "", "warnings": []}
             for f, t in zip(futures, tasks, strict=True)]
 
 
