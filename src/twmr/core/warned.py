@@ -91,6 +91,8 @@ class SweepWarnings:
     run; `close()` logs how many runs gave each kind that came more than once."""
 
     log: logging.Logger
+    #: the table whose 'warnings' column holds each run's
+    table: str = "runs.parquet"
     first: dict[str, str] = field(default_factory=dict)
     runs: dict[str, int] = field(default_factory=dict)
 
@@ -107,5 +109,5 @@ class SweepWarnings:
         for kind, n in self.runs.items():
             if n > 1:
                 self.log.warning("the warning of run %s above came in %d runs in all (the "
-                                 "'warnings' column of runs.parquet has each run's)",
-                                 self.first[kind], n)
+                                 "'warnings' column of %s has each run's)",
+                                 self.first[kind], n, self.table)

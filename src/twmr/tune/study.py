@@ -203,7 +203,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
     client = cluster = bar = None
     done, done_runs, done_base = _read_journal(folder)
     outcome = TuneOutcome(done, done_runs, 0, folder, baseline=done_base)
-    warned = SweepWarnings(log)
+    warned = SweepWarnings(log, REALISATIONS)
     try:
         left = spec.trials - len(outcome.trials)
         if left > 0 or (base_scenario is not None and not outcome.baseline):
