@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 from twmr.core.component import _X, Component, PythonKernel, python_kernel, runs_kernel
 from twmr.core.errors import CosimError
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Write, build, chunks, guard
+from twmr.master.plan import METHODS, Plan, Ref, Signal, Write, build, chunks, guard
 from twmr.scenario.system import System
 
 
@@ -194,7 +194,7 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     w.add(2, "for n in range(n0, n1):")
     w.add(3, "t = start + n * h")
     _point(w, 3, plan, ids, kern.ref, final=False, evaluate=kern.evaluate)
-    _finite_check(w, 3, plan, kern.ref)
+    _finite_check(w, 3, plan, kern.ref, kern.kernels.__contains__)
     _record(w, 3, plan, kern.ref, final=False)
     for s in plan.steps:
         i = ids[s.name]
@@ -208,7 +208,7 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     w.add(1, "try:")
     w.add(2, "t = start + n * h")
     _point(w, 2, plan, ids, kern.ref, final=True, evaluate=kern.evaluate)
-    _finite_check(w, 2, plan, kern.ref)
+    _finite_check(w, 2, plan, kern.ref, kern.kernels.__contains__)
     _record(w, 2, plan, kern.ref, final=True)
     kern.epilogue(w, 1)
     env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite)
@@ -219,7 +219,8 @@ class _Kernels:
     """How the loop writes the blocks that run their kernels: their ports as locals y<i>_<k>
     (outputs and states, declared order) and u<i>_<k> (inputs), read from the component when a
     call of the loop starts and written back (with the state, through `sync<i>`) when it ends;
-    the other blocks' ports as ``d<i>[port]``."""
+    the other blocks' ports as ``d<i>[port]``. Y<i> holds the tuple of outputs the kernel
+    returned last, handed to its next call as it is."""
 
     def __init__(self, system: System, ids: dict[str, int], kernels: Mapping[str, Shape]):
         self.ids, self.kernels = ids, kernels
@@ -246,6 +247,7 @@ class _Kernels:
             ports = [(_X, f"x{i}"), *self._ports(name)]
             w.add(ind, ", ".join(v for _, v in ports) + " = " +
                   ", ".join(f"d{i}[{p!r}]" for p, _ in ports))
+            w.add(ind, f"Y{i} = {_tuple([self.ref(name, p) for p in self.outs[name]])}")
 
     def epilogue(self, w: _Writer, ind: int) -> None:
         w.add(ind, "finally:")
@@ -260,10 +262,13 @@ class _Kernels:
             w.add(ind + 1, "pass")
 
     def _call(self, name: str, fn: str, args: str) -> str:
+        """`x<i>, Y<i> = fn(args, x<i>, Y<i>, inputs, p<i>)` and the outputs unpacked: Y<i>, the
+        tuple of outputs the kernel returned, goes back to it as it is."""
         i = self.ids[name]
-        ys = _tuple([self.ref(name, p) for p in self.outs[name]])
+        ys = [self.ref(name, p) for p in self.outs[name]]
         us = _tuple([self.ref(name, p) for p in self.ins[name]])
-        return f"x{i}, {ys if ys != '()' else '_'} = {fn}{i}({args}, x{i}, {ys}, {us}, p{i})"
+        line = f"x{i}, Y{i} = {fn}{i}({args}, x{i}, Y{i}, {us}, p{i})"
+        return f"{line}; {', '.join(ys)}{',' if len(ys) == 1 else ''} = Y{i}" if ys else line
 
     def evaluate(self, name: str) -> str | None:
         """The line of an evaluation of `name` (None: its kernel has no evaluate)."""
@@ -300,12 +305,27 @@ def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
         w.add(ind, line if cond is None else f"if {cond}: {line}", owner)
 
 
-def _finite_check(w: _Writer, ind: int, plan: Plan, ref: Ref) -> None:
-    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero."""
+#: a vector port held in a local of at most this many elements is summed element by element
+#: in the check (shorter than a call of `sum`; the same association)
+INLINE_SUM = 4
+
+
+def _finite_check(w: _Writer, ind: int, plan: Plan, ref: Ref,
+                  local: Callable[[str], bool] = lambda name: False) -> None:
+    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero.
+    `local(name)`: the ports of component `name` are local variables."""
     if not plan.check:
         return
-    sums = [" + ".join(f"sum({ref(s.name, s.port)})" if s.size is not None
-                       else ref(s.name, s.port) for s in chunk) for chunk in plan.check]
+
+    def term(s: Signal) -> str:
+        r = ref(s.name, s.port)
+        if s.size is None:
+            return r
+        if s.size <= INLINE_SUM and local(s.name):
+            return "(" + " + ".join(f"{r}[{k}]" for k in range(s.size)) + ")"
+        return f"sum({r})"
+
+    sums = [" + ".join(term(s) for s in chunk) for chunk in plan.check]
     w.add(ind, "x = " + (sums[0] if len(sums) == 1 else _sum_of(sums, "0.0")))
     w.add(ind, "if x - x != 0.0: nonfinite(t)")
 
