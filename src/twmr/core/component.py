@@ -27,7 +27,7 @@ from types import MappingProxyType
 from typing import Any, ClassVar, NamedTuple
 
 from twmr.core.errors import ComponentError
-from twmr.core.kernel import Kernel, KernelFunction
+from twmr.core.kernel import Kernel, KernelFunction, python_params
 from twmr.core.port import Input, Output, Parameter, State, Variable
 
 #: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
@@ -64,8 +64,9 @@ def _python(fn: Any) -> Any:
 
 class PythonKernel(NamedTuple):
     """What a Python loop needs to call a component's kernel itself (`python_kernel`): the
-    parameter table, the functions in their Python form (either None), and `sync(x)`, which
-    hands the private state x back to the component and runs the block's own report."""
+    parameter table as the functions read it (`twmr.core.kernel.python_params`), the functions
+    in their Python form (either None), and `sync(x)`, which hands the private state x back to
+    the component and runs the block's own report."""
 
     params: Any
     evaluate: Callable[..., Any] | None
@@ -119,9 +120,10 @@ class _Calls:
             return None
         comp.__dict__.setdefault(_X, k.state)
         ev, st = _python(k.evaluate), _python(k.step)
-        self.env.update(H=h, p=k.params, ev=ev, st=st,
+        p = python_params(k.params, (ev, st))
+        self.env.update(H=h, p=p, ev=ev, st=st,
                         report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
-        self.bound = PythonKernel(k.params, ev, st, self.env["sync"])
+        self.bound = PythonKernel(p, ev, st, self.env["sync"])
         return self.bound
 
     def load(self, h: float) -> None:
