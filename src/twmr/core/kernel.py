@@ -177,19 +177,19 @@ def _reads_fields(fn: Callable[..., Any], index: int, table: Any, busy: set[Any]
         _READS_FIELDS[key] = False
         return False
     func = tree.body[0] if tree.body else None
-    ok = isinstance(func, ast.FunctionDef)
-    if ok:
-        assert isinstance(func, ast.FunctionDef)
+    ok = False
+    if isinstance(func, ast.FunctionDef):
         positional = [*func.args.posonlyargs, *func.args.args]
         ok = -len(positional) <= index < len(positional)
-    if ok:
+    if ok and isinstance(func, ast.FunctionDef):
         name = positional[index].arg
-        parents = {child: node for node in ast.walk(func) for child in ast.iter_child_nodes(node)}
-        bound = {n.id for n in ast.walk(func) if isinstance(n, ast.Name)
-                 and not isinstance(n.ctx, ast.Load)} | {a.arg for a in ast.walk(func)
-                                                          if isinstance(a, ast.arg)}
+        nodes = list(ast.walk(func))
+        parents = {child: node for node in nodes for child in ast.iter_child_nodes(node)}
+        bound = {n.id for n in nodes if isinstance(n, ast.Name) and
+                 not isinstance(n.ctx, ast.Load)} | {a.arg for a in nodes
+                                                     if isinstance(a, ast.arg)}
         ok = all(_field_read(node, table, parents, bound, fn.__globals__, busy)
-                 for node in ast.walk(func) if isinstance(node, ast.Name) and node.id == name)
+                 for node in nodes if isinstance(node, ast.Name) and node.id == name)
     _READS_FIELDS[key] = ok
     return ok
 
