@@ -167,8 +167,11 @@ def python_kernel(comp: Component, h: float) -> PythonKernel | None:
     or a restore to before the first step), for a loop that calls its functions itself and
     hands the state back through `sync`; None when `runs_kernel` is false or the component
     offers no kernel (or only an FMU's) with these parameters."""
-    if not runs_kernel(comp):
-        return None
+    return bound_kernel(comp, h) if runs_kernel(comp) else None
+
+
+def bound_kernel(comp: Component, h: float) -> PythonKernel | None:
+    """`python_kernel` without asking `runs_kernel` again (a loop generated for it asks once)."""
     calls = _calls(comp)
     if calls.env["H"] == h and calls.bound is not None:
         return calls.bound

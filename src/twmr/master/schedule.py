@@ -34,7 +34,14 @@ import traceback
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
-from twmr.core.component import _X, Component, PythonKernel, python_kernel, runs_kernel
+from twmr.core.component import (
+    _X,
+    Component,
+    PythonKernel,
+    bound_kernel,
+    python_kernel,
+    runs_kernel,
+)
 from twmr.core.errors import CosimError
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Ref, Signal, Write, build, chunks, guard
@@ -151,7 +158,7 @@ def _step_of(system: System, name: str) -> float:
 def _binder(comp: Component, h: float, shape: Shape) -> Callable[[], PythonKernel]:
     """`bind()`: the kernel `comp` runs with steps of `h` [s], which must still have `shape`."""
     def bind() -> PythonKernel:
-        k = python_kernel(comp, h)
+        k = bound_kernel(comp, h)
         if k is None or Shape(k.evaluate is not None, k.step is not None) != shape:
             raise CosimError(
                 f"component '{comp.name}' ({type(comp).__name__}) offers another kernel than "
