@@ -43,8 +43,9 @@ from twmr.core.component import (
     runs_kernel,
 )
 from twmr.core.errors import CosimError
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Signal, Write, build, chunks, guard
+from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, build, chunks, guard
 from twmr.scenario.system import System
 
 
@@ -84,6 +85,8 @@ class FixedStep(Algorithm):
         self.plan: Plan | None = None
         self._system: System | None = None
         self._owner: dict[int, tuple[str, str]] = {}
+        self.loops: list[loops.LoopSolver] = []
+        self.probe: stats.Probe | None = None
         self._run: Callable[[int, int, list[tuple[float, ...]]], None] | None = None
         self._finish: Callable[[int, list[tuple[float, ...]]], None] | None = None
 
@@ -93,15 +96,24 @@ class FixedStep(Algorithm):
         self._system = system
         self._run = self._finish = None
         # until the components are initialized: every block that may run its kernel does
-        shapes = {n: Shape(True, True) for n, c in system.components.items() if runs_kernel(c)}
+        shapes = {n: Shape(True, True) for n, c in system.components.items()
+                  if runs_kernel(c) and self._kernels_wanted()}
         self.source, self._owner, _ = _generate(system, self.plan, shapes)
+
+    def _kernels_wanted(self) -> bool:
+        """Whether blocks may run their kernels in the loop: not when an algebraic loop is solved
+        (its solver reaches the blocks through their values and methods) nor when every block's
+        calls are timed (`twmr.master.stats`)."""
+        assert self.plan is not None
+        return not stats.timing_wanted() and not any(isinstance(a, Solve)
+                                                     for a in self.plan.point)
 
     def _load(self) -> None:
         """Generate and compile the loop for the kernels the initialized components offer."""
         system, plan = self._system, self.plan
         assert system is not None and plan is not None
         shapes = {}
-        for name, comp in system.components.items():
+        for name, comp in system.components.items() if self._kernels_wanted() else ():
             k = python_kernel(comp, _step_of(system, name))
             if k is not None:
                 shapes[name] = Shape(k.evaluate is not None, k.step is not None)
@@ -110,6 +122,11 @@ class FixedStep(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        timing = stats.timing_wanted()
+        self.probe = stats.Probe(timing) if timing else None
+        if self.probe is not None:
+            self.probe.wrap(env, self.plan.order)
+        self.loops = loops.bind(env, system, self.plan, timing)
         self._run, self._finish = env["run"], env["finish"]
 
     def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
@@ -122,6 +139,12 @@ class FixedStep(Algorithm):
         if self._finish is None:
             self._load()
         self._finish(n, rows)  # type: ignore[misc]
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        assert self.plan is not None
+        blocks = self.probe.blocks() if self.probe is not None else \
+            stats.fixed_step(self.plan, steps_done, finished, self.loops)
+        return stats.document(blocks, self.loops)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)
@@ -218,6 +241,7 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     _finite_check(w, 2, plan, kern.ref, kern.kernels.__contains__)
     _record(w, 2, plan, kern.ref, final=True)
     kern.epilogue(w, 1)
+    loops.render(w, plan, ids, kern.ref)
     env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite)
     return "\n".join(w.lines) + "\n", w.owner, env
 
@@ -303,6 +327,8 @@ def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
     for action in plan.point:
         if isinstance(action, Write):
             line, owner = plan.assignment(action, ref), (action.name, "input")
+        elif isinstance(action, Solve):
+            line, owner = loops.call(action), (", ".join(action.components), "the loop solver")
         else:
             call = f"ev{ids[action.name]}(t)" if evaluate is None else evaluate(action.name)
             if call is None:

@@ -237,9 +237,11 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
              on_row: Callable[[dict[str, Any]], None] | None) -> None:
     """Run `tasks` on Dask; each row into the journal and `outcome` as it comes; runs.parquet
     from every row at the end, also after Ctrl-C."""
+    from twmr.core.warned import SweepWarnings
     from twmr.master.execution import held_signals
 
     folder = place.path
+    warned = SweepWarnings(log)
     futures: list[Any] = []
     client = cluster = bar = journal = None
     try:
@@ -260,8 +262,10 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
             else:  # the worker died under it (several times) or the task was lost
                 row = {"run_id": task.run_id, "sample": task.sample, **task.values,
                        "status": "failed", "error": lost_error(future.exception()),
-                       "wall_time_s": math.nan, "step_time_s": math.nan, "worker": ""}
+                       "wall_time_s": math.nan, "step_time_s": math.nan, "worker": "",
+                       "warnings": []}
             row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
+            warned.add(row["run_id"], row["warnings"])
             outcome.rows.append(row)  # first: the table at the end is written from these
             append_row(journal, row)
             outcome.ran += 1
@@ -283,6 +287,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 journal.close()
             close_client(client, cluster, futures)
             write_table(outcome.rows, folder)
+            warned.close()
 
 
 def close_client(client: Any, cluster: Any, futures: list[Any]) -> None:
