@@ -105,8 +105,7 @@ class FixedStep(Algorithm):
         (its solver reaches the blocks through their values and methods) nor when every block's
         calls are timed (`twmr.master.stats`)."""
         assert self.plan is not None
-        return not stats.timing_wanted() and not any(isinstance(a, Solve)
-                                                     for a in self.plan.point)
+        return not stats.timing_wanted() and not self.plan.loops
 
     def _load(self) -> None:
         """Generate and compile the loop for the kernels the initialized components offer."""
