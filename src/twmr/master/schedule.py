@@ -124,8 +124,8 @@ class FixedStep(Algorithm):
         timing = stats.timing_wanted()
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
-            self.probe.wrap(env, self.plan.order)
-        self.loops = loops.bind(env, system, self.plan, timing)
+            self.probe.wrap(env, plan.order)
+        self.loops = loops.bind(env, system, plan, timing)
         self._run, self._finish = env["run"], env["finish"]
 
     def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
