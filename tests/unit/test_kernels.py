@@ -22,6 +22,7 @@ from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
 from twmr.master.compiled import CompiledStep
 from twmr.observers.store import ResultStore
+from twmr.scenario import load
 from twmr.testing import Harness
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -213,3 +214,81 @@ record: {signals: [ss.y]}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=tmp_path, env=env).stdout.split()
     assert out[0] == "False" and math.isfinite(float(out[1])) and float(out[1]) > 0.0
+
+
+class RootParams(NamedTuple):
+    scale: float
+
+
+@kernel_function
+def root_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: RootParams
+              ) -> tuple[tuple, tuple]:
+    return (x[0] + 1.0,), (p.scale * math.sqrt(u[0]),)  # ValueError below 0 (in Python)
+
+
+class Root(Component):
+    """y(t + h) = scale sqrt(u); its private state counts the steps."""
+
+    scale = Parameter(2.0)
+    u = Input(0.0)
+    y = Output(0.0)
+
+    def kernel(self, h: float) -> Kernel:
+        return Kernel(params=RootParams(float(self.scale)), state=(0.0,), step=root_step)
+
+
+def test_the_python_loop_hands_ports_and_state_back_and_names_a_failing_kernel() -> None:
+    from twmr.core.errors import ComponentError
+
+    sysm = system([Sine("s", frequency=0.5, offset=0.5), Root("r")], ["s.y -> r.u"], 2.0, 0.01,
+                  record=["r.y"])
+    store = ResultStore()
+    with pytest.raises(ComponentError) as err:
+        Execution(sysm, [store], algorithm=make_algorithm("gauss_seidel", "off")).run()
+    text = str(err.value)
+    assert "'r'" in text and "do_step()" in text and "math domain error" in text, text
+    rows = store.data()
+    t_bad = 1.0 / 0.5 * (7 / 12)  # 0.5 + sin(2 pi 0.5 t) < 0 from t = 7/6 s
+    assert rows[-1, 0] == pytest.approx(t_bad, abs=0.011) and f"t = {rows[-1, 0]:g}" in text
+    root = sysm.components["r"]
+    # what the loop held when the kernel failed is back in the component
+    assert root.y == rows[-1, 1] and root.u < 0.0
+    assert root.__dict__["_kernel_x"] == (float(len(rows) - 1),)
+
+
+@kernel_function
+def indexes(t: float, x: tuple, y: tuple, u: tuple, p: ClipParams) -> tuple[tuple, tuple]:
+    return x, (min(p[1], max(p.low, u[0])),)
+
+
+def plain_helper(p: ClipParams) -> float:
+    return p.high
+
+
+@kernel_function
+def hands_on(t: float, x: tuple, y: tuple, u: tuple, p: ClipParams) -> tuple[tuple, tuple]:
+    return x, (min(plain_helper(p), max(p.low, u[0])),)
+
+
+def test_a_parameter_table_is_read_through_slots_only_where_the_source_shows_field_reads(
+        ) -> None:
+    from twmr.components.asmc import AsmcParams, asmc_evaluate, asmc_step
+    from twmr.components.motor import motor_evaluate, motor_step
+    from twmr.core.kernel import python_params
+
+    table = ClipParams(-0.5, 0.5)
+    view = python_params(table, (clip_evaluate.py_func, None))
+    assert not isinstance(view, tuple) and (view.low, view.high) == table
+    assert clip_evaluate.py_func(0.0, (), (0.0,), (0.9,), view) == ((), (0.5,))
+    for fn in (indexes, hands_on):  # p[1]; p given to a function that is no kernel_function
+        assert python_params(table, (clip_evaluate.py_func, fn.py_func)) is table
+    ctrl = load(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml").components["ctrl"]
+    ctrl.setup(0.0, 1.0)
+    ctrl.initialize()
+    params = ctrl.kernel(1e-3).params
+    assert isinstance(params, AsmcParams)
+    view = python_params(params, (asmc_evaluate.py_func, asmc_step.py_func))
+    # the nested table too: handed to `limited_law`, which reads its fields
+    assert not isinstance(view.law, tuple) and view.law.lam == params.law.lam
+    # functions that read fields this table does not have get it as it is (the same error)
+    assert python_params(params, (motor_evaluate.py_func, motor_step.py_func)) is params

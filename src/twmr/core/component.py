@@ -24,10 +24,10 @@ import numbers
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 from twmr.core.errors import ComponentError
-from twmr.core.kernel import Kernel, KernelFunction
+from twmr.core.kernel import Kernel, KernelFunction, python_params
 from twmr.core.port import Input, Output, Parameter, State, Variable
 
 #: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
@@ -62,12 +62,25 @@ def _python(fn: Any) -> Any:
     return fn.py_func if isinstance(fn, KernelFunction) else fn
 
 
+class PythonKernel(NamedTuple):
+    """What a Python loop needs to call a component's kernel itself (`python_kernel`): the
+    parameter table as the functions read it (`twmr.core.kernel.python_params`), the functions
+    in their Python form (either None), and `sync(x)`, which hands the private state x back to
+    the component and runs the block's own report."""
+
+    params: Any
+    evaluate: Callable[..., Any] | None
+    step: Callable[..., Any] | None
+    sync: Callable[[Any], None]
+
+
 class _Calls:
     """A component's Python calls of its kernel: two functions `evaluate(t)` and `step(t, h)`,
     generated once per instance for its ports (values read from and written to its `__dict__` by
     name), whose globals hold the kernel in use: the kernel is made at the first call, again when
     `step` is given another h, and after `reset()` (a new run). The functions stay the same
-    objects, so the step loop binds them once (see `_KernelMethod`)."""
+    objects, so the step loop binds them once (see `_KernelMethod`). `bound` is the kernel in
+    use for a loop that calls it itself (`python_kernel`)."""
 
     def __init__(self, comp: Component):
         self.comp = comp
@@ -88,29 +101,81 @@ class _Calls:
                       f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)",
                       f"    d[{_X!r}] = x",
                       "    if report is not None: report(x)"]
+        lines += ["def sync(x):",
+                  f"    d[{_X!r}] = x",
+                  "    if report is not None: report(x)"]
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
         self.functions: dict[str, Callable[..., None]] = {"evaluate": env["evaluate"],
                                                           "step": env["step"]}
+        self.bound: PythonKernel | None = None
 
-    def load(self, h: float) -> None:
-        """The kernel made for steps of `h` [s] (h = 0: before the first step, for `evaluate`,
-        which must not depend on it), put in the functions' globals."""
+    def make(self, h: float) -> PythonKernel | None:
+        """The kernel made for steps of `h` [s] put in the functions' globals and `bound`, the
+        component holding its private state from now on; None (nothing changed) when the
+        component offers none with these parameters, or only an FMU's."""
         comp = self.comp
         make = getattr(comp, "kernel", None)
         k = make(h) if make is not None else None
-        if k is None:
+        if k is None or k.fmu is not None:
+            return None
+        comp.__dict__.setdefault(_X, k.state)
+        ev, st = _python(k.evaluate), _python(k.step)
+        p = python_params(k.params, (ev, st))
+        self.env.update(H=h, p=p, ev=ev, st=st,
+                        report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
+        self.bound = PythonKernel(p, ev, st, self.env["sync"])
+        return self.bound
+
+    def load(self, h: float) -> None:
+        """`make(h)` for the component's own calls (h = 0: before the first step, for
+        `evaluate`, which must not depend on it); TypeError when there is no kernel."""
+        if self.make(h) is None:
+            comp = self.comp
             raise TypeError(
                 f"component '{comp.name}' ({type(comp).__name__}) offers no kernel with these "
                 f"parameters and has no evaluate/do_step of its own. Fix: give the class "
                 f"Python methods for the parameters its kernel does not cover.")
-        self.env.update(H=h, p=k.params, ev=_python(k.evaluate), st=_python(k.step),
-                        report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
 
     def reset(self) -> None:
         self.env["H"] = None
 
     def __deepcopy__(self, memo: dict[int, Any]) -> None:
         return None  # a copy of the component makes its own
+
+
+def _calls(comp: Component) -> _Calls:
+    """The `_Calls` of `comp` (made on first use)."""
+    calls = comp.__dict__.get(_CALLS)
+    if calls is None:
+        calls = comp.__dict__[_CALLS] = _Calls(comp)
+    return calls
+
+
+def runs_kernel(comp: Component) -> bool:
+    """Whether a loop may call the kernel of `comp` instead of its `evaluate`/`do_step`: its
+    class defines `kernel` and neither a subclass of that class nor the instance replaces the
+    methods the kernel mirrors (those would be definitions of their own)."""
+    if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
+        return False
+    owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
+    return owner is not None and callable(vars(owner)["kernel"]) and all(
+        getattr(type(comp), m) is getattr(owner, m) for m in ("evaluate", "do_step"))
+
+
+def python_kernel(comp: Component, h: float) -> PythonKernel | None:
+    """The kernel `comp` runs with steps of `h` [s] (made again only after a new run's `setup`
+    or a restore to before the first step), for a loop that calls its functions itself and
+    hands the state back through `sync`; None when `runs_kernel` is false or the component
+    offers no kernel (or only an FMU's) with these parameters."""
+    return bound_kernel(comp, h) if runs_kernel(comp) else None
+
+
+def bound_kernel(comp: Component, h: float) -> PythonKernel | None:
+    """`python_kernel` without asking `runs_kernel` again (a loop generated for it asks once)."""
+    calls = _calls(comp)
+    if calls.env["H"] == h and calls.bound is not None:
+        return calls.bound
+    return calls.make(h)
 
 
 class _KernelMethod:
@@ -124,11 +189,7 @@ class _KernelMethod:
     def __get__(self, comp: Component | None, cls: type | None = None) -> Any:
         if comp is None:
             return self
-        try:
-            return comp.__dict__[_CALLS].functions[self.which]
-        except KeyError:
-            calls = comp.__dict__[_CALLS] = _Calls(comp)
-            return calls.functions[self.which]
+        return _calls(comp).functions[self.which]
 
 
 def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, float], Kernel | None]:

@@ -19,21 +19,33 @@ A component with step multiple m samples its inputs (and evaluates) only when n 
 and steps by m h from there; its new outputs become visible at the end of that period, t + m h, as
 in libcosim. Between its communication points its inputs and outputs hold (zero-order hold).
 
-The step loop is generated as Python source once per system (like a compiled schedule): inputs are
-written straight into the components' ``__dict__``, unit conversions and element selections are
-folded into the generated expressions, and there is no lookup by name inside the loop.
+The step loop is generated as Python source once per system (like a compiled schedule). A block
+that runs its kernel (`twmr.core.kernel`) is called through its kernel functions with its ports,
+private state and parameters held in local variables of the loop, as the compiled loop holds
+them; any other block gets its inputs written straight into its ``__dict__`` and its
+`evaluate`/`do_step` called. Unit conversions and element selections are folded into the
+generated expressions, and there is no lookup by name inside the loop.
 """
 from __future__ import annotations
 
 import linecache
 import math
 import traceback
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, NamedTuple
 
+from twmr.core.component import (
+    _X,
+    Component,
+    PythonKernel,
+    bound_kernel,
+    python_kernel,
+    runs_kernel,
+)
+from twmr.core.errors import CosimError
 from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Solve, Write, build, chunks, guard
+from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, build, chunks, guard
 from twmr.scenario.system import System
 
 
@@ -53,11 +65,16 @@ class _Writer:
 class FixedStep(Algorithm):
     """Fixed base step h; 'gauss_seidel' or 'jacobi'; per-component step multiples.
 
-    The step loop is generated as Python source once per system, from its `Plan`: inputs are
-    written straight into the components' ``__dict__``, unit conversions and element selections
-    are folded into the expressions, and nothing is looked up by name inside the loop. The source
-    is registered with `linecache`, so tracebacks and pdb show it (`twmr check --schedule` prints
-    it)."""
+    The step loop is generated as Python source once per system, from its `Plan`: a block that
+    runs its kernel (`twmr.core.component.python_kernel`) has its ports, private state and
+    parameters as local variables of the loop, which calls the kernel's functions itself (the
+    state handed back to the component, and the port values written to its ``__dict__``, when
+    the chunk of steps ends); any other block has its inputs written straight into its
+    ``__dict__`` and its `evaluate`/`do_step` called. Unit conversions and element selections
+    are folded into the expressions, and nothing is looked up by name inside the loop. The
+    source is registered with `linecache`, so tracebacks and pdb show it (`twmr check
+    --schedule` prints it; it is generated again, for the kernels the components offer, when
+    the run starts)."""
 
     def __init__(self, method: str = "gauss_seidel"):
         if method not in METHODS:
@@ -66,6 +83,7 @@ class FixedStep(Algorithm):
         self.source = ""
         self.filename = ""
         self.plan: Plan | None = None
+        self._system: System | None = None
         self._owner: dict[int, tuple[str, str]] = {}
         self.loops: list[loops.LoopSolver] = []
         self.probe: stats.Probe | None = None
@@ -75,7 +93,30 @@ class FixedStep(Algorithm):
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.plan = build(system, self.method, record, decimation, check_finite)
-        self.source, self._owner, env = _generate(system, self.plan)
+        self._system = system
+        self._run = self._finish = None
+        # until the components are initialized: every block that may run its kernel does
+        shapes = {n: Shape(True, True) for n, c in system.components.items()
+                  if runs_kernel(c) and self._kernels_wanted()}
+        self.source, self._owner, _ = _generate(system, self.plan, shapes)
+
+    def _kernels_wanted(self) -> bool:
+        """Whether blocks may run their kernels in the loop: not when an algebraic loop is solved
+        (its solver reaches the blocks through their values and methods) nor when every block's
+        calls are timed (`twmr.master.stats`)."""
+        assert self.plan is not None
+        return not stats.timing_wanted() and not self.plan.loops
+
+    def _load(self) -> None:
+        """Generate and compile the loop for the kernels the initialized components offer."""
+        system, plan = self._system, self.plan
+        assert system is not None and plan is not None
+        shapes = {}
+        for name, comp in system.components.items() if self._kernels_wanted() else ():
+            k = python_kernel(comp, _step_of(system, name))
+            if k is not None:
+                shapes[name] = Shape(k.evaluate is not None, k.step is not None)
+        self.source, self._owner, env = _generate(system, plan, shapes)
         self.filename = f"<twmr schedule {system.source} {id(self):x}>"
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
@@ -83,15 +124,19 @@ class FixedStep(Algorithm):
         timing = stats.timing_wanted()
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
-            self.probe.wrap(env, self.plan.order)
-        self.loops = loops.bind(env, system, self.plan, timing)
+            self.probe.wrap(env, plan.order)
+        self.loops = loops.bind(env, system, plan, timing)
         self._run, self._finish = env["run"], env["finish"]
 
     def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
+        if self._run is None:
+            self._load()
         self._run(n0, n1, rows)  # type: ignore[misc]
         return n1
 
     def finish(self, n: int, rows: list[tuple[float, ...]]) -> None:
+        if self._finish is None:
+            self._load()
         self._finish(n, rows)  # type: ignore[misc]
 
     def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
@@ -119,55 +164,163 @@ def locate_in(exc: BaseException, filename: str, owners: dict[int, tuple[str, st
     return name, call, t
 
 
-def _generate(system: System, plan: Plan) -> tuple[str, dict[int, tuple[str, str]],
-                                                   dict[str, Any]]:
+class Shape(NamedTuple):
+    """Which functions the kernel a block runs in the loop has (the loop skips a missing one,
+    as the block's own calls do)."""
+
+    evaluate: bool
+    step: bool
+
+
+def _step_of(system: System, name: str) -> float:
+    """The communication step of component `name` [s]: its multiple of the base step."""
+    return system.multiple(name) * system.experiment.step
+
+
+def _binder(comp: Component, h: float, shape: Shape) -> Callable[[], PythonKernel]:
+    """`bind()`: the kernel `comp` runs with steps of `h` [s], which must still have `shape`."""
+    def bind() -> PythonKernel:
+        k = bound_kernel(comp, h)
+        if k is None or Shape(k.evaluate is not None, k.step is not None) != shape:
+            raise CosimError(
+                f"component '{comp.name}' ({type(comp).__name__}) offers another kernel than "
+                f"when this run's step loop was generated. Fix: keep the parameters that "
+                f"choose its kernel fixed during a run (or prepare the algorithm again).")
+        return k
+    return bind
+
+
+def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
+              ) -> tuple[str, dict[int, tuple[str, str]], dict[str, Any]]:
     """(source, line owners, globals) of the step loop rendered from `plan`: `run(n0, n1, rows)`
     executes base steps n0..n1-1 and appends a flat tuple (t, values...) of the recorded ports
     to `rows` every `plan.decimation` steps; `finish(n, rows)` writes inputs and evaluates at
-    the final point."""
+    the final point. The blocks in `kernels` are called through their kernels (ports in local
+    variables y<i>_<k>, u<i>_<k>, state x<i>, parameters p<i>; see `_Kernels`), the others
+    through their methods."""
     comps = system.components
     ids = {name: i for i, name in enumerate(plan.order)}
-    exp = system.experiment
     env: dict[str, Any] = {}
     for name, comp in comps.items():
         i = ids[name]
         env[f"d{i}"] = comp.__dict__
-        env[f"ev{i}"] = comp.evaluate
-        env[f"st{i}"] = comp.do_step
-
-    def ref(name: str, port: str) -> str:
-        return f"d{ids[name]}[{port!r}]"
+        if name in kernels:
+            env[f"bind{i}"] = _binder(comp, _step_of(system, name), kernels[name])
+        else:
+            env[f"ev{i}"] = comp.evaluate
+            env[f"st{i}"] = comp.do_step
+    kern = _Kernels(system, ids, kernels)
 
     w = _Writer()
     for name in plan.order:
         i = ids[name]
-        w.add(0, f"# d{i}, ev{i}, st{i}: {name} ({type(comps[name]).__name__}) values, evaluate, "
-                 f"do_step")
+        what = "kernel (x, p, ev, st; ports y_k, u_k)" if name in kernels else \
+            "values, evaluate, do_step"
+        w.add(0, f"# {i}: {name} ({type(comps[name]).__name__}): {what}")
     w.add(0, "def run(n0, n1, rows):")
-    w.add(1, "for n in range(n0, n1):")
-    w.add(2, "t = start + n * h")
-    _point(w, 2, plan, ids, ref, final=False)
-    _finite_check(w, 2, plan, ref)
-    _record(w, 2, plan, ref, final=False)
+    kern.prologue(w, 1)
+    w.add(1, "try:")
+    w.add(2, "for n in range(n0, n1):")
+    w.add(3, "t = start + n * h")
+    _point(w, 3, plan, ids, kern.ref, final=False, evaluate=kern.evaluate)
+    _finite_check(w, 3, plan, kern.ref, kern.kernels.__contains__)
+    _record(w, 3, plan, kern.ref, final=False)
     for s in plan.steps:
         i = ids[s.name]
-        env[f"h{i}"] = s.multiple * exp.step
-        line = f"st{i}({s.time}, h{i})"
-        w.add(2, line if s.guard is None else f"if {s.guard}: {line}", (s.name, "do_step"))
+        env[f"h{i}"] = s.multiple * system.experiment.step
+        line = kern.step(s.name, s.time) if s.name in kernels else f"st{i}({s.time}, h{i})"
+        if line is not None:
+            w.add(3, line if s.guard is None else f"if {s.guard}: {line}", (s.name, "do_step"))
+    kern.epilogue(w, 1)
     w.add(0, "def finish(n, rows):")
-    w.add(1, "t = start + n * h")
-    _point(w, 1, plan, ids, ref, final=True)
-    _finite_check(w, 1, plan, ref)
-    _record(w, 1, plan, ref, final=True)
-    loops.render(w, plan, ids, ref)
-    env.update(start=exp.start, h=exp.step, nonfinite=_nonfinite)
+    kern.prologue(w, 1)
+    w.add(1, "try:")
+    w.add(2, "t = start + n * h")
+    _point(w, 2, plan, ids, kern.ref, final=True, evaluate=kern.evaluate)
+    _finite_check(w, 2, plan, kern.ref, kern.kernels.__contains__)
+    _record(w, 2, plan, kern.ref, final=True)
+    kern.epilogue(w, 1)
+    loops.render(w, plan, ids, kern.ref)
+    env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite)
     return "\n".join(w.lines) + "\n", w.owner, env
 
 
+class _Kernels:
+    """How the loop writes the blocks that run their kernels: their ports as locals y<i>_<k>
+    (outputs and states, declared order) and u<i>_<k> (inputs), read from the component when a
+    call of the loop starts and written back (with the state, through `sync<i>`) when it ends;
+    the other blocks' ports as ``d<i>[port]``. Y<i> holds the tuple of outputs the kernel
+    returned last, handed to its next call as it is."""
+
+    def __init__(self, system: System, ids: dict[str, int], kernels: Mapping[str, Shape]):
+        self.ids, self.kernels = ids, kernels
+        comps = system.components
+        self.outs = {n: list(comps[n].outputs) for n in kernels}
+        self.ins = {n: list(comps[n].inputs) for n in kernels}
+
+    def ref(self, name: str, port: str) -> str:
+        i = self.ids[name]
+        if name not in self.kernels:
+            return f"d{i}[{port!r}]"
+        if port in self.outs[name]:
+            return f"y{i}_{self.outs[name].index(port)}"
+        return f"u{i}_{self.ins[name].index(port)}"
+
+    def _ports(self, name: str) -> list[tuple[str, str]]:
+        """(port, local) of every port of kernel block `name`."""
+        return [(p, self.ref(name, p)) for p in self.outs[name] + self.ins[name]]
+
+    def prologue(self, w: _Writer, ind: int) -> None:
+        for name in self.kernels:
+            i = self.ids[name]
+            w.add(ind, f"p{i}, ev{i}, st{i}, sync{i} = bind{i}()", (name, "its kernel"))
+            ports = [(_X, f"x{i}"), *self._ports(name)]
+            w.add(ind, ", ".join(v for _, v in ports) + " = " +
+                  ", ".join(f"d{i}[{p!r}]" for p, _ in ports))
+            w.add(ind, f"Y{i} = {_tuple([self.ref(name, p) for p in self.outs[name]])}")
+
+    def epilogue(self, w: _Writer, ind: int) -> None:
+        w.add(ind, "finally:")
+        for name in self.kernels:
+            i = self.ids[name]
+            ports = self._ports(name)
+            if ports:
+                w.add(ind + 1, ", ".join(f"d{i}[{p!r}]" for p, _ in ports) + " = " +
+                      ", ".join(v for _, v in ports))
+            w.add(ind + 1, f"sync{i}(x{i})", (name, "its kernel's sync"))
+        if not self.kernels:
+            w.add(ind + 1, "pass")
+
+    def _call(self, name: str, fn: str, args: str) -> str:
+        """`x<i>, Y<i> = fn(args, x<i>, Y<i>, inputs, p<i>)` and the outputs unpacked: Y<i>, the
+        tuple of outputs the kernel returned, goes back to it as it is."""
+        i = self.ids[name]
+        ys = [self.ref(name, p) for p in self.outs[name]]
+        us = _tuple([self.ref(name, p) for p in self.ins[name]])
+        line = f"x{i}, Y{i} = {fn}{i}({args}, x{i}, Y{i}, {us}, p{i})"
+        return f"{line}; {', '.join(ys)}{',' if len(ys) == 1 else ''} = Y{i}" if ys else line
+
+    def evaluate(self, name: str) -> str | None:
+        """The line of an evaluation of `name` (None: its kernel has no evaluate)."""
+        if name not in self.kernels:
+            return f"ev{self.ids[name]}(t)"
+        return self._call(name, "ev", "t") if self.kernels[name].evaluate else None
+
+    def step(self, name: str, time: str) -> str | None:
+        """The line of a step of kernel block `name` from `time` (None: its kernel has none)."""
+        i = self.ids[name]
+        return self._call(name, "st", f"{time}, h{i}") if self.kernels[name].step else None
+
+
+def _tuple(items: list[str]) -> str:
+    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
+
+
 def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
-           final: bool) -> None:
+           final: bool, evaluate: Callable[[str], str | None] | None = None) -> None:
     """Lines of one communication point: the Jacobi snapshot, then the plan's input writes and
-    evaluations, each guarded by its component's step multiple (not at the final point)."""
+    evaluations, each guarded by its component's step multiple (not at the final point);
+    `evaluate(name)` writes an evaluation (default: ``ev<i>(t)``; None: no line)."""
     for k, (src, port) in enumerate(plan.snapshot):
         w.add(ind, f"s{k} = {ref(src, port)}")
     for action in plan.point:
@@ -176,17 +329,35 @@ def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
         elif isinstance(action, Solve):
             line, owner = loops.call(action), (", ".join(action.components), "the loop solver")
         else:
-            line, owner = f"ev{ids[action.name]}(t)", (action.name, "evaluate")
+            call = f"ev{ids[action.name]}(t)" if evaluate is None else evaluate(action.name)
+            if call is None:
+                continue
+            line, owner = call, (action.name, "evaluate")
         cond = None if final else guard(action)
         w.add(ind, line if cond is None else f"if {cond}: {line}", owner)
 
 
-def _finite_check(w: _Writer, ind: int, plan: Plan, ref: Ref) -> None:
-    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero."""
+#: a vector port held in a local of at most this many elements is summed element by element
+#: in the check (shorter than a call of `sum`; the same association)
+INLINE_SUM = 4
+
+
+def _finite_check(w: _Writer, ind: int, plan: Plan, ref: Ref,
+                  local: Callable[[str], bool] = lambda name: False) -> None:
+    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero.
+    `local(name)`: the ports of component `name` are local variables."""
     if not plan.check:
         return
-    sums = [" + ".join(f"sum({ref(s.name, s.port)})" if s.size is not None
-                       else ref(s.name, s.port) for s in chunk) for chunk in plan.check]
+
+    def term(s: Signal) -> str:
+        r = ref(s.name, s.port)
+        if s.size is None:
+            return r
+        if s.size <= INLINE_SUM and local(s.name):
+            return "(" + " + ".join(f"{r}[{k}]" for k in range(s.size)) + ")"
+        return f"sum({r})"
+
+    sums = [" + ".join(term(s) for s in chunk) for chunk in plan.check]
     w.add(ind, "x = " + (sums[0] if len(sums) == 1 else _sum_of(sums, "0.0")))
     w.add(ind, "if x - x != 0.0: nonfinite(t)")
 
