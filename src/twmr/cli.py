@@ -400,7 +400,14 @@ def _common() -> argparse.ArgumentParser:
     return common
 
 
-def parser() -> argparse.ArgumentParser:
+#: the subcommands defined here; any other is an installed package's (`twmr.commands`)
+BUILT_IN = ("run", "check", "components", "plot", "sweep", "tune", "sweep-report", "inspect",
+            "export", "fmu")
+
+
+def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; the installed packages' subcommands are added (their modules
+    imported) unless `argv` names a built-in one."""
     common = _common()
     p = argparse.ArgumentParser(prog="twmr", parents=[common],
                                 description="Co-simulation of wheeled mobile robots.")
@@ -547,6 +554,9 @@ def parser() -> argparse.ArgumentParser:
     fb.add_argument("--timeout", type=float, metavar="SECONDS",
                     help="the longest the build may take (default 120)")
     fb.set_defaults(fn=cmd_fmu_build)
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    if words and words[0] in BUILT_IN:
+        return p
     from twmr.registry import command, commands
 
     for name in commands():
@@ -581,7 +591,7 @@ def _configure_logging(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     try:
-        args = parser().parse_args(argv)
+        args = parser(argv).parse_args(argv)
     except KeyboardInterrupt:
         return _interrupted_at_start()
     args.quiet = getattr(args, "quiet", False)
