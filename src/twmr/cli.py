@@ -605,6 +605,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         log.error("error: %s%s", err, _where(err))
         return 1
+    except ImportError as err:
+        from twmr.core.extras import missing
+
+        error = missing(err, f"twmr {args.command}")
+        if error is None or args.debug:
+            raise
+        log.error("error: %s", error)
+        return 1
     except BrokenPipeError:
         _quiet_stdout()  # the reader went away (`twmr ... | head`): stop without a word
         return 141

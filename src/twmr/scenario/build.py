@@ -225,8 +225,12 @@ class _Builder:
                 f"(another scenario file as a block, docs/systems.md)."))
             return None
         except ImportError as err:
+            from twmr.core.extras import missing
+
+            extra = missing(err, f"kind '{kind}'")
+            fix = str(extra).partition("Fix: ")[2] if extra else "install what it needs."
             self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
-                                         f"cannot be loaded ({err}).", "install what it needs."))
+                                         f"cannot be loaded ({err}).", fix))
             return None
         return cls
 

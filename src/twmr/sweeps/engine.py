@@ -121,6 +121,9 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
             ) -> tuple[Any, Any]:
     """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
     dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
+    from twmr.core.extras import require
+
+    require("dask.distributed", "a sweep on Dask")
     from dask.distributed import Client, LocalCluster
 
     # failures are the rows' business, and what Dask says while it is torn down after Ctrl-C

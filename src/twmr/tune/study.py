@@ -266,7 +266,9 @@ def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, An
 def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
     """An Optuna study in memory holding the finished trials; its TPE sampler seeded from the
     seed and their number, so a resumed tune goes on reproducibly."""
-    import optuna
+    from twmr.core.extras import require
+
+    optuna = require("optuna", "tuning")
     from optuna.trial import TrialState, create_trial
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
