@@ -81,7 +81,7 @@ def _number(test: Any) -> Any:
     return check
 
 
-def _size(kind: type) -> Any:
+def _size(kind: type[dict[Any, Any]] | type[list[Any]] | type[str]) -> Any:
     def check(v: Any, want: int, _s: dict[str, Any], _r: dict[str, Any]) -> bool:
         return not isinstance(v, kind) or len(v) >= want
     return check
