@@ -29,26 +29,41 @@ from twmr.scenario.system import System
 _KEPT = ("_kernel_calls",)
 
 
-def _snapshot(comp: Component) -> dict[str, Any] | None:
-    """The component's attributes as built, or None when it holds something that cannot be
-    copied back (an FMU, a bus, a file)."""
+def _snapshot(comp: Component) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The component's attributes as built: (immutable values, values a run may change in
+    place, copied), or None when it holds something that cannot be copied back (an FMU, a bus,
+    a file)."""
     if comp.construction_parameters or comp.needs_realtime:
         return None
+    fixed, mutable = {}, {}
     try:
-        return {k: (v if plain(v) and type(v).__name__ != "ndarray" else copy.deepcopy(v))
-                for k, v in comp.__dict__.items() if k not in _KEPT and k != "variables"}
+        for k, v in comp.__dict__.items():
+            if k in _KEPT or k == "variables":
+                continue
+            if plain(v) and not _holds_array((v,)):
+                fixed[k] = v
+            else:
+                mutable[k] = copy.deepcopy(v)
     except Exception:  # noqa: BLE001 - whatever does not copy is rebuilt instead
         return None
+    return fixed, mutable
 
 
-def _restore(comp: Component, saved: dict[str, Any], variables: dict[str, Any]) -> None:
+def _holds_array(value: Any) -> bool:
+    return isinstance(value, tuple) and any(
+        type(v).__name__ == "ndarray" or _holds_array(v) for v in value)
+
+
+def _restore(comp: Component, saved: tuple[dict[str, Any], dict[str, Any]],
+             variables: dict[str, Any]) -> None:
     """The component's attributes set back in place to `saved` (its generated calls keep
     reading the same dict)."""
     d = comp.__dict__
     kept = {k: d[k] for k in _KEPT if k in d}
+    fixed, mutable = saved
     d.clear()
-    d.update({k: (v if plain(v) and type(v).__name__ != "ndarray" else copy.deepcopy(v))
-              for k, v in saved.items()})
+    d.update(fixed)
+    d.update({k: copy.deepcopy(v) for k, v in mutable.items()})
     d["variables"] = dict(variables)
     d.update(kept)
 
@@ -86,15 +101,16 @@ class Built:
     """A scenario built once (`twmr.build`); `run(values)` runs it with those overrides."""
 
     def __init__(self, scenario: Scenario):
-        from twmr.scenario.flatten import flatten
+        from twmr.scenario.flatten import flatten, has_subsystems
 
         self.scenario = scenario
         self.spec = scenario.spec
         self.system = scenario.fresh_system()
-        self._flat = flatten(self.spec).spec
+        self._nested = has_subsystems(self.spec)
+        self._flat = flatten(self.spec).spec if self._nested else self.spec
         self._shape = _shape(self._flat, self.system)
         saved = {name: _snapshot(comp) for name, comp in self.system.components.items()}
-        self._saved: dict[str, dict[str, Any]] | None = \
+        self._saved: dict[str, tuple[dict[str, Any], dict[str, Any]]] | None = \
             None if any(s is None for s in saved.values()) else saved  # type: ignore[assignment]
         self._variables = {name: dict(comp.variables)
                            for name, comp in self.system.components.items()}
@@ -124,15 +140,16 @@ class Built:
         if self._fresh and not texts:
             self._fresh = False
             return spec, self.system
-        flat = flatten(spec).spec if texts else self._flat
+        flat = self._flat if not texts else flatten(spec).spec if self._nested else spec
         if self._saved is None or _shape(flat, self.system) != self._shape:
             self.rebuilt += 1
             return spec, build_system(spec)
         self._fresh = False
         for name, comp in self.system.components.items():
             _restore(comp, self._saved[name], self._variables[name])
-        changed = [n for n in self.system.components
-                   if _values(flat, n) != _values(self._flat, n)]
+        base = self._flat.components
+        changed = [n for n, c in flat.components.items()  # an override replaces what it sets
+                   if c is not base[n] and _values(flat, n) != _values(self._flat, n)]
         if changed:  # a failure leaves them changed: the next run restores every component
             reconfigure(flat, self.system, changed)
         return spec, self.system

@@ -110,9 +110,9 @@ def read_file(path: Path) -> str:
 
 def read(text: str, source: str) -> tuple[Any, Lines]:
     """Parse `text` (YAML). Raises ScenarioError with file:line for syntax errors."""
-    if _FAST is not yaml.SafeLoader:
+    if FAST is not yaml.SafeLoader:
         try:
-            return _parse(text, source, _FAST)
+            return _parse(text, source, FAST)
         except (yaml.YAMLError, RecursionError):
             pass  # the pure-Python parser reports it, in its own words
     try:
@@ -139,7 +139,7 @@ def read(text: str, source: str) -> tuple[Any, Lines]:
 
 
 #: libyaml's parser when PyYAML was built with it: the same nodes and marks, ten times faster
-_FAST: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+FAST: type[yaml.SafeLoader] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
 def _parse(text: str, source: str, loader_class: type[yaml.SafeLoader]) -> tuple[Any, Lines]:
