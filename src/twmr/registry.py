@@ -49,12 +49,17 @@ def _cache_file() -> Path:
 
 
 def _environment() -> list[Any]:
-    """What the installed distributions depend on: the import path and each folder's
-    modification time (an install or uninstall adds or removes a folder of metadata there)."""
+    """What the installed distributions' entry points depend on: each folder of the import
+    path with the metadata folders in it (`*.dist-info`, `*.egg-info`) and their modification
+    times (an install, upgrade or uninstall adds, replaces or removes one)."""
     stamp: list[Any] = [sys.version]
     for entry in sys.path:
+        folder = entry or "."
         try:
-            stamp.append([entry, os.stat(entry or ".").st_mtime_ns])
+            names = sorted(n for n in os.listdir(folder)
+                           if n.endswith((".dist-info", ".egg-info")))
+            stamp.append([entry, [[n, os.stat(os.path.join(folder, n)).st_mtime_ns]
+                                  for n in names]])
         except OSError:
             stamp.append([entry, None])
     return stamp
