@@ -425,10 +425,10 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     with_set(r)
     r.add_argument("--out", help="output directory (default results/<scenario name>)")
     r.add_argument("--plot", action="store_true", help="write PNG plots of the recorded signals")
-    r.add_argument("--format", default="csv,mat",
-                   help="exports beside result.arrows, a comma list of registered result "
-                        "formats (csv, mat, parquet, or an installed one) or none (default "
-                        "csv,mat)")
+    r.add_argument("--format", default="none",
+                   help="exports beside result.arrows (the result itself, readable by twmr "
+                        "plot and twmr.read_result), a comma list of registered result "
+                        "formats (csv, mat, parquet, or an installed one) or none (default)")
     r.add_argument("--metrics", action="append", default=[], metavar="NAME",
                    help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",
