@@ -49,19 +49,22 @@ def _cache_file() -> Path:
 
 
 def _environment() -> list[Any]:
-    """What the installed distributions' entry points depend on: each folder of the import
-    path with the metadata folders in it (`*.dist-info`, `*.egg-info`) and their modification
-    times (an install, upgrade or uninstall adds, replaces or removes one)."""
+    """What the installed distributions' entry points depend on: the metadata folders
+    (`*.dist-info`, `*.egg-info`) in each folder of the import path, in its order, with their
+    modification times (an install, upgrade or uninstall adds, replaces or removes one; a
+    folder without any, such as the working folder, changes nothing)."""
     stamp: list[Any] = [sys.version]
     for entry in sys.path:
         folder = entry or "."
         try:
             names = sorted(n for n in os.listdir(folder)
                            if n.endswith((".dist-info", ".egg-info")))
-            stamp.append([entry, [[n, os.stat(os.path.join(folder, n)).st_mtime_ns]
-                                  for n in names]])
+            if names:
+                stamp.append([os.path.abspath(folder),
+                              [[n, os.stat(os.path.join(folder, n)).st_mtime_ns]
+                               for n in names]])
         except OSError:
-            stamp.append([entry, None])
+            continue
     return stamp
 
 
