@@ -9,7 +9,8 @@ of `slip.phase=uniform:0:5` (the same cost per run: one scenario, one phase each
 goes into a fresh temporary folder; its wall time includes the scenario check and, with 2
 workers, the cluster's start-up and close. A first untimed 1-run sweep warms the numba cache.
 Figures: `tune_runs_per_min_W`, `sweep_runs_per_min_W`, `ratio_W` = tune / sweep (target
->= 0.9). A tune's trials run one after another, so its parallelism is at most the realisations.
+>= 0.9). The tune asks its trials in batches of W (its default: the workers), so the runs of W
+trials are on the cluster at once.
 
     python benchmarks/tune.py [--trials 10] [--realisations 4]
 

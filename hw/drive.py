@@ -4,7 +4,8 @@ simulated motor driver, so a scenario swaps one for the other by its `kind:` alo
 Protocols: any `Link` registered under `twmr.can_protocols` (`protocol:`), shipped: ODrive CAN
 Simple (`odrive`) and CiA 402 over CANopen (`cia402`); the block knows them only through that
 interface. The bus is python-can's (`interface`, `channel`, `bitrate`, or a python-can config file
-`can_config`).
+`can_config`), or a `can_bus` block of the scenario that the drives join (`bus:`,
+`twmr.hw.canbus_block`).
 
 Each step: `evaluate(t)` limits the torque command to `torque_limit` and sends it at once (the
 torque output depends directly on the command, as for the simulated driver, and is what the drives
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -60,6 +62,8 @@ class CanMotorDrive(Component):
     bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
     can_config = Parameter("", type=STRING, description="python-can config file (INI); replaces "
                            "interface/channel/bitrate when given")
+    bus = Parameter("", type=STRING, description="a can_bus block of the scenario to join "
+                    "(replaces interface/channel/can_config; '' = its own python-can bus)")
     can_context = Parameter("default", type=STRING, description="section of can_config")
     node_ids = Parameter((0, 1), size=2, type="Integer", description="right, left node id")
     gear = Parameter(1.0, min=1e-9, description="motor turns per wheel turn")
@@ -125,6 +129,7 @@ class CanMotorDrive(Component):
                              f"file name inside the results folder.",
                              "give a plain name such as motor.blf (it is written beside the "
                              "results), 'auto' or ''."))
+        problems += self._bus_problems(given)
         if not self.emulate:
             missing = [k for k in ("torque_limit", "speed_limit", "max_current")
                        if k not in given]
@@ -143,6 +148,42 @@ class CanMotorDrive(Component):
                                      f"give at most {rating:g} N.m."))
         return problems
 
+    def _bus_problems(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        """`bus:` with its own python-can options, our bus blocks' interface named directly,
+        and a `virtual` bus for drives in another process (python-can's virtual bus exists
+        inside one process only)."""
+        from twmr.hw.canbus import INTERFACE
+
+        own = sorted(given & {"interface", "channel", "can_config"})
+        if self.bus and own:
+            return [(own[0], f"bus: {self.bus} and {', '.join(own)} both say where the frames "
+                     f"go.", f"keep bus: {self.bus} (the bus block bridges any python-can bus "
+                     f"with its own interface/channel), or drop bus:.")]
+        if self.bus:
+            return []
+        if self.interface == INTERFACE and not self.can_config:
+            return [("interface", f"interface '{INTERFACE}' is how participants join a can_bus "
+                     f"block.", "give bus: <the can_bus block's name> instead.")]
+        if not self.emulate and not self.can_config and self.interface == "virtual":
+            return [("interface", "interface 'virtual' with emulate: false: python-can's "
+                     "virtual bus exists inside one process only, so no drive in another "
+                     "process (twmr emulate-drive, a bench PC) can hear it.",
+                     "use a bus that crosses processes: interface: udp_multicast with "
+                     "channel: 239.74.163.2 on loopback (and twmr emulate-drive --interface "
+                     "udp_multicast --channel 239.74.163.2), or socketcan with a vcan or real "
+                     "adapter; or emulate: true.")]
+        return []
+
+    def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
+        """`bus:` names a can_bus block of the scenario."""
+        if not self.bus:
+            return []
+        from twmr.hw.canbus_block import bus_problem
+
+        what = bus_problem(self.name, self.bus, peers)
+        return [("bus", what + ".", "name a component of kind can_bus (bus: can0), or leave "
+                 "bus: out to use interface/channel.")] if what else []
+
     def drive_problems(self) -> list[tuple[str, str, str]]:
         """The protocol (registered), its own parameters (`Link.check`), the node ids and the
         python-can interface: what no run can start without."""
@@ -160,7 +201,7 @@ class CanMotorDrive(Component):
             problems.append(("node_ids", what + ".", "give two different ids the drives are "
                              f"configured with ({link.node_range.start}.."
                              f"{link.node_range.stop - 1} for {self.protocol})."))
-        if not self.can_config:
+        if not (self.can_config or self.bus):
             wrong = interface_problem(self.interface)
             if wrong:
                 problems.append(("interface", wrong + ".", "give a python-can interface name "
@@ -187,18 +228,19 @@ class CanMotorDrive(Component):
             raise HardwareError(self.name, start, f"parameter '{key}': {what} Fix: {fix}")
         link = protocol(self.protocol)
         try:
-            options = bus_options(self.interface, self.channel, int(self.bitrate),
-                                  self.can_config, self.can_context)
+            options = self._options(self.name)
+            emulated = self._options(f"{self.name} (emulated)")
         except (OSError, ValueError) as err:
-            raise HardwareError(self.name, start, f"bus configuration: {err}. Fix: give an "
-                                f"existing python-can config file or interface and channel."
+            fix = "name a can_bus block of this scenario in bus:" if self.bus else \
+                "give an existing python-can config file or interface and channel"
+            raise HardwareError(self.name, start, f"bus configuration: {err}. Fix: {fix}."
                                 ) from err
         path = self._log_path()
         self.log = FrameLog(path) if path else None
         spec = self.spec()
         if self.emulate:
             try:
-                emulator, spec = link.emulate(spec, options)
+                emulator, spec = link.emulate(spec, emulated)
             except (OSError, ValueError, ImportError, can.CanError) as err:
                 raise HardwareError(self.name, start, f"cannot start the emulated drives "
                                     f"({err}). Fix: check interface, channel and can_config."
@@ -208,6 +250,16 @@ class CanMotorDrive(Component):
             self.link = link(spec, options, self.log)
         except LinkError as err:
             raise HardwareError(self.name, start, err.fault.text()) from err
+
+    def _options(self, participant: str) -> dict[str, Any]:
+        """python-can options of the host side (or, `participant` named so, of the emulated
+        drives): the bus block's (`bus:`), else interface/channel/bitrate or can_config."""
+        if self.bus:
+            from twmr.hw.canbus_block import drive_options
+
+            return drive_options(self.name, self.bus, getattr(self, "_run", None), participant)
+        return bus_options(self.interface, self.channel, int(self.bitrate), self.can_config,
+                           self.can_context)
 
     def spec(self) -> DriveSpec:
         """The drives as every protocol sees them (each reads its own fields)."""
@@ -222,6 +274,7 @@ class CanMotorDrive(Component):
 
     def prepare(self, run: Any) -> None:
         self._run_folder = run.folder
+        self._run = run
 
     def _log_path(self) -> Path | None:
         """The frame log inside the run's folder ('auto': <name>_frames.blf), or None."""

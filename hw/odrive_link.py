@@ -46,7 +46,7 @@ class OdriveLink(Link):
         problems = self.check(spec)
         if problems:
             raise LinkError(Fault(None, problems[0][1].rstrip("."), problems[0][2]))
-        self.spec = spec
+        self.spec, self.options = spec, options
         self.nodes, self.firmware, self.gear = tuple(spec.nodes), spec.firmware, spec.gear
         self.polled = spec.encoder == "polled"
         self.log = log
@@ -276,8 +276,19 @@ class OdriveLink(Link):
                 return
             time.sleep(0.002)
         late = next(n for n in self.nodes if n not in ready)
-        raise LinkError(Fault(late, f"not in closed loop after {timeout} s (heartbeat "
-                              f"{self.states[late]})",
+        with self.lock:
+            beat, state = self.beats[late], self.states[late]
+        if not beat:
+            raise LinkError(Fault(late, f"no heartbeat arrived within {timeout:g} s on "
+                                  f"{describe(self.options)}: nothing answers as this node",
+                                  "check that the drive (or twmr emulate-drive) is powered and "
+                                  "on this bus, with this node id, interface, channel and "
+                                  "bitrate; python-can's virtual bus reaches no other process "
+                                  "(use udp_multicast or socketcan there)"))
+        what = (f"its last heartbeat reports axis state {state.axis_state}, axis error "
+                f"0x{state.axis_error:x}" if state.axis_state != p.AXIS_CLOSED_LOOP else
+                "it reports closed loop but sent no encoder estimates")
+        raise LinkError(Fault(late, f"not in closed loop after {timeout:g} s ({what})",
                               "check power, node ids, firmware version and the axis errors"))
 
     def command(self, torques: Sequence[float]) -> tuple[float, ...]:

@@ -1,6 +1,7 @@
 """Build the test FMUs from their C sources (tests/fmus/) at test time, into a given folder."""
 from __future__ import annotations
 
+import hashlib
 import os
 import platform
 import re
@@ -55,3 +56,43 @@ def _fmi3_stubs(source: Path, headers: Path, work: Path) -> Path:
     stubs.write_text("".join(f"int {f}(void) {{ return 3; }}\n" for f in declared
                              if f not in defined))
     return stubs
+
+
+LSBUS = SOURCES / "lsbus"
+
+
+def build_lsbus_fmu(name: str, out_dir: Path, edits: dict[str, str] | None = None) -> Path:
+    """Build an LS-BUS CAN node of tests/fmus/lsbus/ (`cannode_triggered`, `cannode_countdown`,
+    `cannode_periodic`: one source `cannode.c`, -DCOUNTDOWN for the two whose Tx clock is an
+    input clock) or the bus simulation `canbus` (`canbus.c`), with its
+    terminalsAndIcons.xml and LS-BUS manifest; `edits` replaces text in its XML files (a test's
+    broken variant: another MIME type, another version)."""
+    from fmpy.fmi3 import platform_tuple
+
+    src = LSBUS / name
+    headers = Path(fmpy.__file__).parent / "c-code"
+    tag = name if not edits else \
+        f"{name}_{hashlib.sha1(repr(sorted(edits.items())).encode()).hexdigest()[:8]}"
+    work = out_dir / f"{tag}_build"
+    binaries = work / "binaries" / platform_tuple
+    binaries.mkdir(parents=True, exist_ok=True)
+    ext = {"Windows": ".dll", "Darwin": ".dylib"}.get(platform.system(), ".so")
+    source = LSBUS / ("canbus.c" if name == "canbus" else "cannode.c")
+    defines = [] if name in ("canbus", "cannode_triggered") else ["-DCOUNTDOWN"]
+    subprocess.run([os.environ.get("CC", "cc"), "-shared", "-fPIC", "-O2", f"-I{headers}",
+                    *defines, str(source), str(_fmi3_stubs(source, headers, work)),
+                    "-o", str(binaries / f"{name}{ext}"), "-lm"], check=True)
+    places = {"modelDescription.xml": "modelDescription.xml",
+              "terminalsAndIcons.xml": "terminalsAndIcons/terminalsAndIcons.xml",
+              "fmi-ls-manifest.xml": "extra/org.fmi-standard.fmi-ls-bus/fmi-ls-manifest.xml"}
+    fmu = out_dir / f"{tag}.fmu"
+    with zipfile.ZipFile(fmu, "w") as z:
+        for path in work.rglob("*"):
+            if path.is_file():
+                z.write(path, path.relative_to(work).as_posix())
+        for file, inside in places.items():
+            text = (src / file).read_text()
+            for old, new in (edits or {}).items():
+                text = text.replace(old, new)
+            z.writestr(inside, text)
+    return fmu

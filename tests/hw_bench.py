@@ -15,6 +15,9 @@ H = 2e-3  # host period [s]
 #: the host watchdog of the bench tests [host periods]: 100 ms, which a loaded machine (two busy
 #: processes on two cores) keeps, where 5 periods (10 ms) tripped before any fault was made
 WATCHDOG = 50
+#: the heartbeat timeout of the bench tests [s] (a case that tests heartbeat loss gives its own):
+#: heartbeats 0.54 s apart were seen at load 20
+HEARTBEAT_TIMEOUT = 1.0
 
 
 def channel() -> str:
@@ -23,10 +26,11 @@ def channel() -> str:
 
 def started(protocol: str = "odrive", **kw: Any) -> CanMotorDrive:
     """A drive pair set up and initialized on its own virtual channel (emulated drives), its host
-    watchdog `WATCHDOG` periods unless given."""
+    watchdog `WATCHDOG` periods and heartbeat timeout `HEARTBEAT_TIMEOUT` unless given."""
     kw.setdefault("channel", channel())
     kw.setdefault("log_file", "")
     kw.setdefault("watchdog_periods", WATCHDOG)
+    kw.setdefault("heartbeat_timeout", HEARTBEAT_TIMEOUT)
     if protocol == "cia402":
         kw.setdefault("node_ids", (1, 2))
     d = CanMotorDrive("motor", protocol=protocol, **kw)

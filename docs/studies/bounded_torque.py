@@ -32,6 +32,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -268,6 +269,7 @@ def final(samples: int = 100) -> None:
 
 
 if __name__ == "__main__":
+    started = time.perf_counter()
     OUT.mkdir(parents=True, exist_ok=True)
     what = sys.argv[1:] or ["screen", "final"]
     if "screen" in what:
@@ -276,3 +278,4 @@ if __name__ == "__main__":
         final()
     if "antiwindup" in what:
         screen(part="antiwindup")
+    print(f"wall time, measured by the script: {time.perf_counter() - started:.0f} s", flush=True)

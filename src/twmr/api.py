@@ -332,15 +332,20 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
          seed: int = 0, aggregate: str = "mean", constraints: Sequence[str] = (),
          metrics: Sequence[str] = ("tracking",), overrides: Sequence[str] = (),
          method: str = "random", out: str | Path | None = None, workers: int | None = 1,
-         scheduler: str | None = None, report: bool = True, progress: bool = False) -> Any:
+         scheduler: str | None = None, batch: int | None = None,
+         baseline: str | Path | None = None, start: Sequence[dict[str, Any]] = (),
+         report: bool = True, progress: bool = False) -> Any:
     """Tune `params` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC LO:HI, log:LO:HI, int:LO:HI or
     values:A,B,C) of `scenario` to minimise `aggregate` (mean, median, max, qP) of the metric
     expression `objective` over `realisations` runs drawn once from `vary` and `seed` (the same
     for every trial), subject to `constraints` ('EXPR<=BOUND' in every realisation), in
-    `trials` Optuna TPE trials in all (a folder holding fewer continues). `workers` 1 runs in
-    this process; more on local Dask workers on 127.0.0.1. Writes `out` (default
-    tunes/<scenario name>): trials.parquet, realisations.parquet, best.yaml, report/. Returns a
-    `twmr.tune.TuneOutcome`."""
+    `trials` Optuna TPE trials in all (a folder holding fewer continues), asked `batch` at a time
+    (default: the workers). `workers` 1 runs in this process; more on local Dask workers on
+    127.0.0.1. `baseline`: a scenario run once over the same realisations, its figures named
+    `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
+    param) tried first, in order, before the sampler proposes. Writes `out` (default
+    tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet, best.yaml,
+    report/. Returns a `twmr.tune.TuneOutcome`."""
     from twmr.sweeps import parse_vary
     from twmr.tune import Expression, TuneSpec, parse_constraint, parse_param
     from twmr.tune import tune as run_tune
@@ -352,10 +357,13 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     spec = TuneSpec(str(scenario), [parse_param(t) for t in texts(params)],
                     Expression(objective), [parse_vary(t) for t in texts(vary)], realisations,
                     trials, seed, aggregate, [parse_constraint(c) for c in constraints],
-                    list(metrics), list(overrides), method)
+                    list(metrics), list(overrides), method,
+                    str(baseline) if baseline is not None else None,
+                    [dict(p) for p in start])
     folder = Path(out) if out is not None else Path("tunes") / (Path(str(scenario)).stem or
                                                                   "scenario")
-    outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, progress=progress)
+    outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, batch=batch,
+                       progress=progress)
     if report and outcome.trials:
         tune_report(outcome.folder)
     return outcome

@@ -61,6 +61,7 @@ def _formats(text: str) -> tuple[str, ...]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from twmr import api
+    from twmr.master.stats import TIMING_ENV, lines
 
     scenario_path = Path(args.scenario)
     if args.fmu_log:
@@ -70,6 +71,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
     if args.compiled:
         os.environ["TWMR_COMPILED"] = args.compiled  # read by the master (and sweep workers)
+    if getattr(args, "verbose", False):
+        os.environ[TIMING_ENV] = "1"  # the time spent per block, in summary.json and below
     formats = _formats(args.format)
     metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
     scenario = api.load(scenario_path, overrides)
@@ -78,16 +81,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     log.info("running %s (%d components, %d steps of %g s, %s) -> %s/", scenario_path,
              len(scenario.system.components), exp.n_steps, exp.step, exp.algorithm, out)
     live = _live_view(args)
+    foxglove = _foxglove_server(args)
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
                               progress=not args.quiet,
-                              observers=[live] if live is not None else [])
+                              observers=[o for o in (live, foxglove) if o is not None])
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)
         if folder is not None and args.plot:
             _plots(api.read_result(folder), scenario_path.stem)
         raise
     finally:
+        if foxglove is not None:
+            foxglove.close()
         if live is not None:
             if live.keep and not isinstance(sys.exc_info()[1], KeyboardInterrupt):
                 log.warning("the run ended; the live view stays up at %s until Ctrl-C",
@@ -97,6 +103,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.plot:
         _plots(result, scenario_path.stem)
     s = result.summary
+    if s.get("stopped_by"):
+        log.info("%s asked to end the simulation at t = %g s (experiment.fmu_terminate: stop)",
+                 s["stopped_by"]["component"], s["stopped_by"]["time"])
     log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
              s["wall_time_s"], s["realtime_factor"], result.folder)
     figures = s.get("pacing") or {}
@@ -105,8 +114,11 @@ def cmd_run(args: argparse.Namespace) -> int:
                  figures.get("algorithm.compile_s", float("nan")))
     elif figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
+    statistics = lines(s.get("statistics") or {})
+    if statistics:
+        log.debug("per block and algebraic loop:\n%s", "\n".join(statistics))
     pacing = {k: v for k, v in figures.items() if not k.startswith("algorithm.")
-              and isinstance(v, (int, float))}
+              and k != "start_unix_s" and isinstance(v, (int, float))}
     if pacing:
         log.info("pacing: %s", ", ".join(f"{k} {v:.4g}" for k, v in pacing.items()))
     if s.get("metrics"):
@@ -114,6 +126,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         print(jsonvalues.dumps(s["metrics"]))
     return 0
+
+
+def _foxglove_server(args: argparse.Namespace) -> Any:
+    """The `--foxglove` server, started (its address printed), or None."""
+    if args.foxglove is None:
+        return None
+    from twmr.observers.foxglove_live import FoxgloveServer
+
+    server = FoxgloveServer(args.foxglove)
+    print(f"foxglove: open connection {server.start()}", file=sys.stderr, flush=True)
+    return server
 
 
 def _live_view(args: argparse.Namespace) -> Any:
@@ -340,6 +363,22 @@ def _is_sweep_file(path: Path) -> bool:
     return isinstance(data, dict) and "vary" in data
 
 
+def _start_point(text: str) -> dict[str, object]:
+    """`NAME=VALUE,NAME=VALUE` of --start as {NAME: value} (values read as YAML scalars)."""
+    import yaml
+
+    from twmr.tune import TuneError
+
+    point: dict[str, object] = {}
+    for part in text.split(","):
+        name, sep, value = part.partition("=")
+        if not sep or not name.strip():
+            raise TuneError(f"--start {text!r}: '{part}' is not NAME=VALUE. Fix: write "
+                            f"--start 'ctrl.k=20,ctrl.phi=0.2' (every --param once).")
+        point[name.strip()] = yaml.safe_load(value)
+    return point
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
     from twmr import api
 
@@ -348,7 +387,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        realisations=args.realisations, trials=args.trials, seed=args.seed,
                        aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
                        overrides=args.set, method=args.method, out=args.out,
-                       workers=args.workers, scheduler=args.scheduler,
+                       workers=args.workers, scheduler=args.scheduler, batch=args.batch,
+                       baseline=args.baseline, start=[_start_point(t) for t in args.start],
                        progress=not args.quiet)
     best = outcome.best
     if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
@@ -440,6 +480,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--live", metavar="[HOST:]PORT",
                    help="serve live scopes of the recorded signals in the browser while the run "
                         "goes (host 127.0.0.1 unless given; port 0: a free one, printed)")
+    r.add_argument("--foxglove", metavar="[HOST:]PORT",
+                   help="publish the recorded signals live to Foxglove (a Foxglove WebSocket "
+                        "server; host 127.0.0.1 unless given; needs foxglove-sdk)")
     r.add_argument("--live-keep", action="store_true",
                    help="with --live: keep serving after the run, until Ctrl-C")
     r.add_argument("--fmu-log", action="store_true",
@@ -515,6 +558,12 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                             help="1 (default): runs in this process; more: local Dask workers")
     tune_where.add_argument("--scheduler", metavar="ADDRESS",
                             help="an existing Dask cluster you trust (it runs code here)")
+    tu.add_argument("--batch", type=int, metavar="B",
+                    help="trials asked and run together (default: the workers)")
+    tu.add_argument("--start", action="append", default=[], metavar="NAME=VALUE,...",
+                    help="a point tried first (every --param once); repeatable, in order")
+    tu.add_argument("--baseline", metavar="SCENARIO",
+                    help="run once over the same realisations; its figures are base_<figure>")
     tu.add_argument("--out", help="the tune's folder (default tunes/<scenario name>)")
     with_set(tu)
     tu.set_defaults(fn=cmd_tune)

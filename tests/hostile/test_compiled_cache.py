@@ -1,5 +1,6 @@
-"""A hostile compiled-loop cache (`TWMR_CACHE_DIR`): a cached `schedule_<hash>.py` with one sign
-flipped or a line prepended, and numba's cache of it (`__pycache__/*.nbi`, `*.nbc`) corrupted.
+"""A hostile compiled-loop cache (`TWMR_CACHE_DIR`): a cached `kind_<hash>.py` (the adapters of a
+kind of block, `twmr.master.driver`) with one sign flipped or a line prepended, and numba's cache
+of it (`__pycache__/*.nbi`, `*.nbc`) corrupted.
 Each run still gives the results of a fresh compile, runs nothing that was put there, says what it
 found, and recompiles instead of blaming the kernel."""
 from __future__ import annotations
@@ -31,7 +32,7 @@ def fresh(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, twmr.Result]:
     base = tmp_path_factory.mktemp("cache")
     write(base, "loop.yaml", GOOD_TEXT)
     _, result = compiled_run(base, base / "cache", "first")
-    assert list((base / "cache").glob("schedule_*.py"))
+    assert list((base / "cache").glob("kind_*.py"))
     assert list((base / "cache" / "__pycache__").glob("*.nbc"))
     return base / "cache", result
 
@@ -49,7 +50,7 @@ def same_rows(result: twmr.Result, expected: twmr.Result) -> None:
 
 
 def test_a_flipped_sign_in_the_cached_loop_is_recompiled(fresh, cache: Path) -> None:
-    (module,) = cache.glob("schedule_*.py")
+    module = sorted(cache.glob("kind_*.py"))[0]
     original = module.read_text()
     assert " + " in original
     module.write_text(original.replace(" + ", " - ", 1))
@@ -60,7 +61,7 @@ def test_a_flipped_sign_in_the_cached_loop_is_recompiled(fresh, cache: Path) -> 
 
 
 def test_a_line_prepended_to_the_cached_loop_does_not_run(fresh, cache: Path) -> None:
-    (module,) = cache.glob("schedule_*.py")
+    module = sorted(cache.glob("kind_*.py"))[0]
     marker = cache.parent / "ran.txt"
     module.write_text(f"open({str(marker)!r}, 'w').write('ran')\n" + module.read_text())
     o, result = compiled_run(cache.parent, cache, "again")

@@ -253,10 +253,13 @@ def test_signal_during_a_bench_run(cwd: Path, how: str) -> None:
     out = cwd / "out"
     previous = tree(out)
     signals = SIGNALS[how]
-    # the host watchdog sized for a loaded machine: this case is about signals, not a late frame
+    # the host's and the drives' watchdogs and the heartbeat timeout sized for a loaded machine
+    # (the emulated drives' own 0.1 s watchdog tripped at load 20): this case is about signals,
+    # not a late frame
     o = signal_run(["run", str(BENCH), "--out", "out", "-q", "--set",
-                    f"motor.channel=sig-{uuid.uuid4().hex[:12]}-x", "--set",
-                    "motor.watchdog_periods=50"], cwd,
+                    f"motor.channel=sig-{uuid.uuid4().hex[:12]}-x",
+                    "--set", "motor.watchdog_periods=50", "--set", "motor.drive_watchdog=0.5",
+                    "--set", "motor.heartbeat_timeout=1.0"], cwd,
                    "out.partial-*/result.arrows", 0.5, signals)
     problems = interrupted_problems(o, out, signals[0][0], previous) + bench_log_problems(out)
     assert not problems, "\n".join(problems) + "\n" + o.describe()

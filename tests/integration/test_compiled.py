@@ -42,6 +42,7 @@ def same(path: Path | str, overrides: list[str], mode: str = "on") -> np.ndarray
     python, _ = run(load(path, overrides), "off")
     compiled, extra = run(load(path, overrides), mode)
     assert extra["algorithm.compiled"] is True, extra
+    assert extra["algorithm.driver"] is True, extra  # the driver of the kinds, not a loop
     assert python.shape == compiled.shape
     assert np.array_equal(python, compiled), np.max(np.abs(python - compiled))
     return compiled
@@ -270,7 +271,12 @@ def test_the_documented_example_block_compiles_bit_identical() -> None:
     assert np.array_equal(python, compiled) and abs(compiled[-1, 1]) > 0.01
 
 
-def test_auto_leaves_a_short_run_to_python() -> None:
+def test_auto_leaves_a_short_run_to_python_while_its_kinds_have_no_driver(
+        tmp_path: Path, monkeypatch) -> None:
+    from twmr.master import driver
+
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "empty"))
+    monkeypatch.setattr(driver, "_LOADED", [])  # as a new process
     system = load(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", ["experiment.stop=1.0"])
     algo = make_algorithm("gauss_seidel", "auto")
     Execution(system, [ResultStore()], algorithm=algo).run()

@@ -1,10 +1,7 @@
 """FMI 3.0 types, arrays and structural parameters through the importer (co-simulation and model
 exchange): every type over its own FMI call, array ports with their start values, an array
-parameter sized by a structural parameter from YAML; clocks refused at check."""
+parameter sized by a structural parameter from YAML (clocks: test_fmu_clocks.py)."""
 from __future__ import annotations
-
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -26,7 +23,7 @@ GIVEN = {"Float32": 0.375, "Float64": -1.0e300, "Int8": -128, "UInt8": 255, "Int
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory) -> dict[str, str]:
     d = tmp_path_factory.mktemp("types3")
-    return {n: str(build_c_fmu(n, d, fmi3=True)) for n in ("types3", "clock3")}
+    return {n: str(build_c_fmu(n, d, fmi3=True)) for n in ("types3",)}
 
 
 def chain(path: str, interface: str, isolate: bool = False) -> str:
@@ -90,19 +87,6 @@ def test_out_of_range_integer_from_yaml_is_refused_at_check(fmus) -> None:
     text = chain(fmus["types3"], "co_simulation").replace("UInt8_input: 255", "UInt8_input: 256")
     with pytest.raises(CosimError, match=r"UInt8_input.*256 is above the maximum 255"):
         loads(text, source="types.yaml")
-
-
-def test_clocks_are_refused_at_check(fmus, tmp_path) -> None:
-    scenario = tmp_path / "clock.yaml"
-    scenario.write_text(f"""
-components:
-  c: {{kind: fmu, parameters: {{path: {fmus['clock3']}}}}}
-experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
-""")
-    done = subprocess.run([sys.executable, "-m", "twmr.cli", "check", str(scenario)],
-                          capture_output=True, text=True)
-    assert done.returncode != 0 and "Traceback" not in done.stderr
-    assert "clock3.fmu" in done.stderr and "clocks (tick)" in done.stderr
 
 
 def test_mixed_type_feedthrough_chain_against_fmpy(tmp_path) -> None:

@@ -97,6 +97,9 @@ def test_live_page_streams_a_paced_run(browser, tmp_path):
             "[s.label, twmrLive.xy.data[i + 1][0].length]);")
         assert sorted(label for label, _ in xy) == ["plant.pose", "ref.position"]
         assert all(n > 1 for _, n in xy)
+        legends = browser.execute_script(
+            "return twmrLive.charts.flatMap(c => c.series.map(s => s.label));")
+        assert {"plant.pose x_M", "plant.pose y_M", "plant.pose theta"} <= set(legends)
         browser.save_screenshot(str(tmp_path / "live.png"))
         assert (tmp_path / "live.png").stat().st_size > 10_000
 

@@ -46,7 +46,9 @@ def test_fine_encoder_loop_is_close_to_ideal_and_coarse_one_loses_the_track(phas
     fine = simulate(load(SENSORS, [f"slip.phase={phase}", "encoder.cpr=4096"]))
     coarse = simulate(load(SENSORS, [f"slip.phase={phase}", "encoder.cpr=16"]))
     assert _mse(fine) <= 1.15 * _mse(ideal)
-    assert _pose_gap(fine, ideal) <= 0.15
+    # the tuned gains of docs/studies/tune_asmc.md (k 60, vartheta 37) pass more of the
+    # encoder's quantisation on during the start transient: largest gap 0.17 m over PHASES
+    assert _pose_gap(fine, ideal) <= 0.2
     assert _mse(coarse) >= 10.0 * _mse(ideal)
     # the controller saw the encoder's speed, not the plant's: they differ, by quantisation
     gap = np.abs(fine["encoder.speed[1]"] - fine["plant.wheel_speed[1]"])

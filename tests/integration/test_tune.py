@@ -8,6 +8,8 @@ not from our code.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -35,10 +37,10 @@ def reference_objective(k: float, heights: np.ndarray) -> float:
     return float(np.mean(heights**2)) * unit_step_ms(k) * (1.0 + R * k * k)
 
 
-def tune(tmp_path, trials: int, **options):
+def tune(tmp_path, trials: int, objective_text: str = OBJECTIVE, **options):
     options = {"vary": [HEIGHT], "realisations": 3, "metrics": ["signals"], "seed": 0,
                "out": tmp_path / "tune", **options}
-    return twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], OBJECTIVE, trials=trials, **options)
+    return twmr.tune(LOOP, ["ctrl.k=log:0.3:30"], objective_text, trials=trials, **options)
 
 
 def test_tune_finds_the_analytic_optimum(tmp_path):
@@ -105,11 +107,70 @@ def test_constraint_excludes_violating_trials(tmp_path):
 
 
 def test_dask_workers_give_the_same_trials(tmp_path):
-    here = tune(tmp_path, 3, out=tmp_path / "one")
-    there = tune(tmp_path, 3, out=tmp_path / "two", workers=2)
+    """The proposals depend on the batch, not on where the runs go: a batch of 2 in this process
+    and on 2 Dask workers (their default batch) give the same trials."""
+    here = tune(tmp_path, 5, out=tmp_path / "one", batch=2)
+    there = tune(tmp_path, 5, out=tmp_path / "two", workers=2)
     assert [t["ctrl.k"] for t in there.trials] == [t["ctrl.k"] for t in here.trials]
     assert [t["objective"] for t in there.trials] == pytest.approx(
         [t["objective"] for t in here.trials], rel=1e-12)
+    walls = pd.read_parquet(tmp_path / "one" / "trials.parquet")["wall_time_s"].to_numpy()
+    assert walls[0] == walls[1] and walls[2] == walls[3]  # trials 0, 1 ran as one batch, 2, 3
+
+
+def test_start_points_are_tried_first(tmp_path):
+    outcome = tune(tmp_path, 3, start=[{"ctrl.k": 3.0}, {"ctrl.k": 0.5}])
+    assert [t["ctrl.k"] for t in outcome.trials[:2]] == [3.0, 0.5]
+    assert outcome.best["ctrl.k"] == 3.0  # the optimum is near 3.1: no random trial beats it
+    assert tune(tmp_path, 4, start=[{"ctrl.k": 3.0}, {"ctrl.k": 0.5}]).ran == 1
+    with pytest.raises(SweepError, match=r"ctrl.k=50.0 is outside its range log:0.3:30"):
+        tune(tmp_path, 2, out=tmp_path / "out", start=[{"ctrl.k": 50.0}])
+    assert main(["tune", LOOP, "--param", "ctrl.k=log:0.3:30", "--objective", OBJECTIVE,
+                 "--metrics", "signals", "--trials", "1", "--start", "ctrl.k=2.5",
+                 "--out", str(tmp_path / "cli"), "-q"]) == 0
+    assert pd.read_parquet(tmp_path / "cli" / "trials.parquet")["ctrl.k"].tolist() == [2.5]
+
+
+def test_a_batch_spreads_its_trials(tmp_path):
+    """The pending trials of a batch count as constant liars: the trials of a batch of 4, after
+    the random start-up, are not proposed at one point."""
+    outcome = tune(tmp_path, 16, batch=4)
+    late = [t["ctrl.k"] for t in outcome.trials[12:16]]
+    assert len(set(late)) == 4
+    assert max(late) / min(late) > 1.01
+
+
+def test_a_baseline_gives_its_figures_per_realisation(tmp_path):
+    """A baseline (the loop with k = 2) run once over the same realisations: base_ms_err_y is
+    its ms(e) in the same realisation, so the ratio does not depend on the drawn height."""
+    import yaml
+
+    data = yaml.safe_load(Path(LOOP).read_text(encoding="utf-8"))
+    data["components"]["ctrl"]["parameters"]["k"] = 2.0
+    baseline = tmp_path / "baseline.yaml"
+    baseline.write_text(yaml.safe_dump(data))
+    ratio = "ms_err_y / base_ms_err_y"
+    outcome = tune(tmp_path, 4, ratio, baseline=baseline, constraints=[f"{ratio} >= 0"])
+    folder = tmp_path / "tune"
+    base = pd.read_parquet(folder / "baseline.parquet").sort_values("sample")
+    runs = pd.read_parquet(folder / "realisations.parquet")
+    assert len(base) == 3 and base["status"].eq("ok").all()
+    for _, group in runs.groupby("trial"):
+        group = group.sort_values("sample")
+        assert group["ref.height"].to_numpy() == pytest.approx(base["ref.height"].to_numpy())
+        expected = group["ms_err_y"].to_numpy() / base["ms_err_y"].to_numpy()
+        assert group["value"].to_numpy() == pytest.approx(expected, rel=1e-12)
+        assert np.ptp(group["value"]) < 1e-9 * group["value"].mean()
+    for t in outcome.trials:  # ms(e) falls with k: the ratio is below 1 exactly when k > 2
+        assert (t["objective"] < 1.0) == (t["ctrl.k"] > 2.0)
+    assert tune(tmp_path, 5, ratio, baseline=baseline, constraints=[f"{ratio} >= 0"]).ran == 1
+    assert len(pd.read_parquet(folder / "baseline.parquet")) == 3  # not run again
+    wins = tune(tmp_path, 2, baseline=baseline, out=tmp_path / "wins",
+                objective_text="(ms_err_y < base_ms_err_y) + 0")
+    for t in wins.trials:
+        assert t["objective"] == (1.0 if t["ctrl.k"] > 2.0 else 0.0)
+    with pytest.raises(SweepError, match="no baseline is given"):
+        tune(tmp_path, 2, out=tmp_path / "none", objective_text=ratio)
 
 
 @pytest.mark.parametrize(("extra", "expected"), [
@@ -119,6 +180,9 @@ def test_dask_workers_give_the_same_trials(tmp_path):
     (["--param", "ctrl.k=1:5", "--objective", "ms_err_z"], "'ms_err_z' is not a figure"),
     (["--param", "ctrl.k=1:5", "--objective", "__import__('os')"], "is not allowed in it"),
     (["--param", "ctrl.k=1:5", "--constraint", "peak_ctrl_y<3"], "no <= or >="),
+    (["--param", "ctrl.k=1:5", "--start", "ctrl.kk=2"], "--start 1: no value of ctrl.k"),
+    (["--param", "ctrl.k=1:5", "--objective", "base_ms_err_y"], "no baseline is given"),
+    (["--param", "ctrl.k=1:5", "--batch", "0"], "--batch 0 is not a positive"),
 ])
 def test_bad_input_is_one_paragraph(tmp_path, capsys, extra, expected):
     args = ["tune", LOOP, "--metrics", "signals", "--trials", "2", "--out",

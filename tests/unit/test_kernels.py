@@ -5,6 +5,7 @@ when `auto` switches to the compiled loop; the engine's blocks run without numba
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -207,6 +208,8 @@ record: {signals: [ss.y]}
     code = ("import sys; from twmr.master import simulate; from twmr.scenario import load; "
             f"r = simulate(load({str(scenario)!r})); "
             "print('numba' in sys.modules, r['ss.y'][-1])")
+    # an empty cache folder: with a compiled driver of these kinds cached, `auto` would run it
+    env = {**os.environ, "TWMR_CACHE_DIR": str(tmp_path / "cache")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         cwd=tmp_path).stdout.split()
+                         cwd=tmp_path, env=env).stdout.split()
     assert out[0] == "False" and math.isfinite(float(out[1])) and float(out[1]) > 0.0

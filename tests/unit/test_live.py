@@ -180,3 +180,22 @@ def test_simulate_live_serves_the_run_and_closes_after(caplog):
     assert seen["start"]["columns"] == list(result.columns)
     assert np.array_equal(seen["rows"], seen["block"][::-(-len(seen["block"]) // FRAME_ROWS)])
     assert not [t for t in threading.enumerate() if t.name == "twmr-live"]
+
+
+def test_the_start_names_elements_from_descriptions_and_marks_discrete_ports_as_steps():
+    run = RunStart(("time", "p.pose[1]", "p.pose[2]", "p.pose[3]", "st.counter", "g.y"),
+                   ("s", "m", "m", "rad", "", ""), 1e-3, 10,
+                   metadata={"ports": {"p.pose": {"description": "(x_M, y_M, theta)",
+                                                  "type": "Real"},
+                                       "st.counter": {"description": "steps", "type": "Integer"},
+                                       "g.y": {"description": "", "type": "Real"}}})
+    live = LiveView("0")
+    try:
+        live.started(run)
+        with connect(f"ws://127.0.0.1:{live.port}/ws") as page:
+            start = json.loads(page.recv(timeout=10))
+    finally:
+        live.close()
+    assert start["labels"] == ["time", "p.pose x_M", "p.pose y_M", "p.pose theta",
+                               "st.counter", "g.y"]
+    assert start["stepped"] == [False, False, False, False, True, False]

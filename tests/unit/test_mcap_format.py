@@ -78,3 +78,38 @@ def test_read_back_equals_the_store_and_non_finite_values_survive(tmp_path: Path
     with open(path, "rb") as f:
         raw = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages()]
     assert raw[0] == {"time_s": 0.0, "x": "Infinity", "v[2]": "NaN"}
+
+
+def test_a_paced_can_run_logs_its_raw_frames_on_a_channel_on_the_runs_time_axis(
+        tmp_path: Path) -> None:
+    import uuid
+
+    import can
+
+    bench = ROOT / "scenarios" / "bench_odrive_trajectory1.yaml"
+    out = tmp_path / "bench"
+    assert main(["run", str(bench), "--out", str(out), "--format", "mcap", "-q",
+                 "--set", "experiment.stop=0.3", "--set", f"motor.channel=mcap-{uuid.uuid4().hex}",
+                 "--set", "motor.watchdog_periods=50", "--set", "motor.drive_watchdog=0.5",
+                 "--set", "motor.heartbeat_timeout=1.0"]) == 0
+    frames = list(can.LogReader(str(out / "motor_frames.blf")))
+    assert frames
+    start = json.loads((out / "summary.json").read_text())["pacing"]["start_unix_s"]
+    with open(out / "result.mcap", "rb") as f:
+        reader = make_reader(f)
+        logged = [(c, json.loads(m.data), m.log_time) for _, c, m in reader.iter_messages()
+                  if c.topic == "/can/motor_frames"]
+    assert len(logged) == len(frames)
+    assert logged[0][0].metadata == {"kind": "can_frames", "file": "motor_frames.blf"}
+    by_sequence = sorted(logged, key=lambda item: item[1]["time_s"])
+    for (_, message, stamp), frame in zip(by_sequence, sorted(frames, key=lambda f: f.timestamp),
+                                          strict=True):
+        assert message["id"] == frame.arbitration_id
+        assert message["data"] == list(frame.data) and message["dlc"] == frame.dlc
+        assert message["time_s"] == frame.timestamp - start
+        assert stamp == max(0, round(message["time_s"] * 1e9))
+    directions = {m["direction"] for _, m, _ in logged}
+    assert directions == {"rx", "tx"}  # the host's commands and the drives' answers
+    running = [m["time_s"] for _, m, _ in logged if m["time_s"] >= 0]
+    assert running and max(running) < 0.3 + 1.0  # the run's frames end with the run
+    assert twmr.read_result(out / "result.mcap").columns == twmr.read_result(out).columns

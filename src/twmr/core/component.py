@@ -170,6 +170,9 @@ class Component:
     sizing_parameters: frozenset[str] = frozenset()
     #: other names of a variable (an FMU's aliases): alias -> the port it names; never set
     aliases: Mapping[str, str] = MappingProxyType({})
+    #: bus terminals (FMI-LS-BUS network terminals): name -> {member: port}, members Tx_Data,
+    #: Tx_Clock, Rx_Data, Rx_Clock; a wire `a.T -> b.U` joins each Tx member to the other's Rx
+    terminals: Mapping[str, Mapping[str, str]] = MappingProxyType({})
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}
@@ -247,6 +250,12 @@ class Component:
         parameters the scenario set (the others hold their defaults)."""
         return []
 
+    def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
+        """Problems that involve the other components of the same system (`peers`, by instance
+        name, this one included), such as a parameter naming another component, found when the
+        scenario is built, as `check`'s."""
+        return []
+
     def check_step(self, h: float) -> list[tuple[str, str, str]]:
         """Problems of the parameters with communication steps of h [s] (the base step times
         the component's step_multiple), found when the scenario is built, as `check`'s."""
@@ -318,6 +327,25 @@ class Component:
     def next_event(self, t: float) -> float | None:
         """The first time > t [s] at which the outputs jump (a time event; None: none known);
         the adaptive master ends a step there (`twmr.master.adaptive`)."""
+        return None
+
+    #: set by a master that locates state events (`twmr.master.adaptive`) before `setup`: a
+    #: state event found at the very end of a `do_step` waits for `event`
+    hold_events = False
+
+    def state_event(self) -> float | None:
+        """After `do_step`: the time [s] of the first state event it met inside its step, one
+        at the step's end included (None: none); the adaptive master steps to it."""
+        return None
+
+    def event(self, t: float) -> None:
+        """Handle a state event held at the end of the last step, at t [s] (`hold_events`):
+        the outputs from before it to after it. Nothing when none is held."""
+
+    def early_event(self) -> float | None:
+        """The time [s] of an event the last `do_step` met inside its step that could not be
+        known before it (an FMU's early return), or None; `algorithm: adaptive` retakes the
+        step to end at the grid point at or after it."""
         return None
 
     def terminate(self) -> None:

@@ -96,5 +96,18 @@ class FmuError(ComponentError):
         return (type(self), (self.instance, self.time, self.message, self.log))
 
 
+class FmuTerminated(FmuError):
+    """An FMU asked to end the simulation (terminateSimulation): a failure, or with
+    `experiment.fmu_terminate: stop` the normal end of the run at `time`."""
+
+    FIX = " Fix: to end the run normally there instead, set 'experiment.fmu_terminate: stop'."
+
+    def __init__(self, instance: str, time: float | None, message: str,
+                 log: tuple[str, ...] | list[str] = ()):
+        if not message.endswith(self.FIX):
+            message += self.FIX
+        super().__init__(instance, time, message, log)
+
+
 class HardwareError(ComponentError):
     """A hardware fault: lost heartbeat, EMCY, bus-off, watchdog, or a python-can error."""

@@ -15,7 +15,9 @@ from typing import Any
 from twmr.core.errors import CosimError
 
 REAL, INTEGER, BOOLEAN, STRING, BINARY = "Real", "Integer", "Boolean", "String", "Binary"
-TYPES = (REAL, INTEGER, BOOLEAN, STRING, BINARY)
+#: an FMI 3.0 clock: True at the communication point where it ticked, else False
+CLOCK = "Clock"
+TYPES = (REAL, INTEGER, BOOLEAN, STRING, BINARY, CLOCK)
 #: types that are not numbers: never recorded, never checked for NaN
 TEXT_TYPES = (STRING, BINARY)
 
@@ -37,7 +39,7 @@ class DeclarationError(CosimError, ValueError):
 
 
 _CAST: dict[str, Callable[..., Any]] = {REAL: float, INTEGER: int, BOOLEAN: bool, STRING: str,
-                                        BINARY: _binary}
+                                        BINARY: _binary, CLOCK: bool}
 
 
 @dataclass
@@ -112,7 +114,7 @@ class Variable:
             value = value.tolist()  # numpy arrays and scalars
         if value is None:
             raise TypeError("no value given (null)")
-        if self.type == BOOLEAN and not isinstance(value, (bool, int, list, tuple)):
+        if self.type in (BOOLEAN, CLOCK) and not isinstance(value, (bool, int, list, tuple)):
             raise TypeError(f"expected true or false, got {value!r}")
         if self.type == BINARY:
             if self.size is None:

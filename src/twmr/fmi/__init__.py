@@ -11,7 +11,8 @@ from twmr.fmi.export import export_component
 def fmu_interface(path: str | Path) -> dict[str, Any]:
     """An FMU's interface as a scenario sees it, as plain data: FMI version, interfaces, platforms,
     whether it runs here (or once built from its sources), and the ports (name, kind,
-    causality, FMI type, port type, unit, size, start, depends_on)."""
+    causality, FMI type, port type, unit, size, start, depends_on, clock kind, clocked by) and
+    the FMI-LS-BUS bus terminals."""
     import fmpy
 
     from twmr.core.errors import FmuError
@@ -44,6 +45,7 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
         d = md.defaultExperiment
         out["default_experiment"] = {"start": d.startTime, "stop": d.stopTime,
                                      "step": d.stepSize, "tolerance": d.tolerance}
+    names = {v.valueReference: v.name for v in md.modelVariables}
     for p in ports:
         v = variables[p.name]
         start = v.start.hex() if isinstance(v.start, bytes) else v.start
@@ -55,7 +57,13 @@ def fmu_interface(path: str | Path) -> dict[str, Any]:
             "unit": list(v.unit) if isinstance(v.unit, tuple) else v.unit,
             "size": v.size, "start": start, "variability": "discrete" if p.discrete
             else "continuous", "depends_on": list(getattr(v, "depends_on", ())),
-            "alias_of": p.alias_of, "description": v.description})
+            "alias_of": p.alias_of, "description": v.description, "clock": p.clock,
+            "scheduled": p.scheduled, "clocked_by": [names[vr] for vr in p.clocked_by]})
+    if md.fmiVersion.startswith("3."):
+        from twmr.fmi.lsbus.terminals import bus_terminals
+
+        out["bus_terminals"] = [{"name": t.name, "members": t.members, "version": t.version,
+                                 "notes": t.notes} for t in bus_terminals(path, path.stem)]
     return out
 
 
@@ -82,12 +90,19 @@ def describe_fmu(path: str | Path) -> str:
             dep = f" depends_on {', '.join(p['depends_on'])}" if p["depends_on"] else ""
             fmi_type = "" if p["fmi_type"] in ("Real", p["type"]) else f" ({p['fmi_type']})"
             alias = f" (alias of {p['alias_of']}, read only)" if p["alias_of"] else ""
-            lines.append(f"  {kind:9s} {p['name']}{size} [{unit}] {p['type']}{fmi_type} = "
-                         f"{p['start']!r}{dep}{alias}"
+            clock = f" ({'input clock the importer ticks, ' if p['scheduled'] else ''}" \
+                f"{p['clock']})" if p["clock"] else ""
+            clocked = f" clocked by {', '.join(p['clocked_by'])}" if p["clocked_by"] else ""
+            lines.append(f"  {kind:9s} {p['name']}{size} [{unit}] {p['type']}{fmi_type}{clock} = "
+                         f"{p['start']!r}{dep}{alias}{clocked}"
                          + (f" — {p['description']}" if p["description"] else ""))
     if info["aliases"]:
         lines.append("  aliases (other names of a port, never set): " + ", ".join(
             f"{alias} = {base}" for alias, base in info["aliases"].items()))
+    for t in info.get("bus_terminals", []):
+        lines.append(f"  bus terminal {t['name']} (CAN, FMI-LS-BUS {t['version']}): "
+                     + ", ".join(f"{m} = {v}" for m, v in t["members"].items()))
+        lines += [f"    note: {note}" for note in t["notes"]]
     lines.append(f"  in a scenario: {{kind: fmu, parameters: {{path: {path}}}}}")
     return "\n".join(lines)
 

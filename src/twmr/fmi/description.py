@@ -27,6 +27,7 @@ from twmr.core.errors import FmuError
 from twmr.core.port import (
     BINARY,
     BOOLEAN,
+    CLOCK,
     INTEGER,
     REAL,
     STRING,
@@ -43,7 +44,8 @@ _ARRAY = re.compile(r"^(.*)\[(\d+)\]$")
 PORT_TYPE = {"Real": REAL, "Float64": REAL, "Float32": REAL, "Integer": INTEGER,
              "Enumeration": INTEGER, "Int8": INTEGER, "UInt8": INTEGER, "Int16": INTEGER,
              "UInt16": INTEGER, "Int32": INTEGER, "UInt32": INTEGER, "Int64": INTEGER,
-             "UInt64": INTEGER, "Boolean": BOOLEAN, "String": STRING, "Binary": BINARY}
+             "UInt64": INTEGER, "Boolean": BOOLEAN, "String": STRING, "Binary": BINARY,
+             "Clock": CLOCK}
 #: value range of the FMI 3.0 integer types
 _RANGE = {f"{u}Int{b}": ((0, 2**b - 1) if u else (-2**(b - 1), 2**(b - 1) - 1))
           for u in ("", "U") for b in (8, 16, 32, 64)}
@@ -65,6 +67,14 @@ class FmuPort:
     alias_of: str = ""
     #: (factor, offset) of an alias shown in its own display unit: value = factor * base + offset
     display: tuple[float, float] | None = None
+    #: a clock port: its intervalVariability (triggered, countdown, constant, fixed, tunable,
+    #: changing); "" for every other port
+    clock: str = ""
+    #: an input clock the importer activates on the FMU's own schedule (periodic or countdown):
+    #: it is an output port of the component, ticking when the master activates it
+    scheduled: bool = False
+    #: value references of the clocks this variable is clocked by (empty: not clocked)
+    clocked_by: tuple[int, ...] = ()
 
 
 def _unreadable(path: Path, exc: Exception) -> str:
@@ -120,11 +130,35 @@ def read_description(path: Path, instance: str = "fmu") -> Any:
                        f"and model-exchange FMUs. Fix: export it as FMI 2.0/3.0 co-simulation or "
                        f"model exchange.")
     clocks = [v.name for v in md.modelVariables if v.type == "Clock"]
-    if clocks:
-        raise FmuError(instance, None, f"'{path}' has clocks ({', '.join(clocks[:5])}); FMI 3.0 "
-                       f"clocked partitions are not supported by this importer. Fix: export the "
-                       f"FMU without clocks (a fixed-step co-simulation FMU samples on its own).")
+    if clocks and (md.coSimulation is None or not md.coSimulation.hasEventMode):
+        why = "it has no co-simulation interface (clocks in model exchange are not supported)" \
+            if md.coSimulation is None else "its co-simulation interface has no event mode " \
+            "(hasEventMode is not true), in which clocks tick"
+        raise FmuError(instance, None, f"'{path}' has clocks ({', '.join(clocks[:5])}), but "
+                       f"{why}. Fix: export the FMU as FMI 3.0 co-simulation with "
+                       f"hasEventMode=\"true\", or without clocks.")
     return md
+
+
+def clock_timing(path: Path) -> dict[int, tuple[float, float]]:
+    """Value reference -> (intervalDecimal, shiftDecimal) [s] of every Clock that gives an
+    interval, from the FMU's modelDescription.xml (fmpy does not read them); shift 0 if none."""
+    import zipfile
+
+    from lxml import etree
+
+    if path.is_dir():
+        raw = (path / "modelDescription.xml").read_bytes()
+    else:
+        with zipfile.ZipFile(path) as z:
+            raw = z.read("modelDescription.xml")
+    timing = {}
+    for v in etree.fromstring(raw).iter("Clock"):
+        interval = v.get("intervalDecimal")
+        if interval is not None:
+            timing[int(v.get("valueReference", "0"))] = (float(interval),
+                                                         float(v.get("shiftDecimal") or 0.0))
+    return timing
 
 
 def unit_definitions(md: Any) -> dict[str, Unit]:
@@ -150,7 +184,8 @@ def _values(v: Any, text: str | None, type_: str, count: int, resized: bool = Fa
     array `resized` by a structural parameter keeps its first values (a repeated one fills it);
     the FMU is not told these, only the values the scenario gives."""
     if text is None:
-        return [{STRING: "", BOOLEAN: False, BINARY: b"", REAL: 0.0}.get(type_, 0)] * count
+        return [{STRING: "", BOOLEAN: False, BINARY: b"", REAL: 0.0, CLOCK: False}.get(
+            type_, 0)] * count
     if type_ == STRING:
         return [str(text)] * count
     items = str(text).split() or [""]
@@ -245,6 +280,10 @@ def _alias_bases(md: Any) -> dict[int, Any]:
     return bases
 
 
+def _triggered(v: Any) -> bool:
+    return (getattr(v, "intervalVariability", None) or "triggered") == "triggered"
+
+
 def _port_name(v: Any) -> str:
     m = _ARRAY.match(v.name) if not getattr(v, "dimensions", None) else None
     return m.group(1) if m else v.name
@@ -259,6 +298,9 @@ def aliases_of(md: Any) -> dict[str, str]:
 
 
 def _kind(v: Any) -> str | None:
+    if v.type == "Clock":  # an input clock the importer schedules ticks as an output of ours
+        return "input" if v.causality == "input" and _triggered(v) else \
+            "output" if v.causality in ("input", "output") else None
     if v.causality == "input":
         return "input"
     if v.causality == "output":
@@ -329,7 +371,9 @@ def ports_of(md: Any, given: dict[str, Any] | None = None
         if p.kind == "output" and not p.alias_of:
             var = variables[p.name]
             assert isinstance(var, Output)
-            var.depends_on = tuple(sorted(deps.get(p.name, set(inputs))))
+            # clocks and clocked outputs are read in event mode after the step: no feedthrough
+            var.depends_on = () if p.clock or p.clocked_by else \
+                tuple(sorted(deps.get(p.name, set(inputs))))
     for p in ports:
         if p.alias_of:
             alias, base = variables[p.name], variables[p.alias_of]
@@ -398,8 +442,13 @@ def _add(ports: list[FmuPort], variables: dict[str, Variable], name: str, kind: 
     variables[name] = var
     discrete = all(v.variability in ("discrete", "fixed", "tunable") or
                    (v.type not in ("Real", "Float64", "Float32")) for v in vs)
+    clock = (getattr(vs[0], "intervalVariability", None) or "triggered") \
+        if fmi_type == "Clock" else ""
+    clocked_by = tuple(c.valueReference for c in getattr(vs[0], "clocks", None) or ())
     ports.append(FmuPort(name, kind, fmi_type, [v.valueReference for v in vs], count, scalar,
-                         discrete, display=display[:2] if display else None))
+                         discrete, display=display[:2] if display else None, clock=clock,
+                         scheduled=bool(clock) and vs[0].causality == "input" and
+                         clock != "triggered", clocked_by=clocked_by))
 
 
 def _bound(v: Any, which: str, default: int | None) -> Any:

@@ -12,6 +12,13 @@ its events, as the FMI standard's importer algorithm does it.
 - **Event iteration** (`fmi2NewDiscreteStates` / `fmi3UpdateDiscreteStates`) until no new
   discrete states are needed; the solver restarts after every event.
 - **Discrete inputs** are set only in event mode: a change of one is an event at that time.
+- **Held events**: with `hold` set (by a master that locates events, `twmr.master.adaptive`), a
+  state event found at the very end of an integration is left for `handle_held`, so the
+  importer sees the values just before it; `state_event` is the time of the first state event of
+  the last `advance`. CVODE starts every integration with the same first step (`INIT_STEP`,
+  not chosen from the end time), so integrations from one restart to different end times take the
+  same internal steps and find a crossing at the same time: a step retried up to a located event
+  finds it again at its end.
 """
 from __future__ import annotations
 
@@ -23,6 +30,8 @@ from typing import Any
 import numpy as np
 
 SOLVERS = ("cvode", "rk4")
+#: CVODE's first step after every restart [s] (at most `max_step`)
+INIT_STEP = 1e-6
 
 
 def _close(a: float, b: float) -> bool:
@@ -54,6 +63,9 @@ class Integrator:
         self.call = call  # call(what, fn, *args): the component's FMI call wrapper
         self.next_event: float | None = None
         self.events = 0
+        self.hold = False
+        self.held = False
+        self.state_event: float | None = None
         self._solver: Any = None
         # fmpy reads FMI 3.0's needsCompletedIntegratorStep and FMI 2.0's
         # completedIntegratorStepNotNeeded into this one flag
@@ -126,6 +138,8 @@ class Integrator:
 
             solver.npabstol[:] = self.atol
             CVodeSVtolerances(solver.cvode_mem, self.rtol, solver.abstol)
+        _init_step(solver.cvode_mem, min(INIT_STEP, self.max_step) if self.max_step > 0
+                   else INIT_STEP)
         return solver
 
     def save(self) -> tuple[float, float | None, int]:
@@ -138,9 +152,17 @@ class Integrator:
 
     def restore(self, saved: tuple[float, float | None, int]) -> None:
         """Back to `saved` (the FMU's own state set just before); the solver restarts there, and
-        the events of the steps undone are no longer counted."""
+        the events of the steps undone are no longer counted (nor a held one)."""
         self.t, self.next_event, self.events = saved
+        self.held, self.state_event = False, None
         self._restart(self.t)
+
+    def handle_held(self) -> bool:
+        """The state event held at the end of the last `advance`, handled now; False: none."""
+        if not self.held:
+            return False
+        self.event(self.t)
+        return True
 
     def restart(self) -> None:
         """Inputs changed (held piecewise constant): the solver restarts from the present."""
@@ -150,6 +172,7 @@ class Integrator:
         """An event at t: event mode, `set_discrete()` (discrete inputs), iteration, back to
         continuous time; the solver restarts."""
         f = self.fmu
+        self.held = False
         self.call("EnterEventMode", f.enterEventMode)
         if set_discrete is not None:
             set_discrete()
@@ -163,6 +186,8 @@ class Integrator:
         """Integrate from the current time to t_end [s], handling every event on the way."""
         f = self.fmu
         guard = 0
+        self.state_event = None
+        self.handle_held()  # not handled by the master: before going on
         while not _close(self.t, t_end) and self.t < t_end:
             guard += 1
             if guard > 1_000_000:
@@ -189,7 +214,12 @@ class Integrator:
                 if terminate:
                     raise Terminated(t_reached)
             time_event = time_event and _close(t_reached, target)
-            if state_event or time_event or step_event:
+            if state_event and self.state_event is None:
+                self.state_event = t_reached
+            if state_event and self.hold and t_reached == t_end and not (time_event or
+                                                                         step_event):
+                self.held = True
+            elif state_event or time_event or step_event:
                 self.event(t_reached)
 
     def _cvode_step(self, target: float) -> tuple[bool, float]:
@@ -266,3 +296,15 @@ class Integrator:
 
     def close(self) -> None:
         self._solver = None
+
+
+def _init_step(cvode_mem: Any, h0: float) -> None:
+    """CVodeSetInitStep (fmpy declares it but binds it not); it holds across CVodeReInit."""
+    from ctypes import c_int, c_void_p
+
+    from fmpy.sundials import cvode
+
+    fn = cvode.sundials_cvode.CVodeSetInitStep
+    fn.argtypes, fn.restype = [c_void_p, cvode.sunrealtype], c_int
+    if fn(cvode_mem, h0) != 0:
+        raise RuntimeError("CVodeSetInitStep failed")

@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import logging
 import math
 import operator
 import os
@@ -23,8 +24,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
-from twmr.core.errors import ComponentError, FmuError
+from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.fmi import guard
+from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
@@ -35,6 +37,8 @@ if TYPE_CHECKING:
     from twmr.core.kernel import Kernel
 
 __all__ = ["FmuComponent", "FmuPort", "ports_of", "read_description"]
+
+log = logging.getLogger(__name__)
 
 #: FMI 2.0 call suffix per FMI type
 _FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
@@ -79,6 +83,10 @@ def _shown(get: Callable[..., list[Any]], factor: float, offset: float
     return get_shown
 
 
+#: how an FMI 2.0 co-simulation FMU asks to end the simulation
+_FMI2_DISCARDED = "(fmi2DoStep returned fmi2Discard and fmi2Terminated is true)"
+
+
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -87,8 +95,9 @@ class FmuComponent(Component):
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
                                "solver_step", "isolate", "timeout", "compile", "compile_timeout")
-    #: beside the ports, a saved state holds the time and the inputs `evaluate` set
-    state_attributes = ("_t", "_sent")
+    #: beside the ports, a saved state holds the time, the inputs `evaluate` set and (event
+    #: mode) the clocks' next ticks and the next time event
+    state_attributes = ("_t", "_sent", "_clock_due", "_time_event")
 
     def __init__(self, name: str = "", path: str | Path = "", interface: str = "auto",
                  solver: str | None = None, rtol: float | None = None,
@@ -168,12 +177,49 @@ class FmuComponent(Component):
         self._wired: set[str] | None = None
         self._read: set[str] | None = None
         self._after_step_all = False  # set by prepare: Jacobi
+        # FMI 3.0 co-simulation with event mode: clocks, clocked variables, early return
+        self.event_mode = self.fmi3 and not self.me and bool(self.md.coSimulation.hasEventMode)
+        clocks = [p.name for p in self.ports if p.clock]
+        if clocks and self.me:
+            raise FmuError(label, None, f"'{self.source_path.name}' has clocks "
+                           f"({', '.join(clocks[:5])}), which this importer runs in "
+                           f"co-simulation only. Fix: remove interface: model_exchange.")
+        self._events: EventMode | None = None
+        self._clock_due: tuple[tuple[str, float], ...] = ()
+        self._time_event = math.inf
+        #: Binary ports that carry LS-BUS operations -> their terminal (checked at every tick)
+        self.bus_data: dict[str, str] = {}
+        self.terminals = self._bus_terminals(label) if self.fmi3 else {}
         super().__init__(name)
         self.variables = dict(self._variables)
         for var in self.variables.values():
             self.__dict__[var.name] = var.start
         for key, value in parameters.items():
             self.set_parameter(key, value)
+
+    def _bus_terminals(self, label: str) -> dict[str, dict[str, str]]:
+        """The FMU's LS-BUS network terminals (member -> port), their members checked to be
+        ports of the kind a bus terminal needs; a beta version's note is logged."""
+        from twmr.fmi.lsbus.terminals import bus_terminals
+
+        ports = {p.name: p for p in self.ports}
+        need = {"Tx_Data": ("output", "Binary"), "Rx_Data": ("input", "Binary"),
+                "Tx_Clock": ("output", "Clock"), "Rx_Clock": ("input", "Clock")}
+        found: dict[str, dict[str, str]] = {}
+        for t in bus_terminals(self.source_path, label):
+            for note in t.notes:
+                log.warning("note: component '%s': %s", label, note)
+            for member, (kind, type_) in need.items():
+                p = ports.get(t.members[member])
+                if p is None or p.kind != kind or p.fmi_type != type_:
+                    raise FmuError(label, None, f"'{self.source_path.name}': bus terminal "
+                                   f"'{t.name}' member {member} is '{t.members[member]}', which "
+                                   f"is not an {kind} {type_} "
+                                   f"port of the FMU (a clock the importer schedules counts as "
+                                   f"an output). Fix: correct the FMU's terminalsAndIcons.xml.")
+            self.bus_data[t.members["Tx_Data"]] = t.name
+            found[t.name] = dict(t.members)
+        return found
 
     @classmethod
     def create(cls, name: str, base_dir: Path, **construction: Any) -> Component:
@@ -275,8 +321,11 @@ class FmuComponent(Component):
             from fmpy.fmi3 import FMU3Model, FMU3Slave
 
             fmu = self._load(FMU3Model if self.me else FMU3Slave, args)
+            events = {"eventModeUsed": True, "earlyReturnAllowed": True} if self.event_mode \
+                else {}
             self._call(what, lambda: fmu.instantiate(loggingOn=True,
-                                                    logMessage=self.log.fmi3_logger()))
+                                                    logMessage=self.log.fmi3_logger(),
+                                                    **events))
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
 
@@ -324,23 +373,25 @@ class FmuComponent(Component):
             self._call("fmi2EnterInitializationMode", f.enterInitializationMode)
         # the inputs (open ones keep these values), and the parameters and start values the
         # scenario gave: the others are the FMU's own
-        self._write([p for p in self.ports if p.kind == "input" or
-                     (p.name in self._given and p.name not in self.sizing_parameters)])
+        self._write([p for p in self.ports if (p.kind == "input" or
+                     (p.name in self._given and p.name not in self.sizing_parameters)) and
+                     not p.clock and not p.clocked_by])
         self._call("ExitInitializationMode", f.exitInitializationMode)
-        inputs = [p for p in self.ports if p.kind == "input" and
-                  (self._wired is None or p.name in self._wired)]
-        outputs = [p for p in self.ports if p.kind in ("output", "state")]
+        inputs = [p for p in self.ports if p.kind == "input" and not p.clock and
+                  not p.clocked_by and (self._wired is None or p.name in self._wired)]
+        outputs = [p for p in self.ports if p.kind in ("output", "state") and not p.clock and
+                   not p.clocked_by]
         read = [p for p in outputs if self._read is None or p.name in self._read]
         feedthrough = {p.name for p in read if getattr(self.variables[p.name], "depends_on", ())}
         if self.me:
             self._integrator = Integrator(f, self.md, self.fmi3, self.solver, self.rtol,
                                           self.atol, self.max_step, self.solver_step, self._call)
+            self._integrator.hold = self.hold_events
             try:
                 self._integrator.start(self.start_time)
             except Terminated:
-                raise FmuError(self.name, self.start_time, f"FMU '{self.path.name}' asked to "
-                               f"terminate during its initial event iteration.",
-                               self.log.tail()) from None
+                raise self._terminated(self.start_time, "during its initial event "
+                                       "iteration") from None
             self._set_cont = self._plan([p for p in inputs if not p.discrete], 1)
             self._set_disc = self._plan([p for p in inputs if p.discrete], 1)
             self._last_disc = self._values_of(self._set_disc)
@@ -352,10 +403,39 @@ class FmuComponent(Component):
                                     if self.has_feedthrough and not self._after_step_all
                                     else read, 0)
         self._sent = None
+        if self.event_mode:  # initialization ended in event mode
+            self._events = EventMode(self)
+            self._events.start(self.start_time)
+            self._call("fmi3EnterStepMode", f.enterStepMode)
         try:
             self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
             raise self._error("reading the outputs after initialization", exc) from exc
+
+    def check_bus_data(self, port: str, data: bytes, t: float) -> None:
+        """Decode the LS-BUS operations an FMU put on bus port `port` at t [s]; malformed ones
+        stop the run naming the FMU, the terminal and the time."""
+        terminal = self.bus_data.get(port)
+        if terminal is None:
+            return
+        from twmr.fmi.lsbus.operations import BusOperationError, decode
+
+        try:
+            decode(data)
+        except BusOperationError as err:
+            raise FmuError(self.name, t, f"FMU '{self.path.name}', bus terminal '{terminal}' "
+                           f"({port}, {len(data)} bytes): {err}. Fix: the FMU writes malformed "
+                           f"bus operations; see its log or ask its vendor.",
+                           self.log.tail()) from None
+
+    def early_event(self) -> float | None:
+        return self._events.early if self._events is not None else None
+
+    def next_event(self, t: float) -> float | None:
+        if self._events is None:
+            return None
+        upcoming = self._events.next_time()
+        return upcoming if upcoming > t and upcoming < math.inf else None
 
     def _plan(self, ports: list[FmuPort], which: int) -> list[Any]:
         """Per FMI type: the bound fmpy getter (which=0) or setter (1), the value references, the
@@ -484,26 +564,51 @@ class FmuComponent(Component):
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
                 result = None
+            elif self._events is not None:
+                self._events.step(t, h)
+                result = None
             else:
                 result = self._fmu.doStep(t, h)
             if self._get_step:
                 self._get(self._get_step)
         except Terminated as stop:
-            raise FmuError(self.name, stop.args[0], f"FMU '{self.path.name}' asked to terminate "
-                           f"the simulation (terminateSimulation).", self.log.tail()) from None
+            raise self._terminated(stop.args[0], "(terminateSimulation)") from None
         except FmuError:
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
             if self._fmi2_terminated():
-                raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                               f"simulation (fmi2DoStep returned fmi2Discard and "
-                               f"fmi2Terminated is true).", self.log.tail()) from None
+                raise self._terminated(t, _FMI2_DISCARDED) from None
             what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
                                                               else "fmi2DoStep")
             raise self._error(what, exc) from exc
         if self.fmi3 and result is not None and result[1]:
-            raise FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                           f"simulation (fmi3DoStep terminateSimulation).", self.log.tail())
+            raise self._terminated(t, "(fmi3DoStep terminateSimulation)")
+
+    def _terminated(self, t: float, how: str) -> FmuTerminated:
+        """The FMU's request at `t` to end the simulation, `how` it asked."""
+        return FmuTerminated(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
+                             f"simulation {how}.", self.log.tail())
+
+    def state_event(self) -> float | None:
+        return None if self._integrator is None else self._integrator.state_event
+
+    def event(self, t: float) -> None:
+        """Model exchange: the state event held at the end of the last step (event mode and
+        iteration), then every read output got again."""
+        integ = self._integrator
+        if integ is None or not integ.held:
+            return
+        self._t = t
+        try:
+            integ.handle_held()
+            self._get(self._get_ft)
+            self._get(self._get_step)
+        except Terminated as stop:
+            raise self._terminated(stop.args[0], "(terminateSimulation)") from None
+        except FmuError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
+            raise self._error("the event at the end of the step", exc) from exc
 
     def _fmi2_terminated(self) -> bool:
         """After a discarded fmi2DoStep: whether the FMU says it has terminated."""
@@ -571,9 +676,7 @@ class FmuComponent(Component):
         def error(call: str, status: int, t: float) -> BaseException:
             self._t = t
             if call == "fmi2DoStep" and status == 2 and self._fmi2_terminated():
-                return FmuError(self.name, t, f"FMU '{self.path.name}' asked to terminate the "
-                                f"simulation (fmi2DoStep returned fmi2Discard and "
-                                f"fmi2Terminated is true).", self.log.tail())
+                return self._terminated(t, _FMI2_DISCARDED)
             return FmuError(self.name, t, f"FMU '{self.path.name}': {call} returned "
                             f"{_FMI2_STATUS.get(status, status)}. Fix: see the FMU's log; check "
                             f"its inputs and parameters at this time.", self.log.tail())

@@ -70,6 +70,7 @@ class IsolatedFmu(Component):
         self._kwargs = kwargs
         self.can_get_and_set_state = self._desc.can_get_and_set_state
         self.aliases = self._desc.aliases
+        self.terminals = self._desc.terminals
         self._given: dict[str, Any] = {}  # set_parameter calls, replayed in the worker
         self.variables = dict(self._desc.variables)
         self.__dict__.update({n: self._desc.__dict__[n] for n in self.variables})

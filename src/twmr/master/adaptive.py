@@ -2,9 +2,9 @@
 step-doubling error estimate, rolling every component back on a rejected step (as OMSimulator's
 adaptive master).
 
-H is always a whole number k of base steps h (time stays an integer count of base steps; k
-between `min_step / h` and `max_step / h`). From the communication point t with every
-component's state saved:
+H is a whole number k of base steps h (k between `min_step / h` and `max_step / h`), and a
+step ends on the grid of base steps, except one that ends at a state event (below). From the
+communication point t with every component's state saved:
 
 1. one macro step: inputs written and feedthrough evaluated at t, every component steps by H;
    the outputs y_H of the stepping components that the run reads (wired or recorded) are kept;
@@ -23,12 +23,23 @@ saved states and retries with a smaller H. The next H is k fac with fac = 0.9 er
 local error of a zero-order-hold coupling is O(H^2)), bounded to [0.2, 2] and not grown right
 after a rejection. A step ends at the grid point at or after a component's next time event
 (`Component.next_event`, e.g. a step source's switching time), so a jump between two points is
-not missed. A step of one base step has no half step: it is taken once, unchecked (after a
-step of two was rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a
-step at `min_step` over the tolerance is accepted (counted as forced).
+not missed; a step in which a component met an event it could not announce (an FMU's early
+return, `Component.early_event`) is taken again to end at the grid point at or after it. A
+step of one base step has no half step: it is taken once, unchecked (after a step of two was
+rejected, 1, 2, 4, ... up to `MAX_WAIT` of them before two is tried again); a step at
+`min_step` over the tolerance is accepted (counted as forced).
 
 A row is recorded at every accepted communication point t (not at the middle points), so the
 time column is uneven; the result store and the writers take any time column.
+
+Events located in time: every component is asked to hold a state event found at the very end of
+a step (`Component.hold_events`). When an attempt meets one inside the step
+(`Component.state_event()`, e.g. a model-exchange FMU's located zero crossing at t_e), every
+state is restored and the step retried to end at t_e exactly, off the grid. After it is
+accepted, a row is recorded just before the event, the event is handled (`Component.event`) and
+the next step records the row just after it at the same time, then ends on the grid again. A
+non-Real output that the run reads and that changes inside a step (a co-simulation FMU's event
+counter) makes the master halve the step until the one holding the change is `min_step` long.
 """
 from __future__ import annotations
 
@@ -42,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
 from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
@@ -56,17 +68,25 @@ PER_CALL = 64
 #: most unchecked one-base-step steps in a row after a step of two was rejected (the wait
 #: doubles with each such rejection, from 1)
 MAX_WAIT = 64
+#: a state event closer than this many base steps to a step's start is taken as at its start
+EVENT_TOL = 1e-9
+#: most retries of one macro step to a newly located state event
+MAX_RELOCATE = 8
 
 
 @dataclass(frozen=True)
 class Attempt:
     """One macro step tried from base step `n` over `k` base steps; `err` its scaled error
-    estimate (NaN: unchecked, k = 1)."""
+    estimate (NaN: unchecked, k = 1). `t` [s] and `size` [s] are where it started and how long
+    it was: a step that starts or ends at a state event is off the grid (`n` is then the grid
+    point before its start and `k` the grid points to its end, rounded up)."""
 
     n: int
     k: int
     err: float
     accepted: bool
+    t: float = math.nan
+    size: float = math.nan
 
 
 class Adaptive(Algorithm):
@@ -80,6 +100,9 @@ class Adaptive(Algorithm):
         self.source = ""
         self.filename = ""
         self.history: list[Attempt] = []
+        self.loops: list[loops.LoopSolver] = []
+        self.probe: stats.Probe | None = None
+        self.calls: dict[str, int] = {}
         self._owner: dict[int, tuple[str, str]] = {}
         self._fns: dict[str, Callable[..., Any]] = {}
 
@@ -106,85 +129,197 @@ class Adaptive(Algorithm):
         self.rtol, self.atol = exp.rtol, exp.atol
         self.k, self.held = self.k_min, False
         self.wait, self.backoff = 0, 1
+        self.m, self.t_off = 0, math.nan  # the grid point at or before now; now if off it
+        self.bracket: int | None = None  # a discrete output changes before this grid point
         self.comps = [system.components[n] for n in system.order]
+        for comp in self.comps:
+            comp.hold_events = True
         plan = build(system, "gauss_seidel", record, 1, check_finite)
         read = {(c.src, c.src_port) for c in system.connections} | set(record)
         stepping = {s.name for s in plan.steps}
-        self.watched = [(n, p) for n in plan.order if n in stepping
-                        for p, v in system.components[n].variables.items()
-                        if v.kind in ("output", "state") and v.type == "Real" and (n, p) in read]
-        self.source, self._owner, env = _generate(system, plan, self.watched)
+        outputs = [(n, p, v) for n in plan.order if n in stepping
+                   for p, v in system.components[n].variables.items()
+                   if v.kind in ("output", "state") and (n, p) in read]
+        self.watched = [(n, p) for n, p, v in outputs if v.type == "Real"]
+        self.discrete = [(n, p) for n, p, v in outputs if v.type != "Real"]
+        self.source, self._owner, env = _generate(system, plan, self.watched, self.discrete)
         self.filename = f"<twmr adaptive {system.source} {id(self):x}>"
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        self._fns = {k: env[k] for k in ("point", "record", "step", "outputs")}
+        timing = stats.timing_wanted()
+        self.probe = stats.Probe(timing) if timing else None
+        if self.probe is not None:
+            self.probe.wrap(env, plan.order)
+        self.loops = loops.bind(env, system, plan, timing)
+        self.plan = plan
+        self._fns = {k: env[k] for k in ("point", "record", "step", "outputs", "discrete")}
+        self.calls = {"point": 0, "step": 0}
+        for key in self.calls:
+            self._fns[key] = _counted(self._fns[key], self.calls, key)
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
-        """Up to `PER_CALL` accepted macro steps from n0, the last ending at n1 at most (n1 is
-        the stop: `Execution` gives a variable-step algorithm the whole run)."""
-        n = n0
-        for _ in range(PER_CALL):
-            n = self._macro(n, n1, rows)
-            if n >= n1:
+        """Up to `PER_CALL` accepted macro steps from n0 (more while they stay before grid point
+        n0 + 1, at state events), the last ending at n1 at most (n1 is the stop: `Execution`
+        gives a variable-step algorithm the whole run); the grid point at or before the time
+        reached."""
+        if self.m != n0:  # a fresh start, or a caller that moved the time: on the grid
+            self.m, self.t_off = n0, math.nan
+        for i in range(1_000_000):
+            self._macro(n1, rows)
+            if self.m >= n1 or (i + 1 >= PER_CALL and self.m > n0):
                 break
-        return n
+        return self.m
 
     def finish(self, n: int, rows: list[Any]) -> None:
         t = self.start0 + n * self.h
         self._fns["point"](t)
         self._fns["record"](t, rows)
 
-    def _macro(self, n: int, n1: int, rows: list[Any]) -> int:
-        """One accepted macro step from base step n (not past n1), with as many retries as it
-        takes; the step reached."""
+    def _grid(self, m: int) -> float:
+        return self.start0 + m * self.h
+
+    def _macro(self, n1: int, rows: list[Any]) -> None:
+        """One accepted macro step from now (not past grid point n1), with as many retries as
+        it takes; a step that ends at a state event records the row just before it and
+        has the event handled (the next step records the row after it)."""
         point, record, step = self._fns["point"], self._fns["record"], self._fns["step"]
-        h, t = self.h, self.start0 + n * self.h
-        k = min(self.k, n1 - n, self._to_event(t))
+        h, m = self.h, self.m
+        on_grid = math.isnan(self.t_off)
+        t = self._grid(m) if on_grid else self.t_off
+        to_event = self._to_event(m)
+        k = min(self.k, n1 - m, self.k_max if to_event is None else to_event)
+        if self.bracket is not None:  # halve the interval a discrete output changed in
+            k = min(k, max(self.k_min, (self.bracket - m) // 2))
+        at_event: float | None = None  # the step ends at this state event instead
+        relocated = 0
         while True:
+            t_end = at_event if at_event is not None else self._grid(m + k)
+            whole = k * h if on_grid and at_event is None else t_end - t
             saved = [c.get_state() for c in self.comps]
             pending: list[Any] = []
             point(t)
             record(t, pending)
-            if k == 1:
-                step(t, h)
-                err = math.nan
-            else:
-                step(t, k * h)
+            before = self._fns["discrete"]()
+            step(t, whole)
+            early = self._early(m, k) if at_event is None else k
+            if early < k:  # an event inside the step it could not announce: retaken to end there
+                self._undo(saved, None)
+                k = early
+                continue
+            found = self._state_event(t, t_end)
+            changed = self._fns["discrete"]() != before
+            err = math.nan
+            # a change in a step that ends at a time event is that event's, at the end
+            hunt = changed and k > self.k_min and at_event is None and k != to_event
+            checked = whole >= 2 * h if at_event is not None else k > 1
+            if found is None and not hunt and checked:
                 big = self._values()
                 self._restore(saved)
-                half = k // 2
+                if at_event is not None:
+                    mid, first = t + whole / 2, whole / 2
+                elif on_grid:
+                    mid, first = t + (k // 2) * h, (k // 2) * h
+                else:
+                    mid = self._grid(m + k // 2)
+                    first = mid - t
                 point(t)
-                step(t, half * h)
-                point(t + half * h)
-                step(t + half * h, (k - half) * h)
+                step(t, first)
+                found = self._state_event(t, mid)
+                point(mid)
+                step(mid, t_end - mid)
+                found = found if found is not None else self._state_event(mid, t_end)
                 err = self._error(big, self._values())
+            if found is not None and relocated < MAX_RELOCATE:
+                relocated += 1
+                self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
+                at_event = found  # retried to end at the event, first of all
+                k = max(1, math.ceil((found - self._grid(m)) / h - 1e-9))
+                continue
+            if hunt:
+                self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
+                self.bracket = m + k
+                k = max(self.k_min, k // 2)
+                continue
             accepted = not err > 1.0 or k <= self.k_min
-            self.history.append(Attempt(n, k, err, accepted))
-            log.debug("t = %g s, H = %g s, err = %.3g: %s", t, k * h, err,
+            self.history.append(Attempt(m, k, err, accepted, t, whole))
+            log.debug("t = %g s, H = %g s, err = %.3g: %s", t, whole, err,
                       "accepted" if accepted else "rejected")
             if accepted:
                 for comp, state in zip(self.comps, saved, strict=True):
                     comp.release_state(state)
                 rows.extend(pending)
-                capped = k < self.k and k == self._to_event(t)
-                self.k = max(self.k, k) if capped else self._next(k, err)
-                self.held = False
-                return n + k
-            self._restore(saved)
-            for comp, state in zip(self.comps, saved, strict=True):
-                comp.release_state(state)
-            k = max(self.k_min, min(k - 1, int(k * self._factor(err))))
+                break
+            self._undo(saved, None)
+            k_new = max(self.k_min, min(k - 1, int(k * self._factor(err))))
+            if at_event is not None and self._grid(m + k_new) < at_event:
+                at_event = None
+            k = k_new
             self.held = True
             if k == 1:  # the tolerance needs one base step: stay there a while before trying 2
                 self.wait, self.backoff = self.backoff, min(MAX_WAIT, 2 * self.backoff)
+        if changed:
+            self.bracket = None
+        elif self.bracket is not None and m + k >= self.bracket:
+            self.bracket = None  # the change seen before did not come again
+        held = at_event if at_event is not None else self._held_at(t_end)
+        if held is not None:
+            point(held)
+            record(held, rows)  # just before the event
+            for comp in self.comps:
+                comp.event(held)
+        if at_event is not None:
+            self.m = m + k - 1 if self._grid(m + k) > at_event else m + k
+            self.t_off = at_event if self._grid(self.m) != at_event else math.nan
+            return
+        self.m, self.t_off = m + k, math.nan
+        capped = k < self.k and k == to_event
+        self.k = max(self.k, k) if capped else self._next(k, err)
+        self.held = False
 
-    def _to_event(self, t: float) -> int:
-        """Base steps from t to the first grid point at or after the next time event."""
+    def _undo(self, saved: list[Any], attempt: Attempt | None) -> None:
+        """Every component back to `saved`, which is released; `attempt` logged as rejected."""
+        if attempt is not None:
+            self.history.append(attempt)
+        self._restore(saved)
+        for comp, state in zip(self.comps, saved, strict=True):
+            comp.release_state(state)
+
+    def _state_event(self, t: float, t_end: float) -> float | None:
+        """The earliest state event a component met in the steps from t to t_end [s], when it
+        lies before t_end and not at t (within `EVENT_TOL` base steps of it); None: none."""
+        events = [e for c in self.comps if (e := c.state_event()) is not None]
+        if not events:
+            return None
+        first = min(events)
+        tol = EVENT_TOL * self.h
+        return first if t + tol < first < t_end - tol else None
+
+    def _held_at(self, t_end: float) -> float | None:
+        """t_end [s] when a component met a state event at the very end of the last step (it
+        holds it); None otherwise."""
+        tol = EVENT_TOL * self.h
+        held = any(e is not None and abs(e - t_end) <= tol
+                   for e in (c.state_event() for c in self.comps))
+        return t_end if held else None
+
+    def _early(self, m: int, k: int) -> int:
+        """Base steps from grid point m to the first grid point at or after an event a
+        component met inside its last step (`Component.early_event`); k when none."""
+        t = self._grid(m)
+        events = [e for c in self.comps if (e := c.early_event()) is not None and e > t]
+        if not events:
+            return k
+        return max(1, min(k, math.ceil((min(events) - t) / self.h - 1e-9)))
+
+    def _to_event(self, m: int) -> int | None:
+        """Base steps from grid point m to the first grid point at or after the next time
+        event (after now); None: no time event ahead."""
+        t = self._grid(m) if math.isnan(self.t_off) else self.t_off
         events = [e for c in self.comps if (e := c.next_event(t)) is not None and e > t]
         if not events:
-            return self.k_max
-        return max(1, math.ceil((min(events) - t) / self.h - 1e-9))
+            return None
+        return max(1, math.ceil((min(events) - self._grid(m)) / self.h - 1e-9))
 
     def _factor(self, err: float) -> float:
         """The step factor for a scaled error `err` (0: the most growth)."""
@@ -220,7 +355,7 @@ class Adaptive(Algorithm):
 
     def report(self) -> dict[str, object]:
         done = [a for a in self.history if a.accepted]
-        sizes = [a.k * self.h for a in done]
+        sizes = [a.size for a in done]
         return {"steps_accepted": len(done),
                 "steps_rejected": len(self.history) - len(done),
                 "steps_unchecked": sum(a.k == 1 for a in done),
@@ -228,15 +363,26 @@ class Adaptive(Algorithm):
                 "step_min_s": min(sizes, default=math.nan),
                 "step_max_s": max(sizes, default=math.nan)}
 
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        rejected = sum(not a.accepted for a in self.history)
+        blocks = self.probe.blocks() if self.probe is not None else \
+            stats.planned(self.plan, lambda m: self.calls["step"],
+                          lambda m: self.calls["point"], self.loops)
+        for figures in blocks.values():
+            if figures["steps"]:
+                figures["rejected"] = rejected
+        return stats.document(blocks, self.loops)
+
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)
 
 
-def _generate(system: System, plan: Plan, watched: list[tuple[str, str]]
+def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
+              discrete: list[tuple[str, str]]
               ) -> tuple[str, dict[int, tuple[str, str]], dict[str, Any]]:
     """(source, line owners, globals) of `point(t)` (inputs written, feedthrough evaluated,
-    NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H) and
-    `outputs()` (the `watched` port values)."""
+    NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H),
+    `outputs()` (the `watched` port values) and `discrete()` (the `discrete` ones)."""
     ids = {name: i for i, name in enumerate(plan.order)}
     env: dict[str, Any] = {"nonfinite": _nonfinite}
     for name, comp in system.components.items():
@@ -260,7 +406,18 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]]
         w.add(1, f"st{ids[s.name]}(t, H)", (s.name, "do_step"))
     w.add(0, "def outputs():")
     w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in watched) + ")")
+    w.add(0, "def discrete():")
+    w.add(1, "return (" + "".join(f"{ref(n, p)}, " for n, p in discrete) + ")")
+    loops.render(w, plan, ids, ref)
     return "\n".join(w.lines) + "\n", w.owner, env
+
+
+def _counted(fn: Callable[..., Any], calls: dict[str, int], key: str) -> Callable[..., Any]:
+    """`fn` counting its calls in `calls[key]`."""
+    def counted(*args: Any) -> Any:
+        calls[key] += 1
+        return fn(*args)
+    return counted
 
 
 def adaptive(compiled: str = "auto") -> Algorithm:

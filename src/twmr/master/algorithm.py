@@ -57,6 +57,11 @@ class Algorithm(ABC):
         """Figures about the algorithm (e.g. compile time [s]), for the run's outcome."""
         return {}
 
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        """Counts per block and per algebraic loop after `steps_done` base steps (`finished`:
+        the final point was reached), as `twmr.master.stats.document` (empty: not kept)."""
+        return {}
+
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         """(instance, call, time [s]) where `exc` was raised inside `advance`, as far as known."""
         return "?", "a call", float("nan")

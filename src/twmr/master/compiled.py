@@ -1,13 +1,17 @@
-"""`CompiledStep`: the fixed-step Gauss-Seidel / Jacobi loop of `twmr.master.schedule`, generated
-over the components' compiled kernels and compiled as one numba function.
+"""`CompiledStep`: the fixed-step Gauss-Seidel / Jacobi loop of `twmr.master.schedule`, compiled
+with numba over the components' kernels, bit-identical to the Python schedule.
 
 When every component of a system offers a kernel (`Component.kernel(h)` returns a `Kernel`), the
-master generates the whole step loop — input writes with unit gains and element selections, the
-evaluation order of the port graph, step multiples, the NaN/Inf check and the recording into a
-preallocated block of rows — and compiles it with numba. Every port value is a local variable of
-that function (a float or a tuple of floats); nothing is looked up or boxed inside the loop. The
-results are bit-identical to the Python schedule: the same expressions in the same order on the
-same kernels.
+loop runs compiled, in one of two forms:
+
+- the driver (`twmr.master.driver`): each kind of block (kernel functions and value shapes)
+  compiled once, one driver loop for every scenario, never a compile per wiring or block count;
+  the plan is laid out in flat arrays that the driver interprets. A rewired scenario of known
+  kinds runs compiled at once.
+- the loop generated for this system (below): every port value a local variable, one call per
+  block, compiled per scenario. It runs the scenarios the driver does not hold: those with an FMU
+  (called through its C functions), or a kernel value the driver's float vectors cannot hold
+  (e.g. a complex number, an integer array, a NamedTuple that is not importable).
 
 A kernel is two pure numba functions of the component's private state x (a tuple), its outputs y
 (the tuple of its output and state ports, declared order), its inputs u (the tuple of its input
@@ -20,19 +24,22 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-An FMI 2.0 co-simulation FMU joins the loop in mode 'on': the loop calls its C functions itself,
-through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
+An FMI 2.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
+functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
 
-The generated module is written to the cache folder (`TWMR_CACHE_DIR`, default
-~/.cache/twmr/schedules) under a name hashing its source, the source files of the kernels'
-packages and numba's version; numba's own cache (`cache=True`) then reuses the machine code in
-every later process (sweep workers included). Parameters, initial values, the step and the
-start time are arguments, so a sweep over parameter values compiles once.
+The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
+(`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
+files of the kernels' packages and numba's version; numba's own cache (`cache=True`) then
+reuses the machine code in every later process (sweep workers included). Parameters, initial
+values, the step and the start time are arguments, so a sweep over parameter values compiles
+once.
 
-Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) compiles a run
-of at least `AUTO_MIN_STEPS` steps whose every component (FMUs excepted) offers a kernel, once the
-first chunk has run in Python, and runs the Python schedule otherwise; `on` compiles before the
-first step and makes a missing kernel an error; `off` always runs the Python schedule.
+Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
+from the first step when every kind of the system is compiled already (in this process or in
+numba's cache), whatever the run's length; else it compiles a run of at least
+`AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a shorter one in Python;
+FMUs and blocks without a kernel keep the Python schedule. `on` compiles before the first step
+and makes a missing kernel an error; `off` always runs the Python schedule.
 """
 from __future__ import annotations
 
@@ -45,18 +52,22 @@ from typing import Any
 
 import numpy as np
 
-from twmr.core.errors import CosimError
+from twmr.core.errors import CosimError, Location, Problem
 from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Write, guard
+from twmr.master.plan import METHODS, Plan, Solve, Write, guard
 from twmr.master.schedule import FixedStep
+from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto' compiles runs of at least this many base steps (a shorter one is over before
-#: numba would be loaded)
+#: mode 'auto', kinds not compiled yet: runs of at least this many base steps are compiled (a
+#: shorter one is over before numba would have compiled them)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
+#: why a system with algebraic loops to solve keeps the Python schedule
+LOOPS = "its algebraic loops are iterated by the Python schedule"
 
 
 class CompileError(CosimError):
@@ -92,18 +103,35 @@ class CompiledStep(Algorithm):
     """Fixed base step h, 'gauss_seidel' or 'jacobi', compiled with numba when every component
     offers a kernel (`mode` 'auto' | 'on'); else the Python `FixedStep` runs (mode 'auto')."""
 
-    def __init__(self, method: str = "gauss_seidel", mode: str = "auto"):
+    def __init__(self, method: str = "gauss_seidel", mode: str = "auto", use_driver: bool = True):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
         self.mode = mode
+        #: False: the loop generated for this scenario even where the driver would
+        #: run (the benchmark's "before")
+        self.use_driver = use_driver
         self.python = FixedStep(method)
         self.compiled = False
         self._pending = False
         self.reason = ""
         self.compile_seconds = float("nan")
+        #: the driver's loop (`twmr.master.driver_loop`; None: the generated loop, or Python)
+        self._driver: Any = None
+        #: whether numba compiled (or loaded from its cache) a kind's adapters or the driver for
+        #: this run
+        self.driver_compiled = False
 
     # -- Algorithm ---------------------------------------------------------------------------
+    def refuse(self, system: System) -> Problem | None:
+        if self.mode != "on" or self.method != "gauss_seidel" or \
+                system.experiment.loops != "solve" or \
+                not find_loops(system.components, system.connections)[0]:
+            return None
+        return Problem(Location(system.source, 0, "experiment.loops"),
+                       f"the compiled loop (--compiled on) does not run 'loops: solve': "
+                       f"{LOOPS}.", "run with --compiled auto or off (TWMR_COMPILED).")
+
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
@@ -116,19 +144,31 @@ class CompiledStep(Algorithm):
         first chunk has run in Python (mode 'auto': a stop signal during compilation then
         finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`)."""
         self._pending = False
-        if self.mode == "on" or self._system.paced:
+        if self.mode == "on" or self._system.paced or self._ready():
             self._compile()
         elif self._system.experiment.n_steps >= AUTO_MIN_STEPS:
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
-                          f"{AUTO_MIN_STEPS} steps)"
+                          f"{AUTO_MIN_STEPS} steps) with kinds not compiled yet"
+
+    def _ready(self) -> bool:
+        """Mode 'auto': whether every kind of the system is compiled already (in this process or
+        in numba's cache), so the whole run can be compiled from its first step."""
+        kernels, _ = _kernels(self._system, self._record, False)
+        kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
+            else None
+        return kinds is not None and driver.cached(list(kinds.values()), cache_dir())
 
     def _compile(self) -> None:
         """Collect the kernels from the components as they are now (initialized, maybe stepped
         by the Python schedule) and compile the loop; on failure keep the Python schedule
         (mode 'auto') or raise `CompileError` (mode 'on')."""
         system = self._system
+        assert self.python.plan is not None
+        if self.python.plan.loops:
+            self.reason = LOOPS
+            return
         kernels, self.reason = _kernels(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
@@ -142,6 +182,10 @@ class CompiledStep(Algorithm):
         exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
+        kinds = _kinds(system, kernels) if self.use_driver else None
+        if kinds is not None:
+            self._compile_driver(kinds, kernels, t0)
+            return
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
         self._Y = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.outputs.items())
@@ -164,17 +208,69 @@ class CompiledStep(Algorithm):
             self._finish.compile(tuple(typeof(a) for a in (
                 0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
-            self.reason = f"numba could not compile it ({type(exc).__name__}: " \
-                          f"{str(exc).splitlines()[0] if str(exc) else ''})"
-            if self.mode == "on":
-                raise CompileError(
-                    f"the run cannot be compiled: {self.reason}. Fix: correct the kernel or run "
-                    f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
-            log.warning("running the Python schedule: %s", self.reason)
+            self._refuse(exc)
             return
         self.compile_seconds = time.perf_counter() - t0
         self.source = source
         self.compiled = True
+
+    def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
+                        t0: float) -> None:
+        """Take (or compile) the adapters of the system's kinds and lay the plan out for the
+        driver."""
+        try:
+            addresses, fresh = driver.load(list(kinds.values()), cache_dir())
+            from twmr.master import driver_loop
+        except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
+            self._refuse(exc)
+            return
+        assert self.python.plan is not None
+        self._layout = driver.layout(self._system, self.python.plan, kernels, addresses, kinds)
+        self._ncols = 1 + len(self._layout.rec) if self._record else 1
+        self._driver = driver_loop
+        self.driver_compiled = fresh > 0
+        self.compile_seconds = time.perf_counter() - t0
+        self.source = "\n".join(dict.fromkeys(driver.generate(k)[0] for k in kinds.values()))
+        self.compiled = True
+
+    def _refuse(self, exc: Exception) -> None:
+        """numba failed on the loop: the Python schedule (mode 'auto') or `CompileError`."""
+        self.reason = f"numba could not compile it ({type(exc).__name__}: " \
+                      f"{str(exc).splitlines()[0] if str(exc) else ''})"
+        if self.mode == "on":
+            raise CompileError(
+                f"the run cannot be compiled: {self.reason}. Fix: correct the kernel or run "
+                f"with TWMR_COMPILED=auto to use the Python schedule.") from exc
+        log.warning("running the Python schedule: %s", self.reason)
+
+    def _run_driver(self, drv: Any, n0: int, n1: int, buf: np.ndarray,
+                    rows: list[Any]) -> None:
+        lay, exp = self._layout, self._system.experiment
+        k, bad = drv.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
+                                  lay.gains, lay.blocks, lay.steps, lay.H, lay.chk, lay.rec, buf,
+                                  self._decimation)
+        self._sync_driver(rows, buf, k, bad)
+
+    def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
+        """As `_sync`, from the driver's vectors."""
+        lay = self._layout
+        S = lay.S
+        for comp, kern, o, (xo, shape) in zip(self._comps, self._kernels, lay.signal,
+                                              lay.state, strict=True):
+            d = comp.__dict__
+            for port, var in {**comp.outputs, **comp.inputs}.items():
+                if var.size is None:
+                    d[port] = float(S[o])
+                else:
+                    d[port] = tuple(S[o:o + var.width].tolist())
+                o += var.width
+            if kern.sync is not None:
+                kern.sync(driver.rebuild(lay.X, xo, shape)[0])
+        if k and self._record:
+            rows.append(buf[:k])
+        if bad >= 0:
+            exp = self._system.experiment
+            raise NonFinite(exp.start + bad * exp.step)
 
     def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int, int, int]:
         exp = self._system.experiment
@@ -215,7 +311,10 @@ class CompiledStep(Algorithm):
         d = self._decimation
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
         buf = np.empty((count, self._ncols))
-        self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
+        if self._driver is not None:
+            self._run_driver(self._driver, n0, n1, buf, rows)
+        else:
+            self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
 
     def finish(self, n: int, rows: list[Any]) -> None:
@@ -224,6 +323,12 @@ class CompiledStep(Algorithm):
             return
         exp = self._system.experiment
         buf = np.empty((1, self._ncols))
+        if self._driver is not None:
+            lay = self._layout
+            self._sync_driver(rows, buf, *self._driver.finish(
+                n, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops, lay.gains, lay.blocks,
+                lay.chk, lay.rec, buf))
+            return
         self._X, self._Y, self._U, *rest = self._finish(n, exp.start, exp.step, self._P,
                                                         self._X, self._Y, self._U, buf)
         self._sync(rows, buf, *rest)
@@ -231,10 +336,19 @@ class CompiledStep(Algorithm):
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return self.python.locate(exc)
 
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        if not self.compiled:
+            return self.python.statistics(steps_done, finished)
+        assert self.python.plan is not None
+        return stats.document(stats.fixed_step(self.python.plan, steps_done, finished, []), [])
+
     def report(self) -> dict[str, Any]:
         out: dict[str, Any] = {"compiled": self.compiled}
         if self.compiled:
             out["compile_s"] = self.compile_seconds
+            out["driver"] = self._driver is not None
+            if self._driver is not None:
+                out["driver_compiled"] = self.driver_compiled
         elif self.reason:
             out["not_compiled"] = self.reason
         return out
@@ -290,6 +404,18 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
         kernels[name] = kern
     return kernels, ""
+
+
+def _kinds(system: System, kernels: dict[str, Kernel]) -> dict[str, driver.KindSpec] | None:
+    """Every component's kind for the driver, or None: an FMU among them, or a value the
+    driver cannot hold (the generated loop then runs it)."""
+    if any(k.fmu is not None for k in kernels.values()):
+        return None
+    try:
+        return {n: driver.kind_of(system.components[n], kernels[n]) for n in system.order}
+    except driver.Unsupported as exc:
+        log.debug("compiling the loop of this scenario (not the driver): %s", exc)
+        return None
 
 
 class _Lines:
@@ -388,6 +514,7 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
         for k, (src, port) in enumerate(plan.snapshot):
             w.add(ind, f"s{k} = {local(src, port)}")
         for action in plan.point:
+            assert not isinstance(action, Solve), "a loop to solve is refused before"
             lines = [plan.assignment(action, local)] if isinstance(action, Write) \
                 else call(action.name, "ev", "t")
             cond = None if final else guard(action)

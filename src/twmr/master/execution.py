@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from twmr.core.errors import ComponentError, CosimError
+from twmr.core.errors import ComponentError, CosimError, FmuTerminated
+from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
@@ -100,12 +101,13 @@ class Pacer:
         self.h_ns = round(h * 1e9)
         self.spin_ns = int(spin * 1e9)
         self.t0 = time.perf_counter_ns()
+        self.t0_unix_ns = time.time_ns()
         self.released_ns: list[int] = []
         self.deadline_ns: list[int] = []
         self.overruns = 0
 
     def start(self) -> None:
-        self.t0 = time.perf_counter_ns()
+        self.t0, self.t0_unix_ns = time.perf_counter_ns(), time.time_ns()
 
     def __call__(self, n: int) -> None:
         target = self.t0 + n * self.h_ns
@@ -126,7 +128,8 @@ class Pacer:
 
     def stats(self) -> dict[str, float]:
         """Lateness and |period error| p50/p99/max [us], missed deadlines (released more than one
-        step late), paced steps."""
+        step late), paced steps, and the wall-clock time of t = start (`start_unix_s`, seconds
+        since the epoch: what puts a frame log's times on the run's time axis)."""
         if not self.released_ns:
             return {}
         late = self.lateness_us()
@@ -138,7 +141,8 @@ class Pacer:
                 "period_error_p50_us": float(np.percentile(period, 50)),
                 "period_error_p99_us": float(np.percentile(period, 99)),
                 "period_error_max_us": float(period.max()),
-                "missed_deadlines": self.overruns, "paced_steps": int(late.size)}
+                "missed_deadlines": self.overruns, "paced_steps": int(late.size),
+                "start_unix_s": self.t0_unix_ns / 1e9}
 
 
 class _Relay:
@@ -218,6 +222,7 @@ class Execution:
         self._relay: _Relay | None = None
         self._n = 0
         self._rows: list[tuple[float, ...]] = []
+        self._finished = False
 
     def run(self) -> Outcome:
         """Set up, initialize, step to the stop time, terminate. Raises `CosimError` or
@@ -225,6 +230,7 @@ class Execution:
         observers have what was recorded."""
         exp = self.system.experiment
         error: BaseException | None = None
+        once = OncePerRun().attach()
         previous = self._catch_stop_signals()
         paced = self.pacer is not None
         frozen = False
@@ -261,6 +267,9 @@ class Execution:
             else:
                 self._loop(exp.n_steps)
             self._guarded(self.algorithm.finish, exp.n_steps)
+            self._finished = True
+        except FmuTerminated as exc:
+            error = self._fmu_ended(exc)
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
@@ -274,6 +283,7 @@ class Execution:
             error = self._conclude(error, wall if math.isfinite(wall) else 0.0)
         finally:
             self._restore_signals(previous)
+            once.detach()
         if error is not None:
             raise error
         return self.outcome
@@ -382,6 +392,16 @@ class Execution:
         return max(self._n, self._step_of(t)) if math.isfinite(t) else self._n
 
     # -- the end -------------------------------------------------------------------------------
+    def _fmu_ended(self, request: FmuTerminated) -> FmuTerminated | None:
+        """An FMU's request to end the simulation: the run's failure, or with
+        `experiment.fmu_terminate: stop` its normal end (noted in the outcome)."""
+        if self.system.experiment.fmu_terminate != "stop":
+            return request
+        self.outcome.stopped_by = {"component": request.instance, "time": self._time(self._n)}
+        log.info("%s asked to end the simulation at t = %g s; the run ends there "
+                 "(experiment.fmu_terminate: stop)", request.instance, self._time(self._n))
+        return None
+
     def _conclude(self, error: BaseException | None, wall: float) -> BaseException | None:
         """Rows left to the observers, the outcome filled in and announced; the error to raise."""
         out = self.outcome
@@ -415,6 +435,10 @@ class Execution:
             out.lateness_us = self.pacer.lateness_us()
         self._report_all()
         self.outcome.extra.update({f"algorithm.{k}": v for k, v in self.algorithm.report().items()})
+        try:
+            out.statistics = self.algorithm.statistics(self._n, self._finished)
+        except Exception:  # noqa: BLE001 - statistics never hide the run's own outcome
+            log.debug("the algorithm's statistics failed", exc_info=True)
         failures = []
         for obs in self.observers:
             try:

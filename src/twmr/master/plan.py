@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from twmr.core.component import Component
-from twmr.scenario.graph import evaluation_plan
+from twmr.scenario.graph import evaluation_plan, find_loops
 from twmr.scenario.system import Connection, System
 
 #: the fixed-step methods a plan can be built for
@@ -52,6 +52,19 @@ class Evaluate:
 
 
 @dataclass(frozen=True)
+class Solve:
+    """Algebraic loop `index` (`twmr.scenario.graph.Loop`) solved at this point by the master
+    (`twmr.master.loops`): `body` is one pass through it with the torn inputs held, `tears`
+    the writes of the torn inputs from their sources (g(x) of the iteration)."""
+
+    index: int
+    components: tuple[str, ...]
+    body: tuple[Write | Evaluate, ...]
+    tears: tuple[Write, ...]
+    multiple: int = 1
+
+
+@dataclass(frozen=True)
 class Step:
     """Component `name` advances by its multiple m of base steps, at the last base step of each
     period, from the period's start (its new outputs show at the period's end)."""
@@ -81,7 +94,7 @@ class Signal:
     size: int | None
 
 
-def guard(action: Write | Evaluate) -> str | None:
+def guard(action: Write | Evaluate | Solve) -> str | None:
     """The condition on n under which a write or evaluation happens (None: every step); a
     component with step multiple m samples its inputs and evaluates when n is a multiple of m."""
     m = action.multiple
@@ -95,11 +108,16 @@ class Plan:
     method: str
     order: tuple[str, ...]
     snapshot: tuple[Port, ...]
-    point: tuple[Write | Evaluate, ...]
+    point: tuple[Write | Evaluate | Solve, ...]
     check: tuple[tuple[Signal, ...], ...]
     record: tuple[Signal, ...]
     decimation: int
     steps: tuple[Step, ...]
+
+    @property
+    def loops(self) -> tuple[Solve, ...]:
+        """The algebraic loops solved at each point, in the order they are solved."""
+        return tuple(a for a in self.point if isinstance(a, Solve))
 
     def index(self, name: str) -> int:
         """The number of component `name` in the loop (its place in `order`)."""
@@ -130,27 +148,39 @@ def build(system: System, method: str, record: Sequence[Port], decimation: int,
     incoming: dict[Port, list[Connection]] = {}
     for conn in system.connections:
         incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
+    loops = find_loops(comps, system.connections)[0] \
+        if system.experiment.loops == "solve" and method == "gauss_seidel" else []
     if method == "gauss_seidel":
-        actions, _ = evaluation_plan(comps, system.connections)
+        actions, _ = evaluation_plan(comps, system.connections, loops)
         snapshot: tuple[Port, ...] = ()
     else:  # Jacobi: every input from one snapshot, one evaluation per component, any order
         actions = [("write", n, p) for n in order for p in comps[n].inputs if (n, p) in incoming]
         actions += [("evaluate", n, "") for n in order if comps[n].has_feedthrough]
         snapshot = tuple(sorted({(c.src, c.src_port) for c in system.connections}))
-    point: list[Write | Evaluate] = []
+
+    def write(name: str, port: str) -> Write:
+        sources: list[Port] = []
+
+        def placeholder(c: Connection, _s: list[Port] = sources) -> str:
+            _s.append((c.src, c.src_port))
+            return f"{{{len(_s) - 1}}}"
+
+        template = input_value(system, incoming[(name, port)], "{cur}", placeholder)
+        return Write(name, port, template, tuple(sources), system.multiple(name))
+
+    def act(action: str, name: str, port: str) -> Write | Evaluate:
+        return Evaluate(name, system.multiple(name)) if action == "evaluate" \
+            else write(name, port)
+
+    point: list[Write | Evaluate | Solve] = []
     for action, name, port in actions:
-        m = system.multiple(name)
-        if action == "write":
-            sources: list[Port] = []
-
-            def placeholder(c: Connection, _s: list[Port] = sources) -> str:
-                _s.append((c.src, c.src_port))
-                return f"{{{len(_s) - 1}}}"
-
-            template = input_value(system, incoming[(name, port)], "{cur}", placeholder)
-            point.append(Write(name, port, template, tuple(sources), m))
-        else:
-            point.append(Evaluate(name, m))
+        if action != "loop":
+            point.append(act(action, name, port))
+            continue
+        lp = loops[int(name)]
+        tears = tuple(write(*tear) for tear in lp.tears)
+        point.append(Solve(int(name), lp.components, tuple(act(*a) for a in lp.body), tears,
+                           system.multiple(lp.components[0])))
     # outputs that are read (wired or recorded): a NaN elsewhere cannot spread or be seen
     watched = list(dict.fromkeys([(c.src, c.src_port) for c in system.connections] +
                                  [s for s in record if comps[s[0]].variables[s[1]].kind
@@ -196,6 +226,34 @@ def input_value(system: System, conns: list[Connection], cur: str,
                 e = f"({e} * {c.gain!r} + {c.offset!r})"
             elems[d] = e
     return "(" + ", ".join(elems) + ("," if len(elems) == 1 else "") + ")"
+
+
+#: one element of an input write: (destination element, source component, source port, source
+#: element (None: a scalar), unit gain and offset (None, 0.0: copied as is))
+Element = tuple[int, str, str, int | None, float | None, float]
+
+
+def input_elements(system: System, conns: list[Connection]) -> list[Element]:
+    """The elements that `input_value(system, conns, ...)` writes, one by one, in its order and
+    with its arithmetic (`e * gain + offset` where a wire has a gain or offset; elements it
+    leaves at their value are not listed)."""
+    comps = system.components
+    c0 = conns[0]
+    var = comps[c0.dst].variables[c0.dst_port]
+    out: dict[int, Element] = {}
+    for c in conns:
+        src_var = comps[c.src].variables[c.src_port]
+        sidx = c.src_index if c.src_index is not None else (
+            (None,) if src_var.size is None else tuple(range(src_var.width)))
+        if len(conns) == 1 and c.dst_index is None:
+            didx: tuple[int, ...] = tuple(range(len(sidx) if var.size is not None else 1))
+        else:
+            didx = c.dst_index if c.dst_index is not None else tuple(range(var.width))
+        scaled = c.gain != 1.0 or c.offset != 0.0
+        for s_, d in zip(sidx, didx, strict=False):
+            out[d] = (d, c.src, c.src_port, s_, c.gain if scaled else None,
+                      c.offset if scaled else 0.0)
+    return list(out.values())
 
 
 def _value_expr(conn: Connection, src_expr: str, src_size: int | None,

@@ -31,8 +31,9 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
+from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Write, build, chunks, guard
+from twmr.master.plan import METHODS, Plan, Ref, Solve, Write, build, chunks, guard
 from twmr.scenario.system import System
 
 
@@ -66,6 +67,8 @@ class FixedStep(Algorithm):
         self.filename = ""
         self.plan: Plan | None = None
         self._owner: dict[int, tuple[str, str]] = {}
+        self.loops: list[loops.LoopSolver] = []
+        self.probe: stats.Probe | None = None
         self._run: Callable[[int, int, list[tuple[float, ...]]], None] | None = None
         self._finish: Callable[[int, list[tuple[float, ...]]], None] | None = None
 
@@ -77,6 +80,11 @@ class FixedStep(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        timing = stats.timing_wanted()
+        self.probe = stats.Probe(timing) if timing else None
+        if self.probe is not None:
+            self.probe.wrap(env, self.plan.order)
+        self.loops = loops.bind(env, system, self.plan, timing)
         self._run, self._finish = env["run"], env["finish"]
 
     def advance(self, n0: int, n1: int, rows: list[tuple[float, ...]]) -> int:
@@ -85,6 +93,12 @@ class FixedStep(Algorithm):
 
     def finish(self, n: int, rows: list[tuple[float, ...]]) -> None:
         self._finish(n, rows)  # type: ignore[misc]
+
+    def statistics(self, steps_done: int, finished: bool) -> dict[str, object]:
+        assert self.plan is not None
+        blocks = self.probe.blocks() if self.probe is not None else \
+            stats.fixed_step(self.plan, steps_done, finished, self.loops)
+        return stats.document(blocks, self.loops)
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         return locate_in(exc, self.filename, self._owner)
@@ -145,6 +159,7 @@ def _generate(system: System, plan: Plan) -> tuple[str, dict[int, tuple[str, str
     _point(w, 1, plan, ids, ref, final=True)
     _finite_check(w, 1, plan, ref)
     _record(w, 1, plan, ref, final=True)
+    loops.render(w, plan, ids, ref)
     env.update(start=exp.start, h=exp.step, nonfinite=_nonfinite)
     return "\n".join(w.lines) + "\n", w.owner, env
 
@@ -158,6 +173,8 @@ def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
     for action in plan.point:
         if isinstance(action, Write):
             line, owner = plan.assignment(action, ref), (action.name, "input")
+        elif isinstance(action, Solve):
+            line, owner = loops.call(action), (", ".join(action.components), "the loop solver")
         else:
             line, owner = f"ev{ids[action.name]}(t)", (action.name, "evaluate")
         cond = None if final else guard(action)

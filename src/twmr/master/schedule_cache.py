@@ -1,11 +1,12 @@
 """The compiled loop's cache: each generated step loop as a module file, and numba's machine code
 of it, both used only when their content is what was written.
 
-- `schedule_<key>.py` (<key>: a hash of the generated source, the source files of the kernels'
-  packages and numba's version). Before anything is imported, the file's text is compared with the
-  source generated now; a file that differs (edited, truncated, a line prepended) is rewritten,
-  with a log line. The module is executed from the generated source, never from the file: the
-  file is there for numba, whose cache is keyed by it.
+- `schedule_<key>.py` (a scenario's generated loop) or `kind_<key>.py` (the adapters of one
+  kind of block, `twmr.master.driver`); <key>: a hash of the generated source, the source files
+  of the kernels' packages and numba's version. Before anything is imported, the file's text is
+  compared with the source generated now; a file that differs (edited, truncated, a line
+  prepended) is rewritten, with a log line. The module is executed from the generated source,
+  never from the file: the file is there for numba, whose cache is keyed by it.
 - numba's cache of it (`<module>.*.nbi` / `.nbc` in numba's cache folder: pickles, i.e. code).
   The SHA-256 of each of these files is recorded in `schedule_<key>.manifest.json` (written whole,
   then renamed) right after numba writes them; before numba reads them they are checked against
@@ -17,7 +18,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import functools
 import hashlib
+import importlib.metadata
 import json
 import logging
 import os
@@ -32,33 +35,63 @@ _NUMBA_SUFFIXES = (".nbi", ".nbc")
 
 
 def load(source: str, names: dict[str, Any], folder: Path) -> tuple[Any, Any]:
-    """(run, finish) of the generated `source` (which imports the kernels in `names`), as the
-    module `schedule_<key>.py` in `folder`, with numba's cache of it verified. OSError when the
-    folder cannot be written."""
-    import numba
+    """(run, finish) of the generated loop `source` (`load_module`)."""
+    module = load_module(source, names, folder, "schedule")
+    return module.run, module.finish
 
-    digest = hashlib.sha256(source.encode())
-    digest.update(numba.__version__.encode())
-    # the kernels' modules and their sibling modules (helpers they call)
-    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
-                                        for fn in names.values()) if f}
-    for file in sorted(f for folder_ in folders for f in folder_.glob("*.py")):
-        digest.update(file.read_bytes())
-    key = digest.hexdigest()[:20]
+
+def load_module(source: str, names: dict[str, Any], folder: Path, prefix: str
+                ) -> types.ModuleType:
+    """The generated `source` (which imports the kernels in `names`) as the module
+    `<prefix>_<key>.py` in `folder`, with numba's cache of it verified. OSError when the folder
+    cannot be written."""
+    key = _key(source, names)
     folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"schedule_{key}.py"
+    path = folder / f"{prefix}_{key}.py"
     _ensure_text(path, source)
-    modname = f"twmr_schedule_{key}"
+    modname = f"twmr_{prefix}_{key}"
     module = sys.modules.get(modname)
     if module is None:
         module = types.ModuleType(modname)
         module.__file__ = str(path)
         exec(compile(source, str(path), "exec"), module.__dict__)  # noqa: S102 - generated here
         sys.modules[modname] = module
-        verified = _VerifiedCache(path, [module.run, module.finish])
-        for fn in (module.run, module.finish):
+        # every numba function of the module (the driver's adapters and helpers too)
+        own = [v for v in vars(module).values() if hasattr(v, "_cache") and
+               getattr(getattr(v, "py_func", None), "__module__", None) == modname]
+        verified = _VerifiedCache(path, own)
+        for fn in own:
             verified.wrap(fn._cache)
-    return module.run, module.finish
+    return module
+
+
+def _key(source: str, names: dict[str, Any]) -> str:
+    """The hash naming the module of `source`: its text, numba's version and the source files
+    of the kernels' packages (their modules and the sibling modules holding their helpers)."""
+    digest = hashlib.sha256(source.encode())
+    folders = {Path(f).parent for f in (getattr(sys.modules.get(fn.__module__), "__file__", None)
+                                        for fn in names.values()) if f}
+    digest.update(_packages(frozenset(folders)).encode())
+    return digest.hexdigest()[:20]
+
+
+@functools.cache
+def _packages(folders: frozenset[Path]) -> str:
+    """A hash of numba's version (read without importing numba) and of the source files in
+    `folders`, once per process (the modules it holds are imported once too)."""
+    digest = hashlib.sha256(importlib.metadata.version("numba").encode())
+    for file in sorted(f for folder in folders for f in folder.glob("*.py")):
+        digest.update(file.read_bytes())
+    return digest.hexdigest()
+
+
+def has_machine_code(source: str, names: dict[str, Any], folder: Path,
+                     prefix: str = "schedule") -> bool:
+    """Whether `folder` holds the module of `source` and numba's cache of it (index files),
+    i.e. a later `load_module` finds compiled code (unless the cache fails its check)."""
+    stem = f"{prefix}_{_key(source, names)}"
+    return (folder / f"{stem}.py").is_file() and \
+        any((folder / "__pycache__").glob(f"{stem}.*.nbi"))
 
 
 def _digest(data: bytes) -> str:

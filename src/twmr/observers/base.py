@@ -29,7 +29,9 @@ class Outcome:
     """How a run ended. status: 'completed' | 'failed' | 'interrupted'; `error` is the message
     of the failure ('' when completed); `wall_time` [s] is the stepping alone (from the first
     step to the end, set-up and initialization excluded), `realtime_factor` simulated time over
-    it; `extra` holds pacing statistics and components' reports."""
+    it; `extra` holds pacing statistics and components' reports; `stopped_by` names the FMU that
+    ended a completed run early (`experiment.fmu_terminate: stop`) and the time [s];
+    `statistics` the master's counts per block and per algebraic loop (`twmr.master.stats`)."""
 
     status: str = "completed"
     error: str = ""
@@ -38,7 +40,9 @@ class Outcome:
     wall_time: float = 0.0
     realtime_factor: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
+    statistics: dict[str, Any] = field(default_factory=dict)
     lateness_us: np.ndarray | None = None
+    stopped_by: dict[str, Any] | None = None
 
 
 class Observer:

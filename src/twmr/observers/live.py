@@ -9,8 +9,10 @@ sends from its queue. A page that joins late gets the run's start and its histor
 `HISTORY_ROWS` rows, thinned by halves).
 
 Wire format: text messages are JSON (`start`: columns, units, step, n_steps, scenario, ports,
-planar; `end`: status, error, steps_done); binary messages are rows: little-endian float64, the
-frame's sequence number first (gaps are dropped frames), then rows x columns, row-major."""
+planar, and per column its label (element names from the port's description, as in the plots)
+and whether it is drawn as steps (an Integer, Boolean or Enumeration port); `end`: status,
+error, steps_done); binary messages are rows: little-endian float64, the frame's sequence number
+first (gaps are dropped frames), then rows x columns, row-major."""
 from __future__ import annotations
 
 import collections
@@ -29,7 +31,7 @@ import numpy as np
 
 from twmr.core.errors import CosimError
 from twmr.observers.base import Observer, Outcome, RunStart
-from twmr.plots import group_ports, is_planar_position
+from twmr.plots import STEPWISE_TYPES, element_names, group_ports, is_planar_position
 
 log = logging.getLogger("twmr.live")
 
@@ -51,8 +53,9 @@ class LiveAddressError(CosimError):
     """A `--live` address that does not parse or cannot be bound."""
 
 
-def parse_address(text: str) -> tuple[str, int]:
-    """'8765' -> ('127.0.0.1', 8765); 'HOST:PORT'; '[::1]:8765'; port 0: a free one."""
+def parse_address(text: str, option: str = "--live") -> tuple[str, int]:
+    """'8765' -> ('127.0.0.1', 8765); 'HOST:PORT'; '[::1]:8765'; port 0: a free one. `option`
+    names the setting in the error."""
     raw = str(text).strip()
     host, sep, port = raw.rpartition(":")
     if not sep:
@@ -60,8 +63,8 @@ def parse_address(text: str) -> tuple[str, int]:
     host = host.strip("[]") or DEFAULT_HOST
     if not port.isdigit() or not 0 <= int(port) <= 65535:
         raise LiveAddressError(
-            f"--live {text!r}: expected [HOST:]PORT with a port from 0 to 65535. Fix: e.g. "
-            f"--live 8765, --live 0 (a free port) or --live 127.0.0.1:8765.")
+            f"{option} {text!r}: expected [HOST:]PORT with a port from 0 to 65535. Fix: e.g. "
+            f"{option} 8765, {option} 0 (a free port) or {option} 127.0.0.1:8765.")
     return host, int(port)
 
 
@@ -246,13 +249,23 @@ class LiveView(Observer):
         columns = list(run.columns)
         units = dict(zip(columns, run.units, strict=True))
         index = {c: i for i, c in enumerate(columns)}
+        ports = run.metadata.get("ports", {})
+        groups = group_ports(columns)
         planar = [{"port": port, "x": index[cols[0]], "y": index[cols[1]]}
-                  for port, cols in group_ports(columns).items()
+                  for port, cols in groups.items()
                   if is_planar_position(port, [units[c] for c in cols])]
+        labels, stepped = {"time": "time"}, {"time": False}
+        for port, cols in groups.items():
+            info = ports.get(port, {})
+            names = element_names(port, cols, info.get("description", ""))
+            for c, n in zip(cols, names, strict=True):
+                labels[c] = n if n in (port, c) else f"{port} {n}"
+                stepped[c] = info.get("type", "") in STEPWISE_TYPES
         message = json.dumps({"type": "start", "columns": columns, "units": list(run.units),
                               "step": run.step, "n_steps": run.n_steps,
-                              "scenario": run.scenario,
-                              "ports": run.metadata.get("ports", {}), "planar": planar})
+                              "scenario": run.scenario, "ports": ports, "planar": planar,
+                              "labels": [labels[c] for c in columns],
+                              "stepped": [stepped[c] for c in columns]})
         with self._lock:
             self._start_message, self._end_message = message, None
             self._history, self._history_rows, self._sequence = [], 0, 0

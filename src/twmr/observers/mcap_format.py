@@ -11,6 +11,12 @@ rerun and rosbag2 read.
 - A vector recorded whole is an array; elements recorded alone are fields `pose[2]`.
 - Non-finite values, which JSON has no number for, are the strings "NaN", "Infinity" and
   "-Infinity" (each property's schema admits them).
+- A paced CAN run's frame logs (`<drive>_frames.blf` or `.asc` beside the results) are one more
+  channel each, topic `/can/<log name>`: one message per frame (`id`, `extended`, `dlc`, `data`
+  as a list of bytes, `direction` rx/tx, `remote`, `error_frame`), its log time the frame's
+  wall-clock time put on the run's time axis through the pacer's `start_unix_s` in
+  `summary.json` (`time_s` the same in seconds; frames of the set-up, before the start, have a
+  negative `time_s` and log time 0).
 - A `twmr.columns` metadata record holds the recorded column names and units in their order, so
   `read` gives back the columns of `result.arrows` exactly (JSON numbers round-trip float64).
 """
@@ -18,6 +24,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +35,19 @@ from twmr.observers.writers import ResultFormat
 
 _ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
 METADATA = "twmr.columns"
+#: the `kind` metadata of a frame log's channel
+FRAMES = "can_frames"
+_FRAME_SCHEMA = {
+    "title": "CAN frame", "type": "object",
+    "properties": {
+        "time_s": {"type": "number", "unit": "s", "description": "the frame's time on the run's "
+                   "time axis [s] (negative: during set-up)"},
+        "id": {"type": "integer", "description": "arbitration id"},
+        "extended": {"type": "boolean", "description": "29-bit id"},
+        "dlc": {"type": "integer", "description": "data length code"},
+        "data": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": 255}},
+        "direction": {"enum": ["rx", "tx"], "description": "as the host saw it"},
+        "remote": {"type": "boolean"}, "error_frame": {"type": "boolean"}}}
 
 
 def _split(column: str) -> tuple[str, str, int | None]:
@@ -43,6 +63,96 @@ def _value(v: Any) -> float:
     return NON_FINITE[v] if isinstance(v, str) else float(v)
 
 
+@dataclass(frozen=True)
+class ComponentChannel:
+    """One component's channel: its topic, the JSON Schema of its messages, and per port the
+    (column index, element index or None) it is read from."""
+
+    owner: str
+    topic: str
+    schema: dict[str, Any]
+    ports: dict[str, list[tuple[int, int | None]]]
+
+    def message(self, row: np.ndarray) -> dict[str, Any]:
+        """The message of one recorded row (time first): `time_s` and each port's value."""
+        message: dict[str, Any] = {"time_s": float(row[0])}
+        for port, elements in self.ports.items():
+            sample = [number(float(row[j])) for j, _ in elements]
+            message[port] = sample[0] if elements[0][1] is None else sample
+        return message
+
+
+def component_channels(columns: list[str], units: list[str]) -> list[ComponentChannel]:
+    """The channels of a result's columns (time first), one per component (module docstring);
+    shared by the MCAP file and the live Foxglove server."""
+    # component -> port -> [(column index, element index or None)]
+    layout: dict[str, dict[str, list[tuple[int, int | None]]]] = {}
+    unit_of: dict[tuple[str, str], str] = {}
+    for j, column in enumerate(columns[1:], start=1):
+        owner, port, index = _split(column)
+        layout.setdefault(owner, {}).setdefault(port, []).append((j, index))
+        unit_of.setdefault((owner, port), units[j])
+    for ports in layout.values():  # a vector not recorded whole: its elements one by one
+        for port, elements in list(ports.items()):
+            if elements[0][1] is not None and [i for _, i in elements] != list(
+                    range(len(elements))):
+                del ports[port]
+                ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
+    a_number = {"type": ["number", "string"], "description": "a number; non-finite values "
+              "are the strings NaN, Infinity, -Infinity"}
+    channels = []
+    for owner, ports in layout.items():
+        properties: dict[str, Any] = {"time_s": {"type": "number", "unit": "s",
+                                                 "description": "simulated time [s]"}}
+        for port, elements in ports.items():
+            unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
+            text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
+            if elements[0][1] is None:
+                properties[port] = {**a_number, "unit": unit, "description": text}
+            else:
+                properties[port] = {"type": "array", "items": a_number, "unit": unit,
+                                    "description": text}
+        schema = {"title": owner, "type": "object", "properties": properties}
+        channels.append(ComponentChannel(owner, f"/{owner.replace('.', '/')}", schema, ports))
+    return channels
+
+
+def _add_frame_logs(writer: Any, folder: Path, start: float) -> None:
+    """A channel per frame log in `folder` (module docstring); `start` [s] is the run's start."""
+    import can
+
+    logs = sorted(p for p in folder.iterdir()
+                  if p.suffix.lower() in (".blf", ".asc") and not p.name.startswith("."))
+    if not logs:
+        return
+    summary = folder / "summary.json"
+    pacing = json.loads(summary.read_text()).get("pacing", {}) if summary.exists() else {}
+    epoch = pacing.get("start_unix_s")
+    schema_id = writer.register_schema("can_frame", "jsonschema",
+                                       json.dumps(_FRAME_SCHEMA).encode())
+    for log in logs:
+        channel = writer.register_channel(f"/can/{log.stem}", "json", schema_id,
+                                          {"kind": FRAMES, "file": log.name})
+        frames = list(can.LogReader(str(log)))
+        zero = float(epoch) if isinstance(epoch, int | float) else \
+            (frames[0].timestamp if frames else 0.0)
+        for sequence, frame in enumerate(frames):
+            t = start + frame.timestamp - zero
+            stamp = max(0, log_time_ns(t))
+            message = {"time_s": t, "id": frame.arbitration_id,
+                       "extended": bool(frame.is_extended_id), "dlc": frame.dlc,
+                       "data": list(frame.data), "direction": "rx" if frame.is_rx else "tx",
+                       "remote": bool(frame.is_remote_frame),
+                       "error_frame": bool(frame.is_error_frame)}
+            writer.add_message(channel, log_time=stamp, publish_time=stamp, sequence=sequence,
+                               data=json.dumps(message).encode())
+
+
+def log_time_ns(t: float) -> int:
+    """A simulated time [s] as the integer nanoseconds of a log time."""
+    return round(t * 1e9)
+
+
 class Mcap(ResultFormat):
     """`result.mcap`: one JSON channel per component (see the module's docstring)."""
 
@@ -52,53 +162,25 @@ class Mcap(ResultFormat):
               values: np.ndarray) -> list[Path]:
         from mcap.writer import Writer
 
-        # component -> port -> [(column index, element index or None)]
-        layout: dict[str, dict[str, list[tuple[int, int | None]]]] = {}
-        unit_of: dict[tuple[str, str], str] = {}
-        for j, column in enumerate(columns[1:], start=1):
-            owner, port, index = _split(column)
-            layout.setdefault(owner, {}).setdefault(port, []).append((j, index))
-            unit_of.setdefault((owner, port), units[j])
-        for ports in layout.values():  # a vector not recorded whole: its elements one by one
-            for port, elements in list(ports.items()):
-                if elements[0][1] is not None and [i for _, i in elements] != list(
-                        range(len(elements))):
-                    del ports[port]
-                    ports.update({f"{port}[{(i or 0) + 1}]": [(j, None)] for j, i in elements})
-        a_number = {"type": ["number", "string"], "description": "a number; non-finite values "
-                  "are the strings NaN, Infinity, -Infinity"}
         with open(path, "wb") as stream:
             writer = Writer(stream)
             writer.start(profile="", library="twmr-cosim")
             writer.add_metadata(METADATA, {"columns": json.dumps(columns),
                                            "units": json.dumps(units)})
             channels = []
-            for owner, ports in layout.items():
-                properties: dict[str, Any] = {"time_s": {"type": "number", "unit": "s",
-                                                         "description": "simulated time [s]"}}
-                for port, elements in ports.items():
-                    unit = unit_of[(owner, _ELEMENT.sub(r"\g<port>", port))]
-                    text = f"{owner}.{port}" + (f" [{unit}]" if unit else "")
-                    if elements[0][1] is None:
-                        properties[port] = {**a_number, "unit": unit, "description": text}
-                    else:
-                        properties[port] = {"type": "array", "items": a_number, "unit": unit,
-                                            "description": text}
-                schema = {"title": owner, "type": "object", "properties": properties}
-                schema_id = writer.register_schema(owner, "jsonschema",
-                                                   json.dumps(schema).encode())
-                channel = writer.register_channel(f"/{owner.replace('.', '/')}", "json",
-                                                  schema_id, {"component": owner})
-                channels.append((channel, ports))
+            for channel in component_channels(columns, units):
+                schema_id = writer.register_schema(channel.owner, "jsonschema",
+                                                   json.dumps(channel.schema).encode())
+                channels.append((writer.register_channel(channel.topic, "json", schema_id,
+                                                         {"component": channel.owner}),
+                                 channel))
             for sequence, row in enumerate(values):
-                stamp = round(float(row[0]) * 1e9)
-                for channel, ports in channels:
-                    message: dict[str, Any] = {"time_s": float(row[0])}
-                    for port, elements in ports.items():
-                        sample = [number(float(row[j])) for j, _ in elements]
-                        message[port] = sample[0] if elements[0][1] is None else sample
-                    writer.add_message(channel, log_time=stamp, publish_time=stamp,
-                                       sequence=sequence, data=json.dumps(message).encode())
+                stamp = log_time_ns(float(row[0]))
+                for channel_id, channel in channels:
+                    writer.add_message(channel_id, log_time=stamp, publish_time=stamp,
+                                       sequence=sequence,
+                                       data=json.dumps(channel.message(row)).encode())
+            _add_frame_logs(writer, path.parent, float(values[0, 0]) if len(values) else 0.0)
             writer.finish()
         return []
 
@@ -116,6 +198,8 @@ class Mcap(ResultFormat):
             where = {c: j for j, c in enumerate(columns)}
             rows: dict[int, np.ndarray] = {}
             for _schema, channel, message in reader.iter_messages(log_time_order=False):
+                if channel.metadata.get("kind") == FRAMES:
+                    continue
                 owner = channel.metadata.get("component", channel.topic.lstrip("/"))
                 row = rows.setdefault(message.sequence, np.full(len(columns), np.nan))
                 fields = json.loads(message.data)

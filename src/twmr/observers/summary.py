@@ -73,7 +73,10 @@ class SignalSummary(Observer):
             "units": dict(zip(run.columns, run.units, strict=False)) if run else {},
             "ports": run.metadata.get("ports", {}) if run else {},
             "signals": self.signals(), "pacing": outcome.extra,
+            "statistics": outcome.statistics,
         }
+        if outcome.stopped_by is not None:
+            self.document["stopped_by"] = outcome.stopped_by
         if run is not None and run.folder is not None:
             write_summary(self.document, run.folder / FILENAME)
 

@@ -25,16 +25,26 @@ from twmr.core.errors import (
     UnitError,
     WiringError,
 )
-from twmr.core.port import TEXT_TYPES
+from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
-from twmr.scenario.graph import describe_cycle, find_port, order, parse_end, wire
+from twmr.scenario.graph import (
+    Loop,
+    describe_cycle,
+    find_loops,
+    find_port,
+    order,
+    parse_end,
+    resolve_end,
+    terminal_wires,
+    wire,
+)
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
-from twmr.scenario.system import Connection, Experiment, RecordSpec, System
+from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
 __all__ = ["MAX_STEPS", "build_system", "load", "loads", "reconfigure", "scenario_spec", "schema"]
 
@@ -140,24 +150,65 @@ class _Builder:
         conns = self.connections(comps)
         self.check_drivers(comps, conns)
         self.fail_if_problems(WiringError)
-        exec_order, cycle = order(comps, conns)
+        loops: list[Loop] = []
+        if experiment.loops == "solve":
+            loops = self.solvable_loops(comps, conns, experiment.algorithm)
+            self.fail_if_problems(AlgebraicLoopError)
+        exec_order, cycle = order(comps, conns, loops)
         if cycle:
-            wires = set(itertools.pairwise(cycle))
-            loc = next((c.location for c in conns
-                        if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
-                       self.spec.at("connections"))
+            loc = self.cycle_location(cycle, conns)
             raise AlgebraicLoopError(Problem(
                 loc, f"algebraic loop: {describe_cycle(cycle)} — each output in this cycle "
                 f"depends directly ('=>', declared by its block's `depends_on`) on the input "
                 f"before it, so no order can compute them.",
-                "break the loop with a `delay` component on one of these wires, or use a block "
+                "break the loop with a `delay` component on one of these wires, use a block "
                 "whose output does not depend directly on its input (e.g. a state-space block "
-                "with D = 0). A block may declare feedthrough conservatively: check that each "
-                "'=>' output really reads that input at the same instant."))
+                "with D = 0), or let the master iterate it ('loops: solve' under 'experiment:', "
+                "docs/algorithms.md). A block may declare feedthrough conservatively: check "
+                "that each '=>' output really reads that input at the same instant."))
         record = self.record(comps)
         self.fail_if_problems()
         multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
         return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source)
+
+    def cycle_location(self, cycle: list[tuple[str, str]], conns: list[Connection]) -> Location:
+        """Where the first wire of `cycle` (a closed walk of ports) is written."""
+        wires = set(itertools.pairwise(cycle))
+        return next((c.location for c in conns
+                     if ((c.src, c.src_port), (c.dst, c.dst_port)) in wires),
+                    self.spec.at("connections"))
+
+    def solvable_loops(self, comps: dict[str, Component], conns: list[Connection],
+                       algorithm: str) -> list[Loop]:
+        """The loops `loops: solve` iterates (`find_loops`), after a problem for each that cannot
+        be: one through no Real input, one under Jacobi, one whose blocks differ in
+        step_multiple."""
+        loops, stuck = find_loops(comps, conns)
+        for cycle in stuck:
+            self.problems.append(Problem(
+                self.cycle_location(cycle, conns), f"algebraic loop: {describe_cycle(cycle)} "
+                f"passes through no Real input, so the master cannot iterate it (the unknowns "
+                f"of the iteration are Real inputs).", "break the loop with a `delay` "
+                "component on one of these wires."))
+        where = self.spec.experiment.loops
+        at = where.where if where is not None else self.spec.at("experiment")
+        if loops and algorithm == "jacobi":
+            self.problems.append(Problem(at, f"'loops: solve' iterates a loop at each "
+                                         f"communication point in the Gauss-Seidel order, but "
+                                         f"the algorithm is jacobi (every input from one "
+                                         f"snapshot); the loop through "
+                                         f"{', '.join(loops[0].components)} is not solved.",
+                                         "use algorithm gauss_seidel or adaptive."))
+        for lp in loops:
+            multiples = {n: int(self.spec.components[n].step_multiple.value)
+                         for n in lp.components}
+            if len(set(multiples.values())) > 1:
+                self.problems.append(Problem(
+                    at, f"the algebraic loop through {', '.join(lp.components)} mixes step "
+                    f"multiples ({', '.join(f'{n}: {m}' for n, m in multiples.items())}); a "
+                    f"loop is solved at the points where all its blocks sample their inputs.",
+                    "give the loop's blocks one step_multiple."))
+        return loops
 
     def components(self) -> dict[str, Component]:
         comps: dict[str, Component] = {}
@@ -189,6 +240,8 @@ class _Builder:
             given = frozenset(params) | frozenset(construction)
             self.report(name, comp.check(given))
             comps[name] = comp
+        for name, comp in comps.items():
+            self.report(name, comp.check_peers(comps))
         return comps
 
     def report(self, name: str, problems: list[tuple[str, str, str]]) -> None:
@@ -203,8 +256,17 @@ class _Builder:
     def check_steps(self, comps: dict[str, Component], step: float) -> None:
         """Each component's problems with its step (the base step times its step_multiple)."""
         for name, comp in comps.items():
-            h = step * int(self.spec.components[name].step_multiple.value)
+            multiple = self.spec.components[name].step_multiple
+            h = step * int(multiple.value)
             self.report(name, comp.check_step(h))
+            clocks = [n for n, v in comp.variables.items() if v.type == CLOCK]
+            if clocks and int(multiple.value) != 1:
+                self.problems.append(Problem(multiple.where, f"component '{name}' has clocks "
+                                             f"({', '.join(clocks[:3])}) and step_multiple "
+                                             f"{multiple.value}: a tick lasts one base step, so "
+                                             f"the others would see it {multiple.value} times.",
+                                             "remove step_multiple from this component (its "
+                                             "events happen at their own times anyway)."))
 
     def kind_class(self, spec: ComponentSpec) -> type[Component] | None:
         """The class of a component's kind, or None after adding the problem."""
@@ -341,8 +403,27 @@ class _Builder:
                                          f"{suggest(str(e.algorithm.value), known)}.",
                                          f"use one of: {', '.join(sorted(known))} (the "
                                          f"'twmr.algorithms' entry points)."))
+        ending = e.fmu_terminate.value if e.fmu_terminate is not None else None
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
-                          **self.adaptive_options(step, stop - start))
+                          **self.adaptive_options(step, stop - start),
+                          fmu_terminate=ending or "error", **self.loop_options())
+
+    def loop_options(self) -> dict[str, Any]:
+        """The experiment's `loops` and `loop_solver` (the schema checked their values;
+        `loop_solver` needs `loops: solve`)."""
+        e = self.spec.experiment
+        loops = e.loops.value if e.loops is not None and e.loops.value is not None else "refuse"
+        given = e.loop_solver.value if e.loop_solver is not None else None
+        if not given:
+            return {"loops": loops}
+        assert e.loop_solver is not None
+        if loops != "solve":
+            self.problems.append(Problem(e.loop_solver.where, "'loop_solver' applies to "
+                                         "'loops: solve' only, but algebraic loops are "
+                                         "refused.", "set 'loops: solve', or remove "
+                                         "'loop_solver'."))
+            return {"loops": loops}
+        return {"loops": loops, "loop_solver": LoopSolver(**given)}
 
     def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
         """The experiment's `rtol`, `atol`, `min_step`, `max_step` as given (algorithm
@@ -447,6 +528,15 @@ class _Builder:
                 else ((), ())
             if any(id(v.exposure) in self.broken for v in (*src_via, *dst_via)):
                 self.miswired.add((dst.comp, dst.port))  # reported where it is exposed
+                continue
+            src, dst = resolve_end(comps, src), resolve_end(comps, dst)
+            members = terminal_wires(comps, src, dst, loc, self.problems)
+            if members is not None:
+                for a, b in members:
+                    made = wire(comps, a, b, loc, self.problems, src_via, dst_via)
+                    if not made:
+                        self.miswired.add((b.comp, b.port))
+                    conns += made
                 continue
             made = wire(comps, src, dst, loc, self.problems, src_via, dst_via)
             if not made:  # reported; its input is not reported again as unconnected

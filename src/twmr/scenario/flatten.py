@@ -200,6 +200,12 @@ def _resolve(spec: ScenarioSpec, prefix: str, end: End, side: Side, loc: Locatio
     """(the flat end, the exposed ports passed through) of a wire's end written in `spec`, or
     None after adding the problem."""
     if "." in end.comp and end.comp not in spec.components:  # (a flat 'sub.comp' is a block)
+        parts = f"{end.comp}.{end.port}".split(".")
+        for k in range(len(parts) - 2, 0, -1):  # a dotted port of a block: 'a.CanChannel.Tx'
+            named = spec.components.get(".".join(parts[:k]))
+            if named is not None and named.system is None:
+                port = ".".join(parts[k:])
+                return End(prefix + named.name, port, end.index, prefix + end.text), ()
         owner = end.comp.split(".")[0]
         out.problems.append(Problem(loc, f"'{end.text}' reaches inside the subsystem "
                                     f"'{prefix}{owner}': a wire names a block of its own file, "

@@ -6,10 +6,12 @@ are compatible; a scale between compatible units (mm -> m, deg -> rad) becomes a
 the wire once, here. The graph is port-level, as in Drake: a wire links an output to an input, and
 inside a component an input links to exactly the outputs that declare it in `depends_on`. The
 Gauss-Seidel plan is topological over that graph; a cycle of it is an algebraic loop, reported
-with the cycle printed.
+with the cycle printed, or (`experiment.loops: solve`) one strongly connected part of the graph,
+torn at some of its inputs and iterated by the master (`find_loops`, `twmr.master.loops`).
 """
 from __future__ import annotations
 
+import functools
 import heapq
 import itertools
 import logging
@@ -69,6 +71,48 @@ def parse_end(text: str) -> End:
                              f"any port's size)")
         index.extend(range(lo - 1, hi))
     return End(m.group(1), m.group(2), tuple(index), text.strip())
+
+
+def resolve_end(comps: dict[str, Component], end: End) -> End:
+    """`end` with the component's name found among dotted names: 'a.CanChannel.Tx_Data' is
+    port 'CanChannel.Tx_Data' of 'a' when there is no component 'a.CanChannel' (FMI
+    structured names); the longest component name that matches wins."""
+    if end.comp in comps:
+        return end
+    parts = f"{end.comp}.{end.port}".split(".")
+    for k in range(len(parts) - 2, 0, -1):
+        comp, port = ".".join(parts[:k]), ".".join(parts[k:])
+        if comp in comps:
+            return End(comp, port, end.index, end.text)
+    return end
+
+
+def terminal_wires(comps: dict[str, Component], src: End, dst: End, loc: Location,
+                   problems: list[Problem]) -> list[tuple[End, End]] | None:
+    """The member wires of a wire between two bus terminals (each Tx member of one to the Rx
+    member of the other, both ways); None when neither end is a terminal; [] after adding a
+    problem (one end a terminal, the other not)."""
+    ta = comps[src.comp].terminals.get(src.port) if src.comp in comps else None
+    tb = comps[dst.comp].terminals.get(dst.port) if dst.comp in comps else None
+    if ta is None and tb is None:
+        return None
+    if ta is None or tb is None or src.index is not None or dst.index is not None:
+        term, other = (src, dst) if ta is not None else (dst, src)
+        what = "a bus terminal" if (tb if ta is not None else ta) is not None else \
+            "not a bus terminal"
+        problems.append(Problem(loc, f"'{term.text}' is a bus terminal of '{term.comp}' and "
+                                f"'{other.text}' is {what} (or an element of one): a terminal is "
+                                f"wired to a whole terminal.", "wire two terminals, e.g. "
+                                "'ecu.CanChannel -> bus.ecu'."))
+        return []
+    pairs = []
+    for (x, tx), (y, ty) in (((src, ta), (dst, tb)), ((dst, tb), (src, ta))):
+        for member in ("Tx_Data", "Tx_Clock"):
+            peer = member.replace("Tx_", "Rx_")
+            if member in tx and peer in ty:
+                pairs.append((End(x.comp, tx[member], None, f"{x.text}.{member}"),
+                              End(y.comp, ty[peer], None, f"{y.text}.{peer}")))
+    return pairs
 
 
 def find_port(comps: dict[str, Component], end: End, loc: Location,
@@ -177,6 +221,13 @@ def wire(comps: dict[str, Component], src: End, dst: End, loc: Location,
                                 f"'{dst.text}' takes {len(didx)}.",
                                 "select matching elements, e.g. 'plant.pose[1:2] -> x.xy'."))
         return []
+    if (a.type == "Clock") != (b.type == "Clock"):
+        clock, other = (src, dst) if a.type == "Clock" else (dst, src)
+        problems.append(Problem(loc, f"'{clock.text}' is a clock and '{other.text}' is a "
+                                f"{(b if a.type == 'Clock' else a).type} port: a clock carries "
+                                f"ticks, not values.", "wire a clock to a clock (type Clock), "
+                                "and a clocked variable to a variable of its type."))
+        return []
     if a.type != b.type and not (a.type in ("Integer", "Boolean") and b.type == "Real"):
         problems.append(Problem(loc, f"type mismatch: '{src.text}' is {a.type}, '{dst.text}' is "
                                 f"{b.type}.", "connect ports of the same type."))
@@ -254,49 +305,213 @@ def _topological(comps: dict[str, Component], edges: dict[Port, list[Port]]
     return done, [n for n in nodes if indeg[n] > 0]
 
 
-def evaluation_plan(comps: dict[str, Component], conns: list[Connection]
-                    ) -> tuple[list[Action], list[Port]]:
-    """(actions of one Gauss-Seidel communication point, cycle).
+@dataclass(frozen=True)
+class Loop:
+    """An algebraic loop to solve at each communication point (`experiment.loops: solve`): the
+    ports of one strongly connected part of the port graph in the order of one pass through it,
+    the inputs torn open (`tears`: their values are the unknowns of the iteration) and the writes
+    and evaluations of that pass with the torn inputs held (`body`, the tears' own writes not
+    included)."""
 
-    Ports are visited in topological order: a connected input is written once its sources are
-    final; a component is evaluated when one of its feedthrough outputs is reached and it has not
-    been evaluated at this point yet, or an input that output depends on was written since. So a
-    component is evaluated twice in a point when the wiring runs through it twice (y1 = f(u1)
-    feeds a block that drives u2, and y2 = g(u2)). With a cycle, the plan is empty and the cycle
-    is returned as a closed walk of ports."""
+    ports: tuple[Port, ...]
+    tears: tuple[Port, ...]
+    body: tuple[Action, ...]
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """The components the loop runs through, in the order of one pass."""
+        return tuple(dict.fromkeys(n for n, _ in self.ports))
+
+
+def strongly_connected(edges: dict[Port, list[Port]]) -> list[list[Port]]:
+    """The strongly connected parts of a graph (Tarjan's algorithm, without recursion), each
+    part a list of nodes; every node of `edges` is a key."""
+    index: dict[Port, int] = {}
+    low: dict[Port, int] = {}
+    stack: list[Port] = []
+    on_stack: set[Port] = set()
+    parts: list[list[Port]] = []
+    for root in edges:
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        work = [(root, iter(edges[root]))]
+        while work:
+            node, succ = work[-1]
+            for nxt in succ:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on_stack.add(nxt)
+                    work.append((nxt, iter(edges[nxt])))
+                    break
+                if nxt in on_stack:
+                    low[node] = min(low[node], index[nxt])
+            else:
+                work.pop()
+                if work:
+                    parent = work[-1][0]
+                    low[parent] = min(low[parent], low[node])
+                if low[node] == index[node]:
+                    part: list[Port] = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        part.append(member)
+                        if member == node:
+                            break
+                    parts.append(part)
+    return parts
+
+
+def _restrict(edges: dict[Port, list[Port]], nodes: Sequence[Port], cut: Sequence[Port]
+              ) -> dict[Port, list[Port]]:
+    """The subgraph on `nodes` (in their order) without the edges into the `cut` nodes."""
+    keep, removed = set(nodes), set(cut)
+    return {n: [m for m in edges[n] if m in keep and m not in removed] for n in nodes}
+
+
+def _tear(comps: dict[str, Component], edges: dict[Port, list[Port]], nodes: list[Port]
+          ) -> tuple[list[Port], list[Port]]:
+    """(tears, []): Real inputs among `nodes` (a strongly connected part) whose incoming wires,
+    cut, leave no cycle — chosen greedily, the input on most paths (in x out edges) of each
+    remaining cycle first; or ([], a cycle that passes through no Real input)."""
+    tears: list[Port] = []
+    while True:
+        sub = _restrict(edges, nodes, tears)
+        cyclic = [set(p) for p in strongly_connected(sub) if len(p) > 1]
+        if not cyclic:
+            return tears, []
+        for part in cyclic:
+            candidates = [n for n in nodes if n in part and
+                          comps[n[0]].variables[n[1]].kind == "input" and
+                          comps[n[0]].variables[n[1]].type == "Real"]
+            if not candidates:
+                return [], _cycle(sub, [n for n in nodes if n in part])
+
+            tears.append(max(candidates, key=functools.partial(_paths, part=part, graph=sub)))
+
+
+def _paths(node: Port, part: set[Port], graph: dict[Port, list[Port]]) -> int:
+    """Edges into `node` from `part` times edges from it into `part`."""
+    into = sum(node in graph[m] for m in part)
+    return into * sum(m in part for m in graph[node])
+
+
+def find_loops(comps: dict[str, Component], conns: list[Connection]
+               ) -> tuple[list[Loop], list[list[Port]]]:
+    """(the algebraic loops of the port graph, in declaration order, each torn at Real inputs;
+    the cycles that cannot be torn so, each as a closed walk of ports)."""
     edges = port_edges(comps, conns)
-    ordered, rest = _topological(comps, edges)
-    if rest:
-        return [], _cycle(edges, rest)
-    driven = {(c.dst, c.dst_port) for c in conns}
+    rank = {node: i for i, node in enumerate(edges)}
+    loops: list[Loop] = []
+    stuck: list[list[Port]] = []
+    parts = sorted((p for p in strongly_connected(edges) if len(p) > 1),
+                   key=lambda p: min(rank[n] for n in p))
+    for part in parts:
+        members = set(part)
+        nodes = [n for n in edges if n in members]
+        tears, cycle = _tear(comps, edges, nodes)
+        if cycle:
+            stuck.append(cycle)
+            continue
+        ordered, _ = _topological(comps, _restrict(edges, nodes, tears))
+        driven = {n for n in nodes if comps[n[0]].variables[n[1]].kind == "input"} - set(tears)
+        loops.append(Loop(tuple(ordered), tuple(tears), tuple(_actions(comps, ordered, driven))))
+    return loops, stuck
+
+
+def _condensed(comps: dict[str, Component], edges: dict[Port, list[Port]],
+               loops: Sequence[Loop]) -> list[Port | int]:
+    """The ports in a topological order in which each loop's ports are one node, given as the
+    loop's index; stable in declaration order."""
+    group = {p: ("#loop", str(k)) for k, lp in enumerate(loops) for p in lp.ports}
+    graph: dict[Port, list[Port]] = {}
+    for node in edges:
+        graph.setdefault(group.get(node, node), [])
+    for node, succ in edges.items():
+        a = group.get(node, node)
+        graph[a] = list(dict.fromkeys([*graph[a], *(b for m in succ
+                                                    if (b := group.get(m, m)) != a)]))
+    ordered, _ = _topological(comps, graph)
+    return [int(k) if g == "#loop" else (g, k) for g, k in ordered]
+
+
+def _actions(comps: dict[str, Component], items: Sequence[Port | int], driven: set[Port],
+             loops: Sequence[Loop] = ()) -> list[Action]:
+    """The writes and evaluations of ports visited in the order `items` (a loop's index: its
+    solution, ("loop", index, ""), after which its components are final)."""
     plan: list[Action] = []
     evaluated: set[str] = set()
     written: dict[str, set[str]] = {name: set() for name in comps}
-    for name, port in ordered:
+    for item in items:
+        if isinstance(item, int):
+            plan.append(("loop", str(item), ""))
+            for name in loops[item].components:
+                evaluated.add(name)
+                written[name].clear()
+            continue
+        name, port = item
         var = comps[name].variables[port]
         deps = getattr(var, "depends_on", ())
         if var.kind == "input":
-            if (name, port) in driven:
+            if item in driven:
                 plan.append(("write", name, port))
                 written[name].add(port)
         elif deps and (name not in evaluated or written[name] & set(deps)):
             plan.append(("evaluate", name, ""))
             evaluated.add(name)
             written[name].clear()
+    return plan
+
+
+def evaluation_plan(comps: dict[str, Component], conns: list[Connection],
+                    loops: Sequence[Loop] = ()) -> tuple[list[Action], list[Port]]:
+    """(actions of one Gauss-Seidel communication point, cycle).
+
+    Ports are visited in topological order: a connected input is written once its sources are
+    final; a component is evaluated when one of its feedthrough outputs is reached and it has not
+    been evaluated at this point yet, or an input that output depends on was written since. So a
+    component is evaluated twice in a point when the wiring runs through it twice (y1 = f(u1)
+    feeds a block that drives u2, and y2 = g(u2)). Each of `loops` (`find_loops`) is one node of
+    that order, ("loop", index, ""): solved once everything it reads is final. With a cycle
+    that is not one of `loops`, the plan is empty and the cycle is returned as a closed walk of
+    ports."""
+    edges = port_edges(comps, conns)
+    items: list[Port | int]
+    if loops:
+        items = _condensed(comps, edges, loops)
+    else:
+        ordered, rest = _topological(comps, edges)
+        if rest:
+            return [], _cycle(edges, rest)
+        items = list(ordered)
+    driven = {(c.dst, c.dst_port) for c in conns}
+    plan = _actions(comps, items, driven, loops)
+    evaluated = {name for action, name, _ in plan if action == "evaluate"}
+    evaluated |= {name for lp in loops for name in lp.components}
     for name, comp in comps.items():  # feedthrough blocks whose outputs depend on nothing wired
         if comp.has_feedthrough and name not in evaluated:
             plan.append(("evaluate", name, ""))
     return plan, []
 
 
-def order(comps: dict[str, Component], conns: list[Connection]) -> tuple[list[str], list[Port]]:
+def order(comps: dict[str, Component], conns: list[Connection], loops: Sequence[Loop] = ()
+          ) -> tuple[list[str], list[Port]]:
     """(component order, cycle): components in the topological order of their outputs (a source
-    before what it feeds), then those without outputs in declaration order; with a cycle of
-    ports, ([], cycle)."""
+    before what it feeds; the ports of each of `loops` in the order of one pass), then those
+    without outputs in declaration order; with a cycle of ports that is not one of `loops`,
+    ([], cycle)."""
     edges = port_edges(comps, conns)
-    ordered, rest = _topological(comps, edges)
-    if rest:
-        return [], _cycle(edges, rest)
+    if loops:
+        ordered = [p for item in _condensed(comps, edges, loops)
+                   for p in (loops[item].ports if isinstance(item, int) else (item,))]
+    else:
+        ordered, rest = _topological(comps, edges)
+        if rest:
+            return [], _cycle(edges, rest)
     outputs = [n for n, p in ordered if comps[n].variables[p].kind != "input"]
     return list(dict.fromkeys(outputs + list(comps))), []
 

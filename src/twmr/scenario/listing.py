@@ -6,7 +6,7 @@ from pathlib import Path
 
 from twmr.core.component import Component
 from twmr.registry import kinds, lookup
-from twmr.scenario.graph import evaluation_plan
+from twmr.scenario.graph import Loop, evaluation_plan, find_loops
 from twmr.scenario.kinds import KindError
 from twmr.scenario.structure import Exposure, ScenarioSpec
 from twmr.scenario.system import System
@@ -18,8 +18,22 @@ def evaluation_order(system: System) -> list[str]:
     step order, all from one snapshot)."""
     if system.experiment.algorithm == "jacobi":
         return [n for n in system.order if system.components[n].has_feedthrough]
-    actions, _ = evaluation_plan(system.components, system.connections)
-    return [name for action, name, _ in actions if action == "evaluate"]
+    loops = _loops(system)
+    actions, _ = evaluation_plan(system.components, system.connections, loops)
+    names: list[str] = []
+    for action, name, _ in actions:
+        if action == "evaluate":
+            names.append(name)
+        elif action == "loop":
+            names.append(f"loop {int(name) + 1} ({', '.join(loops[int(name)].components)})")
+    return names
+
+
+def _loops(system: System) -> list[Loop]:
+    """The loops the master solves (`experiment.loops: solve`), else none."""
+    if system.experiment.loops != "solve":
+        return []
+    return find_loops(system.components, system.connections)[0]
 
 
 def describe(system: System) -> str:
@@ -39,6 +53,12 @@ def describe(system: System) -> str:
     if evaluated:
         lines.append("at each communication point, before the steps, the feedthrough outputs "
                      f"are evaluated in this order (`evaluate`): {', '.join(evaluated)}")
+    opts = system.experiment.loop_solver
+    for k, lp in enumerate(_loops(system), 1):
+        tears = ", ".join(f"{n}.{p}" for n, p in lp.tears)
+        lines.append(f"algebraic loop {k} through {', '.join(lp.components)}: torn at {tears}, "
+                     f"solved at each point ({opts.method}, tol {opts.tol:g}, max_iter "
+                     f"{opts.max_iter}, relaxation {opts.relaxation:g})")
     lines.append("connections:")
     driven = set()
     for c in system.connections:

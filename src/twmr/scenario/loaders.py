@@ -118,7 +118,8 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
     experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),
                                 given(*e, "step"), given(*e, "algorithm", default="gauss_seidel"),
                                 given(*e, "realtime"), at(*e),
-                                *(given(*e, k) for k in ADAPTIVE_KEYS))
+                                **{k: given(*e, k) for k in (*ADAPTIVE_KEYS, "fmu_terminate",
+                                                              "loops", "loop_solver")})
     exposed = {side: {n: _exposure(n, data[side][n], at, side) for n in data.get(side) or {}}
                for side in ("inputs", "outputs")}
     rec = data.get("record") or {}

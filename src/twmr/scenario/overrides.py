@@ -68,9 +68,8 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
     if not ok:
         return spec
     if comp == "experiment":
-        if isinstance(parsed, str):
-            with contextlib.suppress(ValueError):
-                parsed = float(parsed)  # YAML 1.1 reads '1e-5' (no dot) as text
+        parsed = {k: _number(v) for k, v in parsed.items()} if isinstance(parsed, dict) \
+            else _number(parsed)
         allowed = schema()["properties"]["experiment"]["properties"]
         if name not in allowed:
             problems.append(unknown_key(loc, name, list(allowed)))
@@ -83,6 +82,14 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
         return dataclasses.replace(spec, experiment=dataclasses.replace(spec.experiment,
                                                                         **changes))
     return assign(spec, path, name, Given(parsed, loc), problems)
+
+
+def _number(value: Any) -> Any:
+    """A text that reads as a number, as that number (YAML 1.1 reads '1e-5', no dot, as text)."""
+    if isinstance(value, str):
+        with contextlib.suppress(ValueError):
+            return float(value)
+    return value
 
 
 def assign(spec: ScenarioSpec, path: Sequence[str], name: str, value: Given[Any],

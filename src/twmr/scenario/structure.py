@@ -79,6 +79,12 @@ class ExperimentSpec:
     atol: Given[Any] | None = None
     min_step: Given[Any] | None = None
     max_step: Given[Any] | None = None
+    #: what an FMU's request to end the simulation does: 'error' or 'stop' (None: not given)
+    fmu_terminate: Given[Any] | None = None
+    #: algebraic loops: 'refuse' or 'solve', and the solver's options as a mapping (value None:
+    #: not given)
+    loops: Given[Any] | None = None
+    loop_solver: Given[Any] | None = None
 
 
 @dataclass(frozen=True)

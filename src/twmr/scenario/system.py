@@ -38,6 +38,18 @@ class Connection:
 
 
 @dataclass(frozen=True)
+class LoopSolver:
+    """How an algebraic loop is solved (`experiment.loop_solver`, `twmr.master.loops`): method
+    'fixed_point' or 'newton', tolerance on each torn input's residual (|g(x) - x| at most
+    tol max(1, |x|)), most iterations per communication point, relaxation factor."""
+
+    method: str = "fixed_point"
+    tol: float = 1e-9
+    max_iter: int = 100
+    relaxation: float = 1.0
+
+
+@dataclass(frozen=True)
 class Experiment:
     """Start and stop [s], base step h [s], algorithm ('gauss_seidel' | 'jacobi'), pacing to the
     wall clock (None: paced when a component needs it, see `System.paced`)."""
@@ -53,6 +65,12 @@ class Experiment:
     atol: float = 1e-6
     min_step: float | None = None
     max_step: float | None = None
+    #: an FMU that asks to end the simulation: 'error' fails the run, 'stop' ends it there
+    #: normally (the rows up to that time are the result)
+    fmu_terminate: str = "error"
+    #: algebraic loops: 'refuse' (an error when the scenario is built) or 'solve'
+    loops: str = "refuse"
+    loop_solver: LoopSolver = field(default_factory=LoopSolver)
 
     @property
     def n_steps(self) -> int:

@@ -243,9 +243,11 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
              on_row: Callable[[dict[str, Any]], None] | None) -> None:
     """Run `tasks` on Dask; each row into the journal and `outcome` as it comes; runs.parquet
     from every row at the end, also after Ctrl-C."""
+    from twmr.core.warned import SweepWarnings
     from twmr.master.execution import held_signals
 
     folder = place.path
+    warned = SweepWarnings(log)
     futures: list[Any] = []
     client = cluster = bar = journal = None
     try:
@@ -278,9 +280,11 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 error = lost_error(future.exception())
                 rows = [{"run_id": task.run_id, "sample": task.sample, **task.values,
                          "status": "failed", "error": error, "wall_time_s": math.nan,
-                         "step_time_s": math.nan, "worker": ""} for task in batch]
+                         "step_time_s": math.nan, "worker": "", "warnings": []}
+                        for task in batch]
             for row in rows:
                 row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
+                warned.add(row["run_id"], row["warnings"])
                 outcome.rows.append(row)  # first: the table at the end is written from these
                 append_row(journal, row)
                 outcome.ran += 1
@@ -302,6 +306,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                 journal.close()
             close_client(client, cluster, futures)
             write_table(outcome.rows, folder)
+            warned.close()
 
 
 #: the most runs in one Dask task (a batch costs one scheduling; its rows come when it ends)

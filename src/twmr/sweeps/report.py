@@ -19,7 +19,8 @@ import numpy as np
 from twmr.sweeps.spec import SweepError
 
 TABLE, SPEC = "runs.parquet", "sweep.json"
-FIXED = ("run_id", "sweep_id", "sample", "status", "error", "wall_time_s", "step_time_s", "worker")
+FIXED = ("run_id", "sweep_id", "sample", "status", "error", "wall_time_s", "step_time_s", "worker",
+         "warnings")
 ERROR_CHARS = 200
 
 

@@ -43,19 +43,22 @@ class RunTask:
 
 def execute(task: RunTask) -> dict[str, Any]:
     """The row of one run: run_id, sample, the varied values, status ('ok' / 'failed'), error,
-    wall_time_s (everything), step_time_s (stepping only), worker, then the metrics."""
+    wall_time_s (everything), step_time_s (stepping only), worker, warnings (the texts the run
+    logged, told once per sweep by the collecting process), then the metrics."""
     import os
     import socket
 
     from twmr.core.errors import CosimError
+    from twmr.core.warned import taken
 
     t0 = time.perf_counter()
     row: dict[str, Any] = {"run_id": task.run_id, "sample": task.sample, **task.values,
                            "status": "ok", "error": "", "wall_time_s": float("nan"),
                            "step_time_s": float("nan"),
-                           "worker": f"{socket.gethostname()}:{os.getpid()}"}
+                           "worker": f"{socket.gethostname()}:{os.getpid()}", "warnings": []}
     try:
-        result = built_for(task).run(task.overrides, out=task.keep, metrics=task.metrics)
+        with taken(row["warnings"]):
+            result = built_for(task).run(task.overrides, out=task.keep, metrics=task.metrics)
         row["step_time_s"] = float(result.summary.get("wall_time_s", float("nan")))
         for key, value in (result.summary.get("metrics") or {}).items():
             row[key] = value

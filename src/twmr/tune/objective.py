@@ -4,7 +4,8 @@ and `--constraint "EXPR<=BOUND"` (held by every realisation).
 
 SPEC: ``LO:HI`` or ``uniform:LO:HI``, ``log:LO:HI`` (log-uniform, 0 < LO), ``int:LO:HI``
 (whole numbers) or ``values:A,B,C`` (a choice). EXPR: numbers, metric figure names (e.g.
-``mse_x`` of the `tracking` set, ``ms_err_y`` of the `signals` set), ``+ - * / **``, and
+``mse_x`` of the `tracking` set, ``ms_err_y`` of the `signals` set; ``base_mse_x`` a baseline
+scenario's), ``+ - * / **``, comparisons ``< <= > >=`` (1 when true, else 0) and
 ``abs sqrt log exp min max``. The aggregate over the N realisations is ``mean``, ``median``,
 ``max`` or ``qP`` (the P-quantile, e.g. ``q0.9``); the spread is the realisations' standard
 deviation.
@@ -57,6 +58,14 @@ class Param:
             return IntDistribution(int(self.args[0]), int(self.args[1]))
         return FloatDistribution(self.args[0], self.args[1], log=self.kind == "log")
 
+    def contains(self, value: Any) -> bool:
+        """Whether `value` lies in this range (is one of its values)."""
+        dist = self.distribution()
+        try:
+            return bool(dist._contains(dist.to_internal_repr(value)))
+        except (ValueError, TypeError):
+            return False
+
     def as_vary(self) -> Vary:
         """The same NAME as a sweep's Vary (for the scenario's name check)."""
         return Vary(self.name, "values", (0,))
@@ -103,10 +112,12 @@ def parse_param(text: str) -> Param:
 _BINARY: dict[type, Callable[[float, float], float]] = {
     ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
     ast.Div: operator.truediv, ast.Pow: operator.pow}
+_COMPARE: dict[type, Callable[[float, float], bool]] = {
+    ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt, ast.GtE: operator.ge}
 _FUNCTIONS: dict[str, Callable[..., float]] = {
     "abs": abs, "sqrt": math.sqrt, "log": math.log, "exp": math.exp, "min": min, "max": max}
-EXPR_HINT = ("write an expression of metric figures, numbers, + - * / ** and abs sqrt log exp "
-             "min max, e.g. --objective 'mse_x + mse_y'")
+EXPR_HINT = ("write an expression of metric figures, numbers, + - * / **, < <= > >= and abs "
+             "sqrt log exp min max, e.g. --objective 'mse_x + mse_y'")
 
 
 class Expression:
@@ -134,6 +145,10 @@ class Expression:
             self._check(node.right, where)
         elif isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
             self._check(node.operand, where)
+        elif isinstance(node, ast.Compare) and len(node.ops) == 1 and \
+                type(node.ops[0]) in _COMPARE:
+            self._check(node.left, where)
+            self._check(node.comparators[0], where)
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and \
                 node.func.id in _FUNCTIONS and node.args and not node.keywords:
             for arg in node.args:
@@ -160,6 +175,9 @@ class Expression:
         if isinstance(node, ast.UnaryOp):
             value = self._eval(node.operand, env)
             return -value if isinstance(node.op, ast.USub) else value
+        if isinstance(node, ast.Compare):
+            return float(_COMPARE[type(node.ops[0])](self._eval(node.left, env),
+                                                     self._eval(node.comparators[0], env)))
         assert isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
         return _FUNCTIONS[node.func.id](*(self._eval(a, env) for a in node.args))
 

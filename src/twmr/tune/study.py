@@ -1,15 +1,21 @@
 """`tune`: an Optuna study (TPE, seeded) over a scenario's parameters, each trial the scenario run
 over the same N realisations (common random numbers: drawn once from `seed` as a sweep draws its
-runs), its objective an aggregate of a metric expression over them.
+runs), its objective an aggregate of a metric expression over them. Trials are asked in batches
+of B (Optuna ask/tell; the pending trials of a batch are told to the sampler as constant liars)
+and the B x N runs of a batch go to the workers at once; the proposals depend on the seed and B,
+not on the number of workers. A baseline scenario, run once over the same realisations, gives
+its figures to the expressions as `base_<figure>`.
 
 Folder `DIR` (locked while the tune runs, as a sweep's folder):
 - `tune.json`: what the study is (scenario hash, params, objective, realisations...); a second
   tune into a folder holding trials must be the same study, and continues it up to `trials` in
   all;
-- `trials.jsonl`: one line per finished trial, flushed (Ctrl-C or a kill keeps every finished
-  trial; the trial being run is dropped);
+- `trials.jsonl`: the baseline's runs (first line, when there is a baseline), then one line per
+  finished trial, flushed (Ctrl-C or a kill keeps every finished trial; the batch being run is
+  dropped);
 - `trials.parquet` (a row per trial: parameters, objective, spread, status, violations) and
   `realisations.parquet` (a row per run), written at the end, also after Ctrl-C;
+- `baseline.parquet`: the baseline's runs;
 - `best.yaml`: the scenario with the best feasible trial's parameters set; `report/`.
 """
 from __future__ import annotations
@@ -20,12 +26,14 @@ import logging
 import math
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 
+from twmr.core.warned import SweepWarnings
 from twmr.sweeps.engine import (
     check_names,
     close_client,
@@ -50,7 +58,9 @@ from twmr.tune.objective import (
 log = logging.getLogger("twmr.tune")
 DESCRIPTION, JOURNAL = "tune.json", "trials.jsonl"
 TRIALS, REALISATIONS, BEST = "trials.parquet", "realisations.parquet", "best.yaml"
-_OURS = {DESCRIPTION, JOURNAL, TRIALS, REALISATIONS, BEST, ".lock", "report"}
+BASELINE = "baseline.parquet"
+BASE = "base_"  # prefix of a baseline figure in the expressions
+_OURS = {DESCRIPTION, JOURNAL, TRIALS, REALISATIONS, BASELINE, BEST, ".lock", "report"}
 
 
 @dataclass
@@ -70,6 +80,8 @@ class TuneSpec:
     metrics: list[str] = field(default_factory=list)
     fixed: list[str] = field(default_factory=list)
     method: str = "random"
+    baseline: str | None = None
+    start: list[dict[str, Any]] = field(default_factory=list)
 
     def check(self) -> None:
         """TuneError when the tune is ill-formed."""
@@ -94,6 +106,27 @@ class TuneSpec:
         if not self.metrics:
             raise TuneError("no metric set. Fix: give --metrics NAME (e.g. tracking, signals).")
         check_aggregate(self.aggregate)
+        by_name = {p.name: p for p in self.params}
+        for i, point in enumerate(self.start, 1):
+            missing = sorted(set(by_name) - set(point))
+            extra = sorted(set(point) - set(by_name))
+            if missing or extra:
+                what = f"no value of {missing[0]}" if missing else f"{extra[0]} is not tuned"
+                raise TuneError(f"--start {i}: {what}. Fix: give every --param NAME=VALUE once "
+                                f"in each --start, and nothing else.")
+            for name, value in point.items():
+                if not by_name[name].contains(value):
+                    raise TuneError(f"--start {i}: {name}={value!r} is outside its range "
+                                    f"{by_name[name].text}. Fix: give a value inside it.")
+        uses_base = [n for n in self.names() if n.startswith(BASE)]
+        if uses_base and not self.baseline:
+            raise TuneError(f"'{uses_base[0]}' is a baseline figure, and no baseline is given. "
+                            f"Fix: give --baseline SCENARIO (run once over the same "
+                            f"realisations), or leave the {BASE} names out.")
+
+    def names(self) -> list[str]:
+        """The figure names the objective and the constraints use."""
+        return [*self.objective.names, *(n for c in self.constraints for n in c.expression.names)]
 
     def table(self) -> list[dict[str, Any]]:
         """The realisations: one {NAME: value} each, the same for every trial and every call."""
@@ -102,8 +135,8 @@ class TuneSpec:
         return SweepSpec(self.scenario, self.vary, self.realisations, self.method,
                          self.seed).samples_table()
 
-    def described(self, content: str) -> dict[str, Any]:
-        """What identifies the study (everything but the number of trials)."""
+    def described(self, content: str, baseline: str = "") -> dict[str, Any]:
+        """What identifies the study (everything but the number of trials and the batch)."""
         return {"scenario": self.scenario,
                 "scenario_sha256": hashlib.sha256(content.encode()).hexdigest(),
                 "params": {p.name: p.text for p in self.params},
@@ -111,7 +144,10 @@ class TuneSpec:
                 "constraints": [c.text for c in self.constraints],
                 "vary": {v.name: v.text for v in self.vary}, "realisations": self.realisations,
                 "method": self.method, "seed": self.seed, "metrics": list(self.metrics),
-                "set": list(self.fixed)}
+                "set": list(self.fixed), "baseline": self.baseline,
+                "start": [dict(sorted(p.items())) for p in self.start],
+                "baseline_sha256": hashlib.sha256(baseline.encode()).hexdigest()
+                if self.baseline else None}
 
 
 @dataclass
@@ -125,6 +161,7 @@ class TuneOutcome:
     folder: Path
     best: dict[str, Any] | None = None
     interrupted: bool = False
+    baseline: list[dict[str, Any]] = field(default_factory=list)
 
     def frame(self) -> Any:
         import pandas as pd
@@ -133,45 +170,74 @@ class TuneOutcome:
 
 
 def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
-         scheduler: str | None = None, progress: bool = False) -> TuneOutcome:
+         scheduler: str | None = None, batch: int | None = None, progress: bool = False
+         ) -> TuneOutcome:
     """Run the study `spec` into folder `out` (see the module's docstring): `workers` 1 runs in
     this process; more (or None: one per core) on a local Dask cluster on 127.0.0.1, or the
-    trusted cluster at `scheduler`."""
+    trusted cluster at `scheduler`. `batch`: trials asked and run together (default: the number
+    of workers; give it to reproduce a study on another cluster)."""
     from twmr.api import load
 
     spec.check()
+    if batch is not None and (not isinstance(batch, int) or isinstance(batch, bool) or
+                              batch < 1):
+        raise TuneError(f"--batch {batch!r} is not a positive whole number. Fix: give e.g. "
+                        f"--batch 2 (trials run together), or leave it out (the workers).")
     table = spec.table()
     scenario = load(spec.scenario, list(spec.fixed))
     check_names(scenario, [p.as_vary() for p in spec.params], "--param")
     check_names(scenario, spec.vary)
     bases = vector_bases(scenario, spec.vary)
+    base_scenario = load(spec.baseline) if spec.baseline else None
+    if base_scenario is not None:
+        check_names(base_scenario, spec.vary, "--vary (in the baseline)")
     from twmr.registry import metric
 
     for name in spec.metrics:
         metric(name)
-    content = scenario.content if isinstance(scenario.content, str) else \
-        json.dumps(scenario.content, sort_keys=True, default=str)
+    content, base_content = _text(scenario), _text(base_scenario) if base_scenario else ""
     folder = Path(out).resolve()
-    described = spec.described(content)
+    described = spec.described(content, base_content)
     lock = _open_folder(folder, described)
     journal: IO[str] | None = None
     client = cluster = bar = None
-    outcome = TuneOutcome(*_read_journal(folder), 0, folder)
+    done, done_runs, done_base = _read_journal(folder)
+    outcome = TuneOutcome(done, done_runs, 0, folder, baseline=done_base)
+    warned = SweepWarnings(log, REALISATIONS)
     try:
-        study = _study(spec, outcome.trials)
         left = spec.trials - len(outcome.trials)
-        if left > 0:
+        if left > 0 or (base_scenario is not None and not outcome.baseline):
             if workers != 1 or scheduler:
                 client, cluster = dask_client(workers, scheduler)
             journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
-            for _ in range(left):
-                trial = study.ask({p.name: p.distribution() for p in spec.params})
-                row, runs = _evaluate(spec, scenario, content, bases, table, trial, client)
+        if base_scenario is not None and not outcome.baseline:
+            outcome.baseline = _run_baseline(spec, base_scenario, base_content, table, client)
+            for r in outcome.baseline:
+                warned.add(r["run_id"], r.get("warnings", []))
+            assert journal is not None
+            append_row(journal, {"baseline": outcome.baseline})
+        base = {r["sample"]: {f"{BASE}{k}": v for k, v in r.items()
+                              if isinstance(v, int | float) and not isinstance(v, bool)}
+                for r in outcome.baseline}
+        if batch is None:
+            batch = _workers_of(client) if client is not None else 1
+        study = _study(spec, outcome.trials)
+        for point in spec.start[len(outcome.trials):]:
+            study.enqueue_trial(point)
+        dists = {p.name: p.distribution() for p in spec.params}
+        while left > 0:
+            asked = [study.ask(dists) for _ in range(min(batch, left))]
+            for trial, (row, runs) in zip(asked, _evaluate(spec, scenario, content, bases, table,
+                                                            asked, client, base), strict=True):
                 _tell(study, trial, row)
+                assert journal is not None  # opened when trials are left
                 append_row(journal, {"trial": row, "runs": runs})
                 outcome.trials.append(row)
                 outcome.runs.extend(runs)
+                for r in runs:
+                    warned.add(r["run_id"], r.get("warnings", []))
                 outcome.ran += 1
+                left -= 1
                 if progress and bar is None:  # after the first trial: its figures are checked
                     from tqdm import tqdm
 
@@ -195,10 +261,59 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             if journal is not None:
                 journal.close()
             close_client(client, cluster, [])
+            warned.close()
             outcome.best = _best(outcome.trials)
             _write(outcome, spec, scenario)
             release_lock(lock)
     return outcome
+
+
+def _text(scenario: Any) -> str:
+    """A scenario's text (an SSP's content as sorted JSON)."""
+    return scenario.content if isinstance(scenario.content, str) else \
+        json.dumps(scenario.content, sort_keys=True, default=str)
+
+
+def _workers_of(client: Any) -> int:
+    """How many workers the cluster has now (at least 1)."""
+    return max(1, len(client.scheduler_info().get("workers", {})))
+
+
+def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str, Any]]:
+    """The rows of `tasks` (in their order): in this process, or on the cluster all at once."""
+    if client is None:
+        return [execute(t) for t in tasks]
+    from dask.distributed import wait
+
+    futures = client.map(execute, tasks, pure=False,
+                         key=[f"{prefix}-{t.sample}-{t.run_id}" for t in tasks])
+    wait(futures)
+    return [f.result() if f.status == "finished" else
+            {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
+             "error": lost_error(f.exception()), "wall_time_s": math.nan,
+             "step_time_s": math.nan, "worker": "", "warnings": []}
+            for f, t in zip(futures, tasks, strict=True)]
+
+
+def _run_baseline(spec: TuneSpec, scenario: Any, content: str, table: list[dict[str, Any]],
+                  client: Any) -> list[dict[str, Any]]:
+    """The baseline scenario over the realisations (once per study); TuneError if a run fails
+    or lacks a figure the expressions use."""
+    bases = vector_bases(scenario, spec.vary)
+    tasks = [RunTask(run_id(values, []), i, values, overrides_of(values, spec.vary, bases),
+                     scenario.source, content, str(scenario.base_dir), list(spec.metrics))
+             for i, values in enumerate(table)]
+    runs = _run_tasks(tasks, client, "baseline")
+    failed = [r for r in runs if r["status"] != "ok"]
+    if failed:
+        raise TuneError(f"--baseline {spec.baseline}: realisation {failed[0]['sample']} failed: "
+                        f"{failed[0]['error']}. Fix: give a baseline that runs in every "
+                        f"realisation.")
+    wanted = [n[len(BASE):] for n in spec.names() if n.startswith(BASE)]
+    problem = unknown_names(wanted, runs[0], spec.metrics)
+    if problem:
+        raise TuneError(f"--baseline {spec.baseline}: {problem}")
+    return runs
 
 
 def _open_folder(folder: Path, described: dict[str, Any]) -> IO[str]:
@@ -239,19 +354,25 @@ def _open_folder(folder: Path, described: dict[str, Any]) -> IO[str]:
     return lock
 
 
-def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """The trials and runs already done (the journal's last line may be cut short by a kill)."""
+def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]],
+                                         list[dict[str, Any]]]:
+    """The trials and runs already done (the journal's last line may be cut short by a kill);
+    the baseline's runs come last."""
     path = folder / JOURNAL
     trials: list[dict[str, Any]] = []
     runs: list[dict[str, Any]] = []
+    baseline: list[dict[str, Any]] = []
     if not path.exists():
-        return trials, runs
+        return trials, runs, baseline
     lines = path.read_text(encoding="utf-8", errors="replace").split("\n")
     for number, line in enumerate(lines, 1):
         if not line.strip():
             continue
         try:
             entry = json.loads(line)
+            if "baseline" in entry:
+                baseline = list(entry["baseline"])
+                continue
             trial, trial_runs = entry["trial"], entry["runs"]
         except (ValueError, KeyError, TypeError):
             if number >= len(lines) - 1:
@@ -260,19 +381,22 @@ def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, An
                             f"another --out.") from None
         trials.append(trial)
         runs.extend(trial_runs)
-    return trials, runs
+    return trials, runs, baseline
 
 
 def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
     """An Optuna study in memory holding the finished trials; its TPE sampler seeded from the
-    seed and their number, so a resumed tune goes on reproducibly."""
+    seed and their number, so a resumed tune goes on reproducibly; the trials of a batch still
+    running count as their worst finished trial's value (constant liar), so a batch spreads."""
     from twmr.core.extras import require
 
     optuna = require("optuna", "tuning")
     from optuna.trial import TrialState, create_trial
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    sampler = optuna.samplers.TPESampler(seed=spec.seed + len(done))
+    with warnings.catch_warnings():  # constant_liar is "experimental"
+        warnings.simplefilter("ignore")
+        sampler = optuna.samplers.TPESampler(seed=spec.seed + len(done), constant_liar=True)
     study = optuna.create_study(direction="minimize", sampler=sampler)
     dists = {p.name: p.distribution() for p in spec.params}
     for row in done:
@@ -286,38 +410,41 @@ def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
 
 
 def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any],
-              table: list[dict[str, Any]], trial: Any, client: Any
-              ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
-    """One trial: the scenario with its parameters over every realisation; its row and the runs'
-    rows (in realisation order)."""
+              table: list[dict[str, Any]], trials: list[Any], client: Any,
+              base: dict[int, dict[str, Any]]) -> list[tuple[dict[str, Any], list[dict[str, Any]]]]:
+    """A batch of trials: the scenario with each one's parameters over every realisation, all
+    the runs at once; each trial's row and its runs' rows (in realisation order)."""
     t0 = time.perf_counter()
-    params = {p.name: trial.params[p.name] for p in spec.params}
-    fixed = [*spec.fixed, *(f"{k}={json.dumps(v)}" for k, v in params.items())]
-    tasks = [RunTask(run_id(values, fixed), i, values,
-                     [*fixed, *overrides_of(values, spec.vary, bases)], scenario.source, content,
-                     str(scenario.base_dir), list(spec.metrics)) for i, values in enumerate(table)]
-    if client is None:
-        runs = [execute(t) for t in tasks]
-    else:
-        futures = client.map(execute, tasks, pure=False,
-                             key=[f"trial{trial.number}-{t.sample}-{t.run_id}" for t in tasks])
-        from dask.distributed import wait
+    tasks: list[RunTask] = []
+    for trial in trials:
+        params = {p.name: trial.params[p.name] for p in spec.params}
+        fixed = [*spec.fixed, *(f"{k}={json.dumps(v)}" for k, v in params.items())]
+        tasks += [RunTask(run_id(values, fixed), i, values,
+                          [*fixed, *overrides_of(values, spec.vary, bases)], scenario.source,
+                          content, str(scenario.base_dir), list(spec.metrics))
+                  for i, values in enumerate(table)]
+    every = _run_tasks(tasks, client, f"trial{trials[0].number}")
+    wall = time.perf_counter() - t0
+    n = len(table)
+    return [_trial_row(spec, trial, every[j * n:(j + 1) * n], base, wall)
+            for j, trial in enumerate(trials)]
 
-        wait(futures)
-        runs = [f.result() if f.status == "finished" else
-                {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
-                 "error": lost_error(f.exception()), "wall_time_s": math.nan,
-                 "step_time_s": math.nan, "worker": ""}
-                for f, t in zip(futures, tasks, strict=True)]
+
+def _trial_row(spec: TuneSpec, trial: Any, runs: list[dict[str, Any]],
+               base: dict[int, dict[str, Any]], wall: float
+               ) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """A trial's row from its runs (the baseline's figures of each realisation beside them)."""
+    params = {p.name: trial.params[p.name] for p in spec.params}
     ok = [r for r in runs if r["status"] == "ok"]
-    names = [*spec.objective.names, *(n for c in spec.constraints for n in c.expression.names)]
+    names = spec.names()
     for r in ok:
-        problem = unknown_names(names, r, spec.metrics)
+        problem = unknown_names(names, {**r, **base.get(r["sample"], {})}, spec.metrics)
         if problem:
             raise TuneError(f"--objective/--constraint: {problem}")
     for r in runs:
         r["trial"] = trial.number
-        r["value"] = spec.objective.value(r) if r["status"] == "ok" else math.nan
+        r["value"] = spec.objective.value({**r, **base.get(r["sample"], {})}) \
+            if r["status"] == "ok" else math.nan
     values = np.array([r["value"] for r in runs])
     row: dict[str, Any] = {"trial": trial.number, **params, "objective": math.nan,
                            "spread": math.nan, "status": "failed", "runs_ok": len(ok),
@@ -330,11 +457,12 @@ def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any]
         row["error"] = f"the objective is not a finite number in {np.sum(~np.isfinite(values))} " \
                        f"realisation(s)"
     for i, c in enumerate(spec.constraints):
-        held = np.array([c.expression.value(r) for r in ok]) if ok else np.array([math.inf])
+        held = np.array([c.expression.value({**r, **base.get(r["sample"], {})}) for r in ok]) \
+            if ok else np.array([math.inf])
         row[f"violation_{i}"] = c.violation(held) if np.all(np.isfinite(held)) else math.inf
         if row["status"] == "ok" and row[f"violation_{i}"] > 0:
             row["status"] = "infeasible"
-    row["wall_time_s"] = time.perf_counter() - t0
+    row["wall_time_s"] = wall
     return row, runs
 
 
@@ -366,7 +494,8 @@ def _write(outcome: TuneOutcome, spec: TuneSpec, scenario: Any) -> None:
     import pandas as pd
 
     folder = outcome.folder
-    for rows, name in ((outcome.trials, TRIALS), (outcome.runs, REALISATIONS)):
+    for rows, name in ((outcome.trials, TRIALS), (outcome.runs, REALISATIONS),
+                       (outcome.baseline, BASELINE)):
         if not rows:
             continue
         partial = folder / f".{name}.{os.getpid()}.part"

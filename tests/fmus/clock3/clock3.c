@@ -1,11 +1,11 @@
 /* An FMI 3.0 co-simulation FMU that declares a clock: the input clock `tick`
  * (intervalVariability="triggered") and the Int32 output `ticks`, clocked by tick.
- * Written for twmr-cosim's tests, for checking that an importer without clock support refuses it;
+ * Written for twmr-cosim's tests of clocks in co-simulation;
  * built at test time against the FMI 3.0 headers fmpy ships (tests/fmu_build.py adds stubs returning
  * fmi3Error for the FMI 3.0 functions not defined here).
  * Minimal behaviour: an importer using event mode (eventModeUsed = true; initialization then ends in
- * event mode) may activate tick with fmi3SetClock in event mode;
- * the next fmi3UpdateDiscreteStates then counts it in ticks. doStep only advances the time. */
+ * event mode) may activate tick with fmi3SetClock in event mode, which counts it in ticks (one per
+ * activation, until the next fmi3UpdateDiscreteStates). doStep only advances the time. */
 #include <stdio.h>
 #include <stdlib.h>
 #include "fmi3Functions.h"
@@ -87,7 +87,7 @@ fmi3Status fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
         if (vr[j] != VR_TICK) return bad_vr(i, "fmi3SetClock", vr[j]);
         if (i->mode != M_EVENT) return fail(i, "fmi3SetClock: clocks can only be set in event mode");
     }
-    for (size_t j = 0; j < n; j++) if (v[j]) i->active = 1;
+    for (size_t j = 0; j < n; j++) if (v[j] && !i->active) { i->active = 1; i->ticks++; }
     return fmi3OK;
 }
 fmi3Status fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Clock v[]) {
@@ -102,7 +102,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *needUpdate, fmi
     fmi3Boolean *nominalsChanged, fmi3Boolean *valuesChanged, fmi3Boolean *nextDefined, fmi3Float64 *next) {
     Inst *i = (Inst *)c;
     if (i->mode != M_EVENT) return fail(i, "fmi3UpdateDiscreteStates called outside event mode");
-    if (i->active) { i->ticks++; i->active = 0; }
+    i->active = 0;
     *needUpdate = fmi3False; *terminate = fmi3False; *nominalsChanged = fmi3False;
     *valuesChanged = fmi3False; *nextDefined = fmi3False; *next = 0;
     return fmi3OK;

@@ -1,0 +1,138 @@
+"""The compiled driver's loop (`twmr.master.driver`), compiled once for every scenario: it steps
+a plan laid out as arrays and calls each block's kind through the C address of its adapter.
+
+Imported only when a run is compiled (it imports numba)."""
+from __future__ import annotations
+
+from typing import Any
+
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+
+#: the adapters' signature: (t, h, S, X, P, len S, len X, len P, offset in S, X, P) -> 0
+ADAPTER = types.int64(types.float64, types.float64, types.CPointer(types.float64),
+                      types.CPointer(types.float64), types.CPointer(types.float64),
+                      *(types.int64,) * 6)
+
+
+def signatures() -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """numba's argument types of `run` and `finish` (the same for every scenario)."""
+    f1, f2 = types.float64[::1], types.float64[:, ::1]
+    i1, i2 = types.int64[::1], types.int64[:, ::1]
+    i, f = types.int64, types.float64
+    return ((i, i, f, f, f1, f1, f1, i2, f2, i2, i2, f1, i2, i1, f2, i),
+            (i, f, f, f1, f1, f1, i2, f2, i2, i2, i1, f2))
+
+
+@intrinsic
+def _call(typingctx: Any, addr: Any, t: Any, h: Any, sp: Any, xp: Any, pp: Any, ns: Any,
+          nx: Any, np_: Any, so: Any, xo: Any, po: Any) -> Any:
+    """Call the adapter at C address `addr` with the vectors given by their data addresses."""
+    i64, f64 = types.int64, types.float64
+    sig = i64(i64, f64, f64, *(i64,) * 9)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        dbl, word = ir.DoubleType(), ir.IntType(64)
+        ptr = dbl.as_pointer()
+        fnty = ir.FunctionType(word, [dbl, dbl, ptr, ptr, ptr, *(word,) * 6])
+        fn = builder.inttoptr(args[0], fnty.as_pointer())
+        values = [args[1], args[2], *(builder.inttoptr(a, ptr) for a in args[3:6]), *args[6:]]
+        return builder.call(fn, values)
+
+    return sig, codegen
+
+
+@njit(cache=True, error_model="numpy")
+def _block(col: int, b: int, t: float, h: float, S: Any, X: Any, P: Any, blocks: Any) -> None:
+    _call(blocks[b, col], t, h, S.ctypes.data, X.ctypes.data,  # type: ignore[call-arg]
+          P.ctypes.data, S.size, X.size, P.size, blocks[b, 2], blocks[b, 3], blocks[b, 4])
+
+
+@njit(cache=True, error_model="numpy")
+def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gains: Any,
+           blocks: Any) -> None:
+    for i in range(ops.shape[0]):
+        m = ops[i, 3]
+        if not final and m != 1 and n % m != 0:
+            continue
+        code = ops[i, 0]
+        if code == 0:
+            a = ops[i, 1]
+            b = ops[i, 2]
+            for e in range(ops[i, 4]):
+                S[a + e] = S[b + e]
+        elif code == 1:
+            S[ops[i, 1]] = S[ops[i, 2]] * gains[i, 0] + gains[i, 1]
+        else:
+            _block(0, ops[i, 1], t, 0.0, S, X, P, blocks)
+
+
+@njit(cache=True, error_model="numpy")
+def _nonfinite(S: Any, chk: Any) -> bool:
+    """The Python schedule's sum over the watched ports, chunk by chunk, is not finite."""
+    v = 0.0
+    cs = 0.0
+    cur = -1
+    for i in range(chk.shape[0]):
+        o = chk[i, 0]
+        term = S[o]
+        for e in range(1, chk[i, 1]):
+            term = term + S[o + e]
+        if chk[i, 2] != cur:
+            if cur >= 0:
+                v = v + cs
+            cs = term
+            cur = chk[i, 2]
+        else:
+            cs = cs + term
+    if cur >= 0:
+        v = v + cs
+    return v - v != 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _record(k: int, t: float, S: Any, rec: Any, buf: Any) -> None:
+    buf[k, 0] = t
+    for j in range(rec.shape[0]):
+        buf[k, 1 + j] = S[rec[j]]
+
+
+@njit(cache=True, error_model="numpy")
+def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
+        blocks: Any, steps: Any, H: Any, chk: Any, rec: Any, buf: Any, dec: int
+        ) -> tuple[int, int]:
+    """Base steps n0..n1-1; (rows written to `buf`, the step of a NaN/Inf or -1)."""
+    k = 0
+    bad = -1
+    for n in range(n0, n1):
+        t = start + n * h
+        _point(n, t, False, S, X, P, ops, gains, blocks)
+        if chk.shape[0] and _nonfinite(S, chk):
+            bad = n
+            break
+        if buf.shape[1] > 1 and n % dec == 0:
+            _record(k, t, S, rec, buf)
+            k += 1
+        for i in range(steps.shape[0]):
+            b = steps[i, 0]
+            m = steps[i, 1]
+            if m == 1:
+                _block(1, b, t, H[b], S, X, P, blocks)
+            elif n % m == m - 1:
+                _block(1, b, t - (m - 1) * h, H[b], S, X, P, blocks)
+    return k, bad
+
+
+@njit(cache=True, error_model="numpy")
+def finish(n: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
+           blocks: Any, chk: Any, rec: Any, buf: Any) -> tuple[int, int]:
+    """The final point at step n; (rows written, n when a NaN/Inf is seen else -1)."""
+    t = start + n * h
+    _point(n, t, True, S, X, P, ops, gains, blocks)
+    if chk.shape[0] and _nonfinite(S, chk):
+        return 0, n
+    if buf.shape[1] > 1:
+        _record(0, t, S, rec, buf)
+        return 1, -1
+    return 0, -1
