@@ -1,14 +1,15 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
-`twmr.load`, `twmr.simulate`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see `twmr.api`);
-imported on first use, so `import twmr` stays light.
+`twmr.load`, `twmr.simulate`, `twmr.build`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see
+`twmr.api`); imported on first use, so `import twmr` stays light.
 """
 from __future__ import annotations
 
 from typing import Any
 
 __version__ = "0.2.0"
-__all__ = ["Result", "Scenario", "__version__", "load", "read_result", "simulate", "sweep", "tune"]
+__all__ = ["Result", "Scenario", "__version__", "build", "load", "read_result", "simulate",
+           "sweep", "tune"]
 
 
 def __getattr__(name: str) -> Any:

@@ -28,7 +28,7 @@ from twmr.result import Result, read_result
 from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import System
 
-__all__ = ["Result", "Scenario", "load", "read_result", "simulate", "sweep", "tune"]
+__all__ = ["Result", "Scenario", "build", "load", "read_result", "simulate", "sweep", "tune"]
 log = logging.getLogger("twmr.run")
 
 
@@ -105,6 +105,16 @@ def load(source: str | Path | dict[str, Any] | ScenarioSpec,
         scenario = Scenario("<string>", source, Path.cwd(), tuple(overrides))
     scenario.system  # noqa: B018 - build now: every problem is reported at load
     return scenario
+
+
+def build(scenario: Scenario | str | Path | dict[str, Any], overrides: Sequence[str] = ()
+          ) -> Any:
+    """The scenario built once, to run again with other values without reading or building it
+    anew: `twmr.build(path).run({"ctrl.k": 20})` (a `twmr.built.Built`; its rows are those of
+    `simulate(load(path, ["ctrl.k=20"]))`)."""
+    from twmr.built import build as build_once
+
+    return build_once(scenario, overrides)
 
 
 def _is_ssp(source: str | Path) -> bool:

@@ -440,7 +440,14 @@ def _common() -> argparse.ArgumentParser:
     return common
 
 
-def parser() -> argparse.ArgumentParser:
+#: the subcommands defined here; any other is an installed package's (`twmr.commands`)
+BUILT_IN = ("run", "check", "components", "plot", "sweep", "tune", "sweep-report", "inspect",
+            "export", "fmu")
+
+
+def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; the installed packages' subcommands are added (their modules
+    imported) unless `argv` names a built-in one."""
     common = _common()
     p = argparse.ArgumentParser(prog="twmr", parents=[common],
                                 description="Co-simulation of wheeled mobile robots.")
@@ -458,10 +465,10 @@ def parser() -> argparse.ArgumentParser:
     with_set(r)
     r.add_argument("--out", help="output directory (default results/<scenario name>)")
     r.add_argument("--plot", action="store_true", help="write PNG plots of the recorded signals")
-    r.add_argument("--format", default="csv,mat",
-                   help="exports beside result.arrows, a comma list of registered result "
-                        "formats (csv, mat, parquet, or an installed one) or none (default "
-                        "csv,mat)")
+    r.add_argument("--format", default="none",
+                   help="exports beside result.arrows (the result itself, readable by twmr "
+                        "plot and twmr.read_result), a comma list of registered result "
+                        "formats (csv, mat, parquet, or an installed one) or none (default)")
     r.add_argument("--metrics", action="append", default=[], metavar="NAME",
                    help="registered metric sets to compute (e.g. tracking); repeatable")
     r.add_argument("--realtime", action="store_true",
@@ -596,6 +603,9 @@ def parser() -> argparse.ArgumentParser:
     fb.add_argument("--timeout", type=float, metavar="SECONDS",
                     help="the longest the build may take (default 120)")
     fb.set_defaults(fn=cmd_fmu_build)
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    if words and words[0] in BUILT_IN:
+        return p
     from twmr.registry import command, commands
 
     for name in commands():
@@ -630,7 +640,7 @@ def _configure_logging(args: argparse.Namespace) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     try:
-        args = parser().parse_args(argv)
+        args = parser(argv).parse_args(argv)
     except KeyboardInterrupt:
         return _interrupted_at_start()
     args.quiet = getattr(args, "quiet", False)
@@ -643,6 +653,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         log.error("error: %s%s", err, _where(err))
+        return 1
+    except ImportError as err:
+        from twmr.core.extras import missing
+
+        error = missing(err, f"twmr {args.command}")
+        if error is None or args.debug:
+            raise
+        log.error("error: %s", error)
         return 1
     except BrokenPipeError:
         _quiet_stdout()  # the reader went away (`twmr ... | head`): stop without a word

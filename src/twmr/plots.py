@@ -20,7 +20,9 @@ STEPWISE_TYPES = ("Integer", "Boolean", "Enumeration")
 
 
 def pyplot() -> Any:  # matplotlib without a screen
-    import matplotlib
+    from twmr.core.extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import json
+import os
+import sys
 from collections.abc import Callable
 from functools import cache
-from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
@@ -27,11 +29,71 @@ FORMATS = "twmr.formats"
 ALGORITHMS = "twmr.algorithms"
 CAN_PROTOCOLS = "twmr.can_protocols"
 C_KERNELS = "twmr.c_kernels"
+GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, C_KERNELS)
 
 
 @cache
 def _group(group: str) -> dict[str, str]:
+    if group in GROUPS:
+        return _all_groups()[group]
+    from importlib.metadata import entry_points
+
     return {ep.name: ep.value for ep in entry_points(group=group)}
+
+
+def _cache_file() -> Path:
+    """Where the entry points found last are kept (beside the compiled-loop cache)."""
+    base = os.environ.get("TWMR_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(Path.home(), ".cache"), "twmr")
+    return Path(base) / "entry_points.json"
+
+
+def _environment() -> list[Any]:
+    """What the installed distributions' entry points depend on: the metadata folders
+    (`*.dist-info`, `*.egg-info`) in each folder of the import path, in its order, with their
+    modification times (an install, upgrade or uninstall adds, replaces or removes one; a
+    folder without any, such as the working folder, changes nothing)."""
+    stamp: list[Any] = [sys.version]
+    for entry in sys.path:
+        folder = entry or "."
+        try:
+            names = sorted(n for n in os.listdir(folder)
+                           if n.endswith((".dist-info", ".egg-info")))
+            if names:
+                stamp.append([os.path.abspath(folder),
+                              [[n, os.stat(os.path.join(folder, n)).st_mtime_ns]
+                               for n in names]])
+        except OSError:
+            continue
+    return stamp
+
+
+@cache
+def _all_groups() -> dict[str, dict[str, str]]:
+    """Every entry-point group of `GROUPS`: name -> 'module:attr', read from the installed
+    distributions (importlib.metadata, tens of ms), or from the cache file written when they
+    were last read in the same environment."""
+    path, stamp = _cache_file(), _environment()
+    try:
+        saved = [e for e in json.loads(path.read_text()) if isinstance(e, dict)]
+    except (OSError, ValueError, TypeError):
+        saved = []
+    for entry in saved:
+        if entry.get("environment") == stamp and isinstance(entry.get("groups"), dict):
+            return entry["groups"]
+    from importlib.metadata import entry_points
+
+    found = entry_points()
+    groups = {group: {ep.name: ep.value for ep in found.select(group=group)}
+              for group in GROUPS}
+    try:  # the last few environments (each way of starting Python has its own sys.path[0])
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps([{"environment": stamp, "groups": groups}, *saved[:7]]))
+        os.replace(tmp, path)
+    except OSError:
+        pass  # a cache that cannot be written is read anew next time
+    return groups
 
 
 def plugins(group: str) -> dict[str, str]:

@@ -203,3 +203,30 @@ def test_a_folder_of_another_scenario_or_metrics_is_refused(cluster, tmp_path) -
         twmr.sweep(smc, ["plant.scale=values:1.0"], **args)
     with pytest.raises(SweepError, match="other --metrics"):
         twmr.sweep(PAPER, ["plant.scale=values:1.0"], metrics=["tracking"], **args)
+
+
+def test_a_run_that_kills_its_worker_fails_alone_not_its_batch(tmp_path) -> None:
+    """Eight runs on one worker go in batches of two; the run that kills its worker process
+    (SIGKILL in do_step) takes its batch down, the batch's runs are tried again one by one, and
+    only that run is recorded as failed."""
+    (tmp_path / "killer.py").write_text(
+        "import os, signal\n"
+        "from twmr.core import Component, Input, Output, Parameter\n\n\n"
+        "class Killer(Component):\n"
+        "    u = Input(start=0.0)\n"
+        "    y = Output(start=0.0)\n"
+        "    which = Parameter(0.0)\n\n"
+        "    def do_step(self, t: float, h: float) -> None:\n"
+        "        if self.which == 3.0:\n"
+        "            os.kill(os.getpid(), signal.SIGKILL)\n"
+        "        self.y = self.which\n")
+    scenario = tmp_path / "killer.yaml"
+    scenario.write_text("components:\n  k: {kind: 'killer.py:Killer'}\nopen: [k.u]\n"
+                        "experiment: {start: 0.0, stop: 0.05, step: 0.01}\n")
+    outcome = twmr.sweep(scenario, ["k.which=values:1,2,3,4,5,6,7,8"], method="grid",
+                         workers=1, out=tmp_path / "kill")
+    table = outcome.frame().set_index("k.which")
+    assert len(table) == 8
+    assert table.loc[3.0, "status"] == "failed"
+    assert "worker process running it died" in table.loc[3.0, "error"]
+    assert (table.drop(index=3.0)["status"] == "ok").all(), table[["status", "error"]]

@@ -11,9 +11,13 @@ FIXTURE = Path(__file__).parent.parent / "fixtures" / "scenarios" / "loop.yaml"
 
 
 def test_run_writes_results_summary_and_plots(tmp_path, capsys) -> None:
-    assert main(["run", str(FIXTURE), "--out", str(tmp_path), "--plot", "--quiet"]) == 0
+    assert main(["run", str(FIXTURE), "--out", str(tmp_path), "--plot", "--quiet",
+                 "--format", "csv,mat"]) == 0
     for name in ("result.arrows", "result.csv", "result.mat", "summary.json"):
         assert (tmp_path / name).exists(), name
+    assert main(["run", str(FIXTURE), "--out", str(tmp_path / "plain"), "--quiet"]) == 0
+    assert sorted(p.name for p in (tmp_path / "plain").iterdir()) == ["result.arrows",
+                                                                       "summary.json"]
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["steps_done"] == 100 and "plant.y" in summary["signals"]
     assert any((tmp_path / "plots").glob("*.png"))
@@ -34,7 +38,8 @@ def test_failing_component_keeps_partial_results(tmp_path, capsys) -> None:
                                        "ref: {kind: step, parameters: {height: .inf, time: 0.5}}")
     scen = tmp_path / "nan.yaml"
     scen.write_text(text)
-    assert main(["run", str(scen), "--out", str(tmp_path / "out"), "--quiet"]) == 1
+    assert main(["run", str(scen), "--out", str(tmp_path / "out"), "--quiet",
+                 "--format", "csv"]) == 1
     err = capsys.readouterr().err
     assert "component 'ref'" in err and "not finite" in err and "t = 0.5 s" in err
     assert "out.incomplete" in err and not (tmp_path / "out").exists()

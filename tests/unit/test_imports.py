@@ -38,6 +38,30 @@ def test_a_one_step_run_loads_only_what_it_uses(tmp_path) -> None:
     assert "pyarrow" in loaded and not set(HEAVY) & loaded
 
 
+def test_a_valid_tiny_scenario_runs_without_jsonschema_dask_or_the_plugin_commands(
+        tmp_path, monkeypatch) -> None:
+    """jsonschema words problems only (a quick check passes a valid file), the installed
+    packages' subcommands load only for `twmr <their name>`, and the entry points come from their
+    cache once it is written for this way of starting Python (no importlib.metadata)."""
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
+    scenario = tmp_path / "one.yaml"
+    scenario.write_text("components:\n  s: {kind: sine}\n  g: {kind: gain}\n"
+                        "connections: [s.y -> g.u]\nexperiment: {stop: 0.001, step: 0.001}\n")
+    run = (f"from twmr.cli import main\nassert main(['run', {str(scenario)!r}, '--out', "
+           f"{str(tmp_path / 'out')!r}, '-q', '--format', 'none']) == 0")
+    first, second = modules_after(run), modules_after(run)
+    unwanted = {"jsonschema", "dask", "distributed", "matplotlib", "numba", "twmr.hw.cli",
+                "twmr.components.cli", "twmr.blocks.nonlinear", "twmr.blocks.signals"}
+    assert not unwanted & first and not unwanted & second
+    kinds = "from twmr import registry\nassert 'sine' in registry.kinds()"
+    assert "importlib.metadata" not in modules_after(kinds)  # read from the runs' cache
+    broken = tmp_path / "broken.yaml"
+    broken.write_text(scenario.read_text().replace("stop: 0.001", "stop: soon"))
+    refused = modules_after(f"from twmr.cli import main\nassert main(['check', "
+                            f"{str(broken)!r}]) == 1")
+    assert "jsonschema" in refused  # the problem is worded by jsonschema
+
+
 def test_engine_sources_never_import_the_robot_or_can_packages() -> None:
     banned = re.compile(r"^\s*(from|import)\s+(twmr\.components|twmr\.hw|can|canopen|cantools)\b",
                         re.MULTILINE)

@@ -8,24 +8,39 @@ Registered as component kinds like any other: `constant`, `sine`, `step`, `gain`
 (`twmr.blocks.signals`); `saturation`, `dead_zone`, `rate_limiter`, `quantizer`, `backlash`,
 `relay`, `lookup_1d`, `lookup_2d` (`twmr.blocks.nonlinear`). docs/blocks.md describes them.
 """
-from twmr.blocks.discrete import FirstOrder, Pid, TransferFunction, TransportDelay, ZeroOrderHold
-from twmr.blocks.linear import Delay, Gain, Integrator, StateSpace, Sum
-from twmr.blocks.nonlinear import (
-    Backlash,
-    DeadZone,
-    Lookup1D,
-    Lookup2D,
-    Quantizer,
-    RateLimiter,
-    Relay,
-    Saturation,
-)
-from twmr.blocks.routing import Demux, Math, Mux, Product, Selector
-from twmr.blocks.signals import Chirp, Noise, Pulse, Ramp, Table
-from twmr.blocks.sources import Constant, Sine, Step
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+#: each block class by the module that defines it, imported when first named (a scenario of a
+#: sine and a gain loads two modules, not the whole library)
+_MODULES = {
+    "discrete": ("FirstOrder", "Pid", "TransferFunction", "TransportDelay", "ZeroOrderHold"),
+    "linear": ("Delay", "Gain", "Integrator", "StateSpace", "Sum"),
+    "nonlinear": ("Backlash", "DeadZone", "Lookup1D", "Lookup2D", "Quantizer", "RateLimiter",
+                  "Relay", "Saturation"),
+    "routing": ("Demux", "Math", "Mux", "Product", "Selector"),
+    "signals": ("Chirp", "Noise", "Pulse", "Ramp", "Table"),
+    "sources": ("Constant", "Sine", "Step"),
+}
+_WHERE = {name: module for module, names in _MODULES.items() for name in names}
 
 __all__ = ["Backlash", "Chirp", "Constant", "DeadZone", "Delay", "Demux", "FirstOrder", "Gain",
            "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid", "Product",
            "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay", "Saturation", "Selector", "Sine",
            "StateSpace", "Step", "Sum", "Table", "TransferFunction", "TransportDelay",
            "ZeroOrderHold"]
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'twmr.blocks' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"twmr.blocks.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

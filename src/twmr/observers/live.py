@@ -120,6 +120,9 @@ class LiveView(Observer):
         """Bind and serve in a background thread (once); the page's URL."""
         if self._server is not None:
             return self.url
+        from twmr.core.extras import require
+
+        require("websockets", "the live view")
         from websockets.sync.server import serve
 
         family = socket.AF_INET6 if ":" in self.host else socket.AF_INET

@@ -46,7 +46,7 @@ from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
-__all__ = ["MAX_STEPS", "build_system", "load", "loads", "scenario_spec", "schema"]
+__all__ = ["MAX_STEPS", "build_system", "load", "loads", "reconfigure", "scenario_spec", "schema"]
 
 #: the most base steps one run may take (1e9 steps: ~1.5 h at 5 us a step)
 MAX_STEPS = 1e9
@@ -86,6 +86,27 @@ def build_system(spec: ScenarioSpec) -> System:
     path, `twmr.scenario.flatten`): components created and configured, wires checked, order
     found. Raises a `CosimError` subclass listing every problem."""
     return _guarded(spec.source, lambda: _Builder(flatten(spec)).build())
+
+
+def reconfigure(flat: ScenarioSpec, system: System, names: Sequence[str]) -> None:
+    """Set again, on components `names` of `system` (built from a structure of the same shape,
+    their values since restored to what the build gave them), the parameters and initial values
+    that the flat structure `flat` gives them, checked as `build_system` checks them. Raises a
+    `ScenarioError` listing every problem."""
+    def run() -> None:
+        builder = _Builder(Flat(flat))
+        comps = {name: system.components[name] for name in names}
+        for name, comp in comps.items():
+            spec = flat.components[name]
+            params = {k: v for k, v in spec.parameters.items()
+                      if k not in comp.construction_parameters}
+            builder.configure(comp, name, params, "parameters", ("parameter",))
+            builder.configure(comp, name, spec.initial, "initial", ("state", "input"))
+            builder.report(name, comp.check(frozenset(spec.parameters)))
+        if not builder.problems:
+            builder.check_steps(comps, system.experiment.step)
+        builder.fail_if_problems()
+    _guarded(flat.source, run)
 
 
 def _guarded(source: str, make: Any) -> Any:
@@ -266,8 +287,12 @@ class _Builder:
                 f"(another scenario file as a block, docs/systems.md)."))
             return None
         except ImportError as err:
+            from twmr.core.extras import missing
+
+            extra = missing(err, f"kind '{kind}'")
+            fix = str(extra).partition("Fix: ")[2] if extra else "install what it needs."
             self.problems.append(Problem(spec.kind.where, f"component '{name}': kind '{kind}' "
-                                         f"cannot be loaded ({err}).", "install what it needs."))
+                                         f"cannot be loaded ({err}).", fix))
             return None
         return cls
 

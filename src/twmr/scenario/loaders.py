@@ -15,10 +15,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jsonschema
-
 from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.registry import suggest
+from twmr.scenario.schemacheck import conforms
 from twmr.scenario.structure import (
     ADAPTIVE_KEYS,
     ComponentSpec,
@@ -44,8 +43,14 @@ def schema() -> dict[str, Any]:
 def schema_problems(instance: Any, at: At, prefix: tuple[Any, ...] = (),
                     part: dict[str, Any] | None = None) -> list[Problem]:
     """Every way `instance` breaks the schema (or the `part` of it found at key path `prefix`),
-    each located by `at(*key path)`."""
-    validator = jsonschema.Draft202012Validator(part if part is not None else schema())
+    each located by `at(*key path)`. jsonschema words them; it is imported only when the quick
+    check (`twmr.scenario.schemacheck`) finds one."""
+    whole = schema()
+    if conforms(instance, part if part is not None else whole, whole):
+        return []
+    import jsonschema
+
+    validator = jsonschema.Draft202012Validator(part if part is not None else whole)
     problems: list[Problem] = []
     for err in sorted(validator.iter_errors(instance), key=lambda e: list(e.absolute_path)):
         path = (*prefix, *err.absolute_path)

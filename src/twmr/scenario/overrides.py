@@ -21,6 +21,7 @@ from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.registry import lookup, suggest
 from twmr.scenario.loaders import schema, schema_problems, unknown_key
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
+from twmr.scenario.yamlread import FAST
 
 _FORM = "write component.parameter=value or experiment.stop=value."
 
@@ -39,6 +40,8 @@ def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
 def _parse(text: str, key: str, value: str, loc: Location, problems: list[Problem]
            ) -> tuple[bool, Any]:
     """(read, the value) of the text after '='."""
+    with contextlib.suppress(yaml.YAMLError):  # libyaml first; PyYAML words a problem
+        return True, yaml.load(value, Loader=FAST)  # noqa: S506 - a safe loader
     try:
         return True, yaml.safe_load(value)
     except yaml.YAMLError as err:

@@ -11,8 +11,11 @@ existing one by its scheduler address — with the rows collected into `DIR/runs
   runs code in this process (results are unpickled) and is trusted.
 - A run's id is a hash of its overrides: a second invocation on the same folder skips every run
   already done (ok or failed) and runs only the new ones.
-- A run that fails is a row with its error; a worker that dies (e.g. a crash inside an FMU) makes
-  Dask retry the run elsewhere, then record it as failed.
+- Runs go to the workers in batches of a few (one Dask task each); each worker keeps the
+  scenario built and sets it to each run's values (`twmr.sweeps.run`). A run that fails is a row
+  with its error; a worker that dies (e.g. a crash inside an FMU) makes Dask retry its batch
+  elsewhere, then each run of it alone, and a run that still kills its worker is recorded as
+  failed.
 """
 from __future__ import annotations
 
@@ -30,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.sweeps.folder import IDENTITY, JOURNAL, SweepFolder, append_row, write_table
-from twmr.sweeps.run import RunTask, execute
+from twmr.sweeps.run import RunTask, execute_batch
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
 
 log = logging.getLogger("twmr.sweep")
@@ -118,6 +121,9 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
             ) -> tuple[Any, Any]:
     """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
     dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
+    from twmr.core.extras import require
+
+    require("dask.distributed", "a sweep on Dask")
     from dask.distributed import Client, LocalCluster
 
     # failures are the rows' business, and what Dask says while it is torn down after Ctrl-C
@@ -226,9 +232,9 @@ def _tasks(spec: SweepSpec, scenario: Any, content: str, bases: dict[str, Any],
             continue  # done before, or the same overrides drawn twice: the same run
         done_ids.add(rid)
         keep = str(place.path / "runs" / rid) if keep_signals else None
-        tasks.append(RunTask(rid, i, values, [*spec.fixed, *overrides_of(values, spec.vary, bases)],
+        tasks.append(RunTask(rid, i, values, overrides_of(values, spec.vary, bases),
                              scenario.source, content, str(scenario.base_dir),
-                             list(spec.metrics), keep))
+                             list(spec.metrics), keep, list(spec.fixed)))
     return tasks
 
 
@@ -253,28 +259,41 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
         journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
         from dask.distributed import as_completed
 
-        futures = client.map(execute, tasks, pure=False, key=[f"run-{t.run_id}" for t in tasks])
-        by_key = {f.key: t for f, t in zip(futures, tasks, strict=False)}
-        for future in as_completed(futures):
-            task = by_key[future.key]
+        batches = batched(tasks, sum(client.nthreads().values()) or 1)
+        futures = client.map(execute_batch, batches, pure=False,
+                             key=[f"runs-{b[0].run_id}-{len(b)}" for b in batches])
+        by_key = {f.key: b for f, b in zip(futures, batches, strict=True)}
+        pending = as_completed(futures)
+        for future in pending:
+            batch = by_key[future.key]
             if future.status == "finished":
-                row = future.result()
+                rows = future.result()
+            elif len(batch) > 1:  # lost with its worker: each run again alone (one fails)
+                alone = client.map(execute_batch, [[t] for t in batch], pure=False,
+                                   key=[f"run-{t.run_id}" for t in batch])
+                for f, t in zip(alone, batch, strict=True):
+                    by_key[f.key] = [t]
+                    pending.add(f)
+                futures += alone
+                continue
             else:  # the worker died under it (several times) or the task was lost
-                row = {"run_id": task.run_id, "sample": task.sample, **task.values,
-                       "status": "failed", "error": lost_error(future.exception()),
-                       "wall_time_s": math.nan, "step_time_s": math.nan, "worker": "",
-                       "warnings": []}
-            row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
-            warned.add(row["run_id"], row["warnings"])
-            outcome.rows.append(row)  # first: the table at the end is written from these
-            append_row(journal, row)
-            outcome.ran += 1
-            outcome.failed += row["status"] != "ok"
-            if on_row is not None:
-                on_row(row)
-            if bar is not None:
-                bar.set_postfix(failed=outcome.failed, refresh=False)
-                bar.update(1)
+                error = lost_error(future.exception())
+                rows = [{"run_id": task.run_id, "sample": task.sample, **task.values,
+                         "status": "failed", "error": error, "wall_time_s": math.nan,
+                         "step_time_s": math.nan, "worker": "", "warnings": []}
+                        for task in batch]
+            for row in rows:
+                row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
+                warned.add(row["run_id"], row["warnings"])
+                outcome.rows.append(row)  # first: the table at the end is written from these
+                append_row(journal, row)
+                outcome.ran += 1
+                outcome.failed += row["status"] != "ok"
+                if on_row is not None:
+                    on_row(row)
+                if bar is not None:
+                    bar.set_postfix(failed=outcome.failed, refresh=False)
+                    bar.update(1)
     except KeyboardInterrupt as stop:
         outcome.interrupted = True
         stop.partial_results = folder  # type: ignore[attr-defined]  # shown by the CLI
@@ -288,6 +307,17 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
             close_client(client, cluster, futures)
             write_table(outcome.rows, folder)
             warned.close()
+
+
+#: the most runs in one Dask task (a batch costs one scheduling; its rows come when it ends)
+MAX_BATCH = 8
+
+
+def batched(tasks: list[RunTask], workers: int) -> list[list[RunTask]]:
+    """`tasks` in batches of consecutive runs: about four batches per worker, so the workers
+    stay busy to the end, and at most `MAX_BATCH` runs each, so rows keep coming."""
+    size = max(1, min(MAX_BATCH, len(tasks) // (4 * max(1, workers))))
+    return [tasks[i:i + size] for i in range(0, len(tasks), size)]
 
 
 def close_client(client: Any, cluster: Any, futures: list[Any]) -> None:

@@ -3,14 +3,24 @@ reduced to one row (its values, status, error, times and metrics). Whatever goes
 row's error; nothing is raised, so a failed run never stalls the sweep.
 
 A worker process keeps what it imported and compiled (the engine, the components' numba kernels)
-from run to run, so only the first run on a worker pays for them.
+from run to run, so only the first run on a worker pays for them, and it keeps each scenario it
+ran built (`twmr.built.Built`, by the scenario's content and the overrides it was built with):
+a later run of it sets the components to the run's values instead of reading and building the
+scenario again. `execute_batch` runs several tasks in one call (one Dask task for several runs).
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+#: scenarios a worker keeps built (the least recently run one is dropped first)
+KEEP_BUILT = 4
+_built: OrderedDict[str, Any] = OrderedDict()
 
 
 @dataclass
@@ -26,6 +36,9 @@ class RunTask:
     base_dir: str
     metrics: list[str] = field(default_factory=list)
     keep: str | None = None  # folder of the run's signals, or None
+    #: overrides the worker's built system includes (the same for every run of a sweep);
+    #: the run's are `built_with` + `overrides`
+    built_with: list[str] = field(default_factory=list)
 
 
 def execute(task: RunTask) -> dict[str, Any]:
@@ -35,7 +48,6 @@ def execute(task: RunTask) -> dict[str, Any]:
     import os
     import socket
 
-    from twmr.api import Scenario, simulate
     from twmr.core.errors import CosimError
     from twmr.core.warned import taken
 
@@ -45,9 +57,8 @@ def execute(task: RunTask) -> dict[str, Any]:
                            "step_time_s": float("nan"),
                            "worker": f"{socket.gethostname()}:{os.getpid()}", "warnings": []}
     try:
-        scenario = Scenario(task.source, task.content, Path(task.base_dir), tuple(task.overrides))
         with taken(row["warnings"]):
-            result = simulate(scenario, task.keep, metrics=task.metrics)
+            result = built_for(task).run(task.overrides, out=task.keep, metrics=task.metrics)
         row["step_time_s"] = float(result.summary.get("wall_time_s", float("nan")))
         for key, value in (result.summary.get("metrics") or {}).items():
             row[key] = value
@@ -57,3 +68,28 @@ def execute(task: RunTask) -> dict[str, Any]:
         row.update(status="failed", error=f"{type(err).__name__}: {err}")
     row["wall_time_s"] = time.perf_counter() - t0
     return row
+
+
+def execute_batch(tasks: list[RunTask]) -> list[dict[str, Any]]:
+    """The rows of `tasks`, run one after the other in this worker."""
+    return [execute(task) for task in tasks]
+
+
+def built_for(task: RunTask) -> Any:
+    """This worker's built system of the task's scenario and `built_with` overrides (built now
+    on first use)."""
+    from twmr.api import Scenario
+    from twmr.built import Built
+
+    key = hashlib.sha256(json.dumps([task.source, task.content, task.base_dir,
+                                     task.built_with]).encode()).hexdigest()
+    built = _built.get(key)
+    if built is None:
+        scenario = Scenario(task.source, task.content, Path(task.base_dir),
+                            tuple(task.built_with))
+        built = Built(scenario)
+        _built[key] = built
+        while len(_built) > KEEP_BUILT:
+            _built.popitem(last=False)
+    _built.move_to_end(key)
+    return built

@@ -388,7 +388,9 @@ def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
     """An Optuna study in memory holding the finished trials; its TPE sampler seeded from the
     seed and their number, so a resumed tune goes on reproducibly; the trials of a batch still
     running count as their worst finished trial's value (constant liar), so a batch spreads."""
-    import optuna
+    from twmr.core.extras import require
+
+    optuna = require("optuna", "tuning")
     from optuna.trial import TrialState, create_trial
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
