@@ -29,7 +29,9 @@ FORMATS = "twmr.formats"
 ALGORITHMS = "twmr.algorithms"
 CAN_PROTOCOLS = "twmr.can_protocols"
 C_KERNELS = "twmr.c_kernels"
-GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, C_KERNELS)
+#: readers of logs beside a run's results that a result format can add as channels, by suffix
+FRAME_LOGS = "twmr.frame_logs"
+GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, C_KERNELS, FRAME_LOGS)
 
 
 @cache

@@ -11,9 +11,10 @@ rerun and rosbag2 read.
 - A vector recorded whole is an array; elements recorded alone are fields `pose[2]`.
 - Non-finite values, which JSON has no number for, are the strings "NaN", "Infinity" and
   "-Infinity" (each property's schema admits them).
-- A paced CAN run's frame logs (`<drive>_frames.blf` or `.asc` beside the results) are one more
-  channel each, topic `/can/<log name>`: one message per frame (`id`, `extended`, `dlc`, `data`
-  as a list of bytes, `direction` rx/tx, `remote`, `error_frame`), its log time the frame's
+- A paced CAN run's frame logs (`<drive>_frames.blf` or `.asc` beside the results, read by the
+  `twmr.frame_logs` plug-in of their suffix, `twmr.hw.frame_channel`) are one more channel
+  each, topic `/can/<log name>`: one message per frame (`id`, `extended`, `dlc`, `data` as a
+  list of bytes, `direction` rx/tx, `remote`, `error_frame`), its log time the frame's
   wall-clock time put on the run's time axis through the pacer's `start_unix_s` in
   `summary.json` (`time_s` the same in seconds; frames of the set-up, before the start, have a
   negative `time_s` and log time 0).
@@ -37,17 +38,6 @@ _ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
 METADATA = "twmr.columns"
 #: the `kind` metadata of a frame log's channel
 FRAMES = "can_frames"
-_FRAME_SCHEMA = {
-    "title": "CAN frame", "type": "object",
-    "properties": {
-        "time_s": {"type": "number", "unit": "s", "description": "the frame's time on the run's "
-                   "time axis [s] (negative: during set-up)"},
-        "id": {"type": "integer", "description": "arbitration id"},
-        "extended": {"type": "boolean", "description": "29-bit id"},
-        "dlc": {"type": "integer", "description": "data length code"},
-        "data": {"type": "array", "items": {"type": "integer", "minimum": 0, "maximum": 255}},
-        "direction": {"enum": ["rx", "tx"], "description": "as the host saw it"},
-        "remote": {"type": "boolean"}, "error_frame": {"type": "boolean"}}}
 
 
 def _split(column: str) -> tuple[str, str, int | None]:
@@ -118,34 +108,34 @@ def component_channels(columns: list[str], units: list[str]) -> list[ComponentCh
 
 
 def _add_frame_logs(writer: Any, folder: Path, start: float) -> None:
-    """A channel per frame log in `folder` (module docstring); `start` [s] is the run's start."""
-    import can
+    """A channel per frame log in `folder` that a `twmr.frame_logs` reader takes (by its
+    suffix; module docstring); `start` [s] is the run's start."""
+    from twmr.registry import FRAME_LOGS, plugin, plugins
 
+    readers = plugins(FRAME_LOGS)
     logs = sorted(p for p in folder.iterdir()
-                  if p.suffix.lower() in (".blf", ".asc") and not p.name.startswith("."))
+                  if p.suffix.lower()[1:] in readers and not p.name.startswith("."))
     if not logs:
         return
     summary = folder / "summary.json"
     pacing = json.loads(summary.read_text()).get("pacing", {}) if summary.exists() else {}
     epoch = pacing.get("start_unix_s")
-    schema_id = writer.register_schema("can_frame", "jsonschema",
-                                       json.dumps(_FRAME_SCHEMA).encode())
+    schemas: dict[str, int] = {}
     for log in logs:
-        channel = writer.register_channel(f"/can/{log.stem}", "json", schema_id,
+        schema, messages = plugin(FRAME_LOGS, log.suffix.lower()[1:], "frame log reader")(log)
+        text = json.dumps(schema)
+        if text not in schemas:
+            schemas[text] = writer.register_schema(str(schema.get("title", "frame")),
+                                                   "jsonschema", text.encode())
+        channel = writer.register_channel(f"/can/{log.stem}", "json", schemas[text],
                                           {"kind": FRAMES, "file": log.name})
-        frames = list(can.LogReader(str(log)))
         zero = float(epoch) if isinstance(epoch, int | float) else \
-            (frames[0].timestamp if frames else 0.0)
-        for sequence, frame in enumerate(frames):
-            t = start + frame.timestamp - zero
+            (messages[0][0] if messages else 0.0)
+        for sequence, (wall, fields) in enumerate(messages):
+            t = start + wall - zero
             stamp = max(0, log_time_ns(t))
-            message = {"time_s": t, "id": frame.arbitration_id,
-                       "extended": bool(frame.is_extended_id), "dlc": frame.dlc,
-                       "data": list(frame.data), "direction": "rx" if frame.is_rx else "tx",
-                       "remote": bool(frame.is_remote_frame),
-                       "error_frame": bool(frame.is_error_frame)}
             writer.add_message(channel, log_time=stamp, publish_time=stamp, sequence=sequence,
-                               data=json.dumps(message).encode())
+                               data=json.dumps({"time_s": t, **fields}).encode())
 
 
 def log_time_ns(t: float) -> int:
