@@ -71,8 +71,8 @@ def test_check_schedule_prints_the_generated_loop(capsys) -> None:
     assert main(["check", str(FIXTURE), "--schedule"]) == 0
     out = capsys.readouterr().out
     assert "def run(n0, n1, rows):" in out and "for n in range(n0, n1):" in out
-    assert "# d2, ev2, st2: err (Sum)" in out
-    assert out.index("ev2(t)") < out.index("ev3(t)") < out.index("rows.append(")
+    assert "# 2: err (Sum): kernel" in out
+    assert out.index("ev2(t,") < out.index("ev3(t,") < out.index("rows.append(")
 
 
 def test_metrics_only_when_asked_and_registered_subcommands_listed(tmp_path, capsys) -> None:

@@ -29,7 +29,9 @@ def test_import_master_loads_no_yaml_or_jsonschema() -> None:
     assert not {"yaml", "jsonschema", *HEAVY} & loaded
 
 
-def test_a_one_step_run_loads_only_what_it_uses(tmp_path) -> None:
+def test_a_one_step_run_loads_only_what_it_uses(tmp_path, monkeypatch) -> None:
+    # an empty cache: with the kinds compiled already, `auto` runs even one step compiled (numba)
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
     scenario = tmp_path / "one.yaml"
     scenario.write_text("components:\n  s: {kind: sine}\n  g: {kind: gain}\n"
                         "connections: [s.y -> g.u]\nexperiment: {stop: 0.001, step: 0.001}\n")

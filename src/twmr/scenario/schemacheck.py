@@ -103,6 +103,10 @@ def _ref(v: Any, want: str, _s: dict[str, Any], root: dict[str, Any]) -> bool:
     return isinstance(target, dict) and conforms(v, target, root)
 
 
+def _enum(v: Any, want: list[Any], _s: dict[str, Any], _root: dict[str, Any]) -> bool:
+    return any(v == w and type(v) is type(w) for w in want)
+
+
 def _one_of(v: Any, want: list[dict[str, Any]], _s: dict[str, Any],
             root: dict[str, Any]) -> bool:
     return sum(conforms(v, sub, root) for sub in want) == 1
@@ -113,5 +117,5 @@ _KEYWORDS: dict[str, Any] = {
     "required": _required, "items": _items, "pattern": _pattern_kw,
     "minimum": _number(lambda v, w: v >= w), "exclusiveMinimum": _number(lambda v, w: v > w),
     "minProperties": _size(dict), "minItems": _size(list), "minLength": _size(str),
-    "propertyNames": _property_names, "$ref": _ref, "oneOf": _one_of,
+    "propertyNames": _property_names, "$ref": _ref, "oneOf": _one_of, "enum": _enum,
 }

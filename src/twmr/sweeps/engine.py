@@ -264,18 +264,30 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
                              key=[f"runs-{b[0].run_id}-{len(b)}" for b in batches])
         by_key = {f.key: b for f, b in zip(futures, batches, strict=True)}
         pending = as_completed(futures)
+        # the runs of lost batches, run again alone and one after another: a run queued beside
+        # one that kills its worker would be lost with it (Dask counts every task the dead
+        # worker held), so only the killing run fails
+        lane: list[RunTask] = []
+
+        def next_alone() -> None:
+            task = lane.pop(0)
+            f = client.submit(execute_batch, [task], pure=False, key=f"run-{task.run_id}")
+            by_key[f.key] = [task]
+            pending.add(f)
+            futures.append(f)
+
         for future in pending:
             batch = by_key[future.key]
+            alone = future.key.startswith("run-")
+            if future.status != "finished" and len(batch) > 1:  # lost with its worker
+                lane += batch
+                if not any(not f.done() and f.key.startswith("run-") for f in futures):
+                    next_alone()
+                continue
+            if alone and lane:
+                next_alone()
             if future.status == "finished":
                 rows = future.result()
-            elif len(batch) > 1:  # lost with its worker: each run again alone (one fails)
-                alone = client.map(execute_batch, [[t] for t in batch], pure=False,
-                                   key=[f"run-{t.run_id}" for t in batch])
-                for f, t in zip(alone, batch, strict=True):
-                    by_key[f.key] = [t]
-                    pending.add(f)
-                futures += alone
-                continue
             else:  # the worker died under it (several times) or the task was lost
                 error = lost_error(future.exception())
                 rows = [{"run_id": task.run_id, "sample": task.sample, **task.values,
