@@ -11,6 +11,7 @@ emulator is `cia402_emulator`.
 from __future__ import annotations
 
 import math
+import struct
 from enum import Enum
 
 CONTROLWORD, STATUSWORD, MODES_OF_OPERATION = 0x6040, 0x6041, 0x6060
@@ -21,6 +22,9 @@ HEARTBEAT_CONSUMER = 0x1016  # sub 1: (producer node << 16) | timeout [ms] (CiA 
 ABORT_CONNECTION = 0x6007  # what the drive does when the host's heartbeat is lost
 ABORT_FAULT = 1  # ... fault signal: the drive goes to FAULT (torque off)
 HOST_NODE = 127  # the node id the host's heartbeat is sent under (0x77F)
+# the PDOs the host maps (cia402_link.configure), COB-ID = base + node
+RPDO1, TPDO1 = 0x200, 0x180  # controlword + target torque; statusword + velocity actual
+_RPDO1, _TPDO1 = struct.Struct("<Hh"), struct.Struct("<Hi")
 
 # controlword commands (bits 0-3, 7)
 SHUTDOWN, SWITCH_ON, ENABLE_OPERATION = 0x06, 0x07, 0x0F
@@ -123,3 +127,25 @@ def velocity_to_si(value: int, gear: float, rpm_per_unit: float = 1.0) -> float:
 def position_to_si(increments: int, gear: float, increments_per_rev: int) -> float:
     """Wheel angle [rad] from 0x6064 (motor encoder increments)."""
     return increments / increments_per_rev * 2.0 * math.pi / gear
+
+
+def encode_rpdo1(node: int, controlword: int, permille: int) -> tuple[int, bytes]:
+    """RPDO1 of `node`: controlword 0x6040, target torque 0x6071 [per mille]."""
+    return RPDO1 + node, _RPDO1.pack(controlword, permille)
+
+
+def decode_rpdo1(data: bytes) -> tuple[int, int]:
+    """(controlword, target torque [per mille]) of an RPDO1 payload."""
+    word, permille = _RPDO1.unpack_from(data)
+    return word, permille
+
+
+def encode_tpdo1(node: int, statusword: int, velocity: int) -> tuple[int, bytes]:
+    """TPDO1 of `node`: statusword 0x6041, velocity actual 0x606C."""
+    return TPDO1 + node, _TPDO1.pack(statusword, velocity)
+
+
+def decode_tpdo1(data: bytes) -> tuple[int, int]:
+    """(statusword, velocity actual 0x606C) of a TPDO1 payload."""
+    word, velocity = _TPDO1.unpack_from(data)
+    return word, velocity

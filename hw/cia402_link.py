@@ -27,6 +27,7 @@ from typing import Any, ClassVar
 import can
 import canopen
 
+from twmr.hw import c_nodes
 from twmr.hw import cia402 as c
 from twmr.hw.bus import FrameLog, describe, frame_text, strict_canopen
 from twmr.hw.cia402 import State
@@ -52,6 +53,7 @@ class Cia402Link(Link):
     default_nodes: ClassVar[tuple[int, int]] = (1, 2)
     own_parameters: ClassVar[frozenset[str]] = frozenset(
         {"eds", "rated_torque", "increments_per_rev"})
+    c_node: ClassVar[Any] = c_nodes.CIA402
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
         problems = self.check(spec)
@@ -128,12 +130,12 @@ class Cia402Link(Link):
         base, node = ident & 0x780, ident & 0x7F
         if ident == 0x080:
             return [(None, "sync", 1.0)]
-        if base == 0x200:
-            word, permille = struct.unpack_from("<Hh", data)
+        if base == c.RPDO1:
+            word, permille = c.decode_rpdo1(data)
             return [(node, "controlword", word), (node, "torque_command",
                     c.permille_to_torque(permille, spec.gear, spec.rated_torque))]
-        if base == 0x180:
-            word, rpm = struct.unpack_from("<Hi", data)
+        if base == c.TPDO1:
+            word, rpm = c.decode_tpdo1(data)
             return [(node, "statusword", word), (node, "speed", c.velocity_to_si(rpm, spec.gear))]
         if base == 0x280:
             (inc,) = struct.unpack_from("<i", data)

@@ -66,6 +66,9 @@ class Link(ABC):
     default_nodes: ClassVar[tuple[int, int]]
     #: drive-block parameters that only this protocol reads
     own_parameters: ClassVar[frozenset[str]] = frozenset()
+    #: the protocol's host side in C for a controller FMU on a CAN terminal (`twmr export KIND
+    #: --fmi 3 --can NAME`, twmr.fmi.cexport.busnode.CNode), or None
+    c_node: ClassVar[Any] = None
     fault: Fault | None
     rtt_ns: list[int]
 

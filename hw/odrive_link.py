@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 
 import can
 
+from twmr.hw import c_nodes
 from twmr.hw import protocol as p
 from twmr.hw.bus import FrameGuard, FrameLog, describe, frame_text
 from twmr.hw.link import DriveSpec, Emulator, Link, Signals
@@ -41,6 +42,7 @@ class OdriveLink(Link):
     default_nodes: ClassVar[tuple[int, int]] = (0, 1)
     own_parameters: ClassVar[frozenset[str]] = frozenset(
         {"firmware", "encoder", "drive_watchdog", "endpoints"})
+    c_node: ClassVar[Any] = c_nodes.ODRIVE
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
         problems = self.check(spec)

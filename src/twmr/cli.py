@@ -270,6 +270,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     params = dict(_parse_set(s) for s in args.set)
     out = Path(args.out or f"fmus/{args.kind.rsplit(':', 1)[-1]}.fmu")  # 'file.py:Cls' -> Cls
     if args.python:
+        if args.can:
+            raise CosimError("--can builds a standalone C FMU (an FMI-LS-BUS CAN node). Fix: "
+                             "drop --python.")
         if args.fmi != 2:
             raise CosimError("--python exports FMI 2.0 only (pythonfmu). Fix: drop --fmi 3, or "
                              "drop --python for a standalone C FMU.")
@@ -279,7 +282,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     else:
         from twmr.fmi.cexport import export_c_fmu
 
-        path = export_c_fmu(args.kind, out, params, fmi=args.fmi)
+        path = export_c_fmu(args.kind, out, params, fmi=args.fmi, can=args.can)
     print(path)
     return 0
 
@@ -582,8 +585,8 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                        help="export a component kind as a standalone C FMU (co-simulation), "
                             "or a scenario as an SSP archive of FMUs")
     e.add_argument("kind", help="a kind (-> .fmu), or a scenario file (-> .ssp)")
-    e.add_argument("--out", help="the .fmu file (default fmus/<kind>.fmu); for a scenario the "
-                                 ".ssp file (default <scenario name>.ssp)")
+    e.add_argument("-o", "--out", help="the .fmu file (default fmus/<kind>.fmu); for a "
+                                       "scenario the .ssp file (default <scenario name>.ssp)")
     e.add_argument("--ssp", type=int, choices=(1, 2), default=None,
                    help="SSP version of a scenario's archive (default 1)")
     e.add_argument("--fmi", type=int, choices=(2, 3), default=2,
@@ -591,6 +594,10 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     e.add_argument("--python", action="store_true",
                    help="a pythonfmu FMU running the Python component (FMI 2.0; needs "
                         "twmr-cosim where it runs): for kinds without a C kernel")
+    e.add_argument("--can", metavar="PROTOCOL",
+                   help="a controller (asmc, smc) as an FMI-LS-BUS CAN node hosting two drives "
+                        "of this protocol (odrive | cia402; FMI 3.0): wheel speeds from their "
+                        "encoder frames, torques sent as their frames (docs/export.md)")
     with_set(e)
     e.set_defaults(fn=cmd_export)
     fm = sub.add_parser("fmu", parents=[common], help="work on an FMU file (build)")

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.fmi.cexport import busnode
 from twmr.fmi.cexport.describe import (
     config_h,
     elements,
@@ -68,25 +69,46 @@ def _component(kind: str, parameters: dict[str, Any]) -> Any:
 
 
 def export_c_fmu(kind: str, out_path: str | Path, parameters: dict[str, Any] | None = None,
-                 fmi: int = 2) -> Path:
+                 fmi: int = 2, can: str | None = None) -> Path:
     """Build `out_path` (.fmu): a standalone FMI `fmi` (2 or 3) co-simulation FMU of the native
-    kind `kind`, the `parameters` given as start values; returns the path."""
+    kind `kind`, the `parameters` given as start values; returns the path. With `can` (a CAN
+    protocol: odrive, cia402; FMI 3.0 only) the FMU is an FMI-LS-BUS CAN node that hosts that
+    protocol's drives (`busnode`); the node's parameters are given as `drive.<name>`."""
     if fmi not in (2, 3):
         raise CosimError(f"FMI version {fmi!r} is not exported. Fix: use --fmi 2 or --fmi 3.")
-    return write_c_fmu(_component(kind, dict(parameters or {})), kind, out_path, fmi)
+    parameters = dict(parameters or {})
+    if can is None:
+        return write_c_fmu(_component(kind, parameters), kind, out_path, fmi)
+    if fmi != 3:
+        raise CosimError(f"--can {can}: an FMI-LS-BUS bus node is an FMI 3.0 FMU (clocks, "
+                         f"event mode). Fix: add --fmi 3.")
+    bus, own = busnode.bus_of(can, parameters)
+    return write_c_fmu(_component(kind, own), kind, out_path, fmi, bus)
 
 
-def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2) -> Path:
+def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2,
+                bus: busnode.Bus | None = None) -> Path:
     """Build `out_path` (.fmu) of the configured component `comp` of the native kind `kind`
     (its parameters, initial states and input start values as the FMU's start values); the
-    path. CosimError for a variant the kind's C twin does not support."""
+    path. `bus`: the CAN node of a bus node FMU (`busnode`). CosimError
+    for a variant the kind's C twin does not support."""
     twin = twin_of(kind)
     options = twin.options(comp)  # refuses unsupported variants before anything is written
     twin.fill_empty(comp)
     elems = elements(comp, twin)
-    guid = guid_of(kind, elems, options)
-    identifier = model_identifier(kind)
+    extra: dict[str, int | str] = {}
+    files: list[Path] = [twin.source, *twin.headers]
     sources = ["instance.c", f"fmi{fmi}.c", twin.source.name]
+    common = [*COMMON, *HEADERS[fmi], f"fmi{fmi}.c"]
+    if bus is not None:
+        elems, extra = _bus_elements(comp, kind, elems, bus)
+        node = bus.node
+        files += [node.source, *node.codec]
+        common += [*busnode.LSBUS_HEADERS, *busnode.LSBUS_SOURCES]
+        sources += [*busnode.LSBUS_SOURCES, node.source.name,
+                    *(p.name for p in node.codec if p.suffix == ".c")]
+    guid = guid_of(kind, elems, {**options, **extra})
+    identifier = model_identifier(kind)
     from twmr import __version__
 
     out = Path(out_path).resolve()
@@ -94,15 +116,20 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2) -> Pat
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
-        for name in (*COMMON, *HEADERS[fmi], f"fmi{fmi}.c"):
+        for name in common:
             shutil.copy(C_DIR / name, src / name)
-        for path in (twin.source, *twin.headers):
+        for path in files:
             shutil.copy(path, src / path.name)
-        (src / "config.h").write_text(config_h(comp, twin, elems, guid))
+        (src / "config.h").write_text(config_h(comp, twin, elems, guid, extra))
         if fmi == 3:
             (src / "buildDescription.xml").write_text(_build_description(identifier, sources))
-        (root / "modelDescription.xml").write_bytes(
-            model_description(comp, twin, elems, guid, fmi, sources, __version__))
+        description = model_description(comp, twin, elems, guid, fmi, sources, __version__)
+        if bus is not None:
+            description = _with_terminal(description, bus.protocol, len(elems))
+            for inside, text in busnode.EXTRA_FILES.items():
+                (root / inside).parent.mkdir(parents=True, exist_ok=True)
+                (root / inside).write_text(text())
+        (root / "modelDescription.xml").write_bytes(description)
         folder, suffix = _platform(fmi)
         binary = root / "binaries" / folder / f"{identifier}{suffix}"
         binary.parent.mkdir(parents=True)
@@ -113,6 +140,33 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2) -> Pat
                 if path.is_file():
                     z.write(path, path.relative_to(root).as_posix())
     return out
+
+
+def _bus_elements(comp: Any, kind: str, elems: list[Any], bus: busnode.Bus
+                  ) -> tuple[list[Any], dict[str, int | str]]:
+    """The elements of a CAN node FMU (the input the drives' frames give is an output, the
+    node's parameters appended) and the node's #defines."""
+    protocol, node = bus.protocol, bus.node
+    for port in (node.replaces, node.sends):
+        if port not in comp.variables:
+            raise CosimError(f"export {kind} --can {protocol}: the kind has no port '{port}' "
+                             f"(the drives' frames give '{node.replaces}', the node sends "
+                             f"'{node.sends}'). Fix: export a controller with both (asmc, smc).")
+    for e in elems:
+        if e.port == node.replaces:
+            e.code = "o"
+    elems = [*elems, *busnode.node_elements(bus)]
+    return elems, busnode.node_defines(bus, len(elems))
+
+
+def _with_terminal(description: bytes, protocol: str, nv: int) -> bytes:
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(description)
+    root.set("description", f"{root.get('description', '')} An FMI-LS-BUS CAN node: the host "
+             f"of two {protocol} drives on its terminal {busnode.TERMINAL}.".strip())
+    busnode.add_terminal(root, nv)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
 def _build_description(identifier: str, sources: list[str]) -> str:

@@ -72,8 +72,9 @@ def _c_double(x: float) -> str:
     return repr(float(x))
 
 
-def config_h(comp: Component, twin: CTwin, elems: list[Element], guid: str) -> str:
-    """The generated header every C file of the FMU includes."""
+def config_h(comp: Component, twin: CTwin, elems: list[Element], guid: str,
+             extra: dict[str, int | str] | None = None) -> str:
+    """The generated header every C file of the FMU includes (`extra`: more #defines)."""
     ports: dict[str, int] = {}
     for i, e in enumerate(elems):
         ports.setdefault(e.port, i)
@@ -84,7 +85,7 @@ def config_h(comp: Component, twin: CTwin, elems: list[Element], guid: str) -> s
              f'#define GUID "{guid}"', f"#define NV {len(elems)}",
              f"#define NW {max(1, twin.work(comp))}",
              f"#define HAS_FEEDTHROUGH {int(feedthrough)}"]
-    lines += [f"#define {k} {v}" for k, v in twin.options(comp).items()]
+    lines += [f"#define {k} {v}" for k, v in {**twin.options(comp), **(extra or {})}.items()]
     lines += [f"#define V_{name} {i}" for name, i in ports.items()]
 
     def array(ctype: str, name: str, items: list[str]) -> None:

@@ -1,9 +1,17 @@
 /* FMI 3.0 co-simulation interface of a twmr-cosim block kernel: every element is one scalar
- * Float64 variable; the other types, model exchange, clocks and events are refused. */
+ * Float64 variable; the other types, model exchange, clocks and events are refused. Built with
+ * BUS_TERMINAL (a controller exported with --can), the FMU is also an FMI-LS-BUS CAN node with
+ * the terminal CanChannel (node.h): it runs in event mode, the frames received on Rx_Data go to
+ * the protocol's node_receive, and Tx_Clock (a triggered output clock) ticks when
+ * initialization ends (the drives' start-up frames and the first torques) and at the end of
+ * every doStep (the torques for the next period, computed from the inputs held over the step). */
 #include <stdlib.h>
 #include <string.h>
 #include "fmi3Functions.h"
 #include "instance.h"
+#ifdef BUS_TERMINAL
+#include "node.h"
+#endif
 
 #define INST ((Instance *)instance)
 
@@ -34,11 +42,20 @@ fmi3Instance fmi3InstantiateCoSimulation(
     Instance *s;
     (void)resources; (void)visible; (void)intermediate; (void)n_intermediate; (void)update;
     (void)early_return;
+#ifdef BUS_TERMINAL
+    if (!token || strcmp(token, GUID) != 0 || !event_mode) {
+        if (log) log(env, fmi3Error, "logStatusError", !event_mode
+                     ? "a bus node needs event mode (eventModeUsed = true)"
+                     : "wrong instantiation token");
+        return NULL;
+    }
+#else
     if (!token || strcmp(token, GUID) != 0 || event_mode) {
         if (log) log(env, fmi3Error, "logStatusError", event_mode
                      ? "event mode is not supported" : "wrong instantiation token");
         return NULL;
     }
+#endif
     s = calloc(1, sizeof *s);
     if (!s) return NULL;
     s->name = malloc(strlen(name ? name : "") + 1);
@@ -89,6 +106,136 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
     return (fmi3Status)inst_enter_init(INST, start);
 }
 
+#ifdef BUS_TERMINAL
+/* the frames of one controller period, sent at the next tick of Tx_Clock */
+static void transmit(Instance *s) {
+    node_transmit(&s->c.m, s->c.node, &s->c.tx);
+    s->c.tx_active = 1;
+    if (s->c.tx.overflow) {
+        inst_log(s, ST_WARNING, "logStatusWarning", "%d bus operations did not fit in Tx_Data "
+                 "(%d bytes) and were dropped", s->c.tx.overflow, LSBUS_TX_BYTES);
+        s->c.tx.overflow = 0;
+    }
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
+    const char *why;
+    if (INST->c.phase != PH_INITIALIZATION) return fmi3Error;
+    why = node_check(&INST->c.m);
+    if (why) {
+        inst_log(INST, ST_ERROR, "logStatusError", "%s", why);
+        return fmi3Error;
+    }
+    if (inst_exit_init(INST) != ST_OK) return fmi3Error;
+    INST->c.event_mode = 1;
+    node_start(&INST->c.m, INST->c.node, &INST->c.tx);
+    transmit(INST);
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
+    if (INST->c.phase != PH_STEP) return unsupported(instance, "event mode outside step mode");
+    INST->c.event_mode = 1;
+    return fmi3OK;
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
+    if (INST->c.phase != PH_STEP || !INST->c.event_mode) return fmi3Error;
+    INST->c.event_mode = 0;
+    return fmi3OK;
+}
+
+static fmi3Status bad_vr(fmi3Instance instance, const char *fn, fmi3ValueReference vr) {
+    inst_log(INST, ST_ERROR, "logStatusError", "%s: value reference %u is not one of its "
+             "type", fn, (unsigned)vr);
+    return fmi3Error;
+}
+
+fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                         size_t sizes[], fmi3Binary values[], size_t n_values) {
+    size_t i;
+    (void)n_values;
+    for (i = 0; i < n; i++) {
+        if (vr[i] != VR_TX_DATA) return bad_vr(instance, "fmi3GetBinary", vr[i]);
+        if (!INST->c.event_mode || !INST->c.tx_active) {
+            inst_log(INST, ST_ERROR, "logStatusError", "CanChannel.Tx_Data is readable only in "
+                     "event mode while CanChannel.Tx_Clock ticks");
+            return fmi3Error;
+        }
+        values[i] = INST->c.tx.b;
+        sizes[i] = INST->c.tx.n;
+    }
+    return fmi3OK;
+}
+
+/* the operations received: each CAN Transmit to the protocol, the others ignored */
+static fmi3Status receive(Instance *s, const unsigned char *bytes, size_t size) {
+    long at = 0;
+    unsigned code;
+    CanFrame f;
+    while ((at = lsbus_next(bytes, size, (size_t)at, &code, &f)) > 0)
+        if (code == LSBUS_CAN_TRANSMIT) node_receive(&s->c.m, s->c.node, &f);
+    if (at < 0) {
+        inst_log(s, ST_ERROR, "logStatusError", "CanChannel.Rx_Data (%zu bytes) holds a malformed "
+                 "bus operation", size);
+        return fmi3Error;
+    }
+    s->c.dirty = 1;
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                         const size_t sizes[], const fmi3Binary values[], size_t n_values) {
+    size_t i;
+    (void)n_values;
+    for (i = 0; i < n; i++) {
+        if (vr[i] != VR_RX_DATA) return bad_vr(instance, "fmi3SetBinary", vr[i]);
+        if (!INST->c.event_mode || !INST->c.rx_active) {
+            inst_log(INST, ST_ERROR, "logStatusError", "CanChannel.Rx_Data is settable only in "
+                     "event mode after CanChannel.Rx_Clock was activated");
+            return fmi3Error;
+        }
+        if (receive(INST, values[i], sizes[i]) != fmi3OK) return fmi3Error;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                        const fmi3Clock values[]) {
+    size_t i;
+    if (!INST->c.event_mode) return unsupported(instance, "setting a clock outside event mode");
+    for (i = 0; i < n; i++) {
+        if (vr[i] != VR_RX_CLOCK) return bad_vr(instance, "fmi3SetClock", vr[i]);
+        if (values[i]) INST->c.rx_active = 1;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t n,
+                        fmi3Clock values[]) {
+    size_t i;
+    if (!INST->c.event_mode) return unsupported(instance, "getting a clock outside event mode");
+    for (i = 0; i < n; i++) {
+        if (vr[i] != VR_TX_CLOCK) return bad_vr(instance, "fmi3GetClock", vr[i]);
+        values[i] = INST->c.tx_active && !INST->c.tx_reported;
+        INST->c.tx_reported = INST->c.tx_active;
+    }
+    return fmi3OK;
+}
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *need_update,
+                                    fmi3Boolean *terminate, fmi3Boolean *nominals_changed,
+                                    fmi3Boolean *values_changed, fmi3Boolean *next_defined,
+                                    fmi3Float64 *next_time) {
+    if (!INST->c.event_mode) return unsupported(instance, "fmi3UpdateDiscreteStates outside "
+                                                "event mode");
+    if (INST->c.tx_active) INST->c.tx.n = 0;
+    INST->c.tx_active = INST->c.tx_reported = INST->c.rx_active = 0;
+    *need_update = *terminate = *nominals_changed = *values_changed = *next_defined = fmi3False;
+    *next_time = 0.0;
+    return fmi3OK;
+}
+#else
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     return (fmi3Status)inst_exit_init(INST);
 }
@@ -96,6 +243,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
 fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
     return INST->c.phase == PH_STEP ? fmi3OK : fmi3Error;
 }
+#endif
 
 fmi3Status fmi3Terminate(fmi3Instance instance) {
     INST->c.phase = PH_TERMINATED;
@@ -135,8 +283,19 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h,
                       fmi3Float64 *last_time) {
     fmi3Status status;
     (void)no_set_prior;
+#ifdef BUS_TERMINAL
+    if (INST->c.event_mode) return unsupported(instance, "fmi3DoStep in event mode");
+#endif
     status = (fmi3Status)inst_step(INST, t, h);
     *event_handling_needed = fmi3False;
+#ifdef BUS_TERMINAL
+    if (status == fmi3OK) {  /* the outputs at t + h with the inputs held, then their frames */
+        kernel_eval(&INST->c.m);
+        INST->c.dirty = 0;
+        transmit(INST);
+        *event_handling_needed = fmi3True;
+    }
+#endif
     *terminate = fmi3False;
     *early_return = fmi3False;
     *last_time = status == fmi3OK ? t + h : t;
@@ -199,7 +358,14 @@ fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
 
 /* the rest of FMI 3.0: other variable types, model exchange, clocks, derivatives */
 #define UNSUPPORTED(f, params) fmi3Status f params { return unsupported(instance, #f); }
+#ifndef BUS_TERMINAL
 UNSUPPORTED(fmi3EnterEventMode, (fmi3Instance instance))
+UNSUPPORTED(fmi3GetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, size_t valueSizes[], fmi3Binary values[], size_t nValues))
+UNSUPPORTED(fmi3GetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Clock values[]))
+UNSUPPORTED(fmi3SetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const size_t valueSizes[], const fmi3Binary values[], size_t nValues))
+UNSUPPORTED(fmi3SetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Clock values[]))
+UNSUPPORTED(fmi3UpdateDiscreteStates, (fmi3Instance instance, fmi3Boolean* discreteStatesNeedUpdate, fmi3Boolean* terminateSimulation, fmi3Boolean* nominalsOfContinuousStatesChanged, fmi3Boolean* valuesOfContinuousStatesChanged, fmi3Boolean* nextEventTimeDefined, fmi3Float64* nextEventTime))
+#endif
 UNSUPPORTED(fmi3GetFloat32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Float32 values[], size_t nValues))
 UNSUPPORTED(fmi3GetInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Int8 values[], size_t nValues))
 UNSUPPORTED(fmi3GetUInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt8 values[], size_t nValues))
@@ -211,8 +377,6 @@ UNSUPPORTED(fmi3GetInt64, (fmi3Instance instance, const fmi3ValueReference value
 UNSUPPORTED(fmi3GetUInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3UInt64 values[], size_t nValues))
 UNSUPPORTED(fmi3GetBoolean, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Boolean values[], size_t nValues))
 UNSUPPORTED(fmi3GetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3String values[], size_t nValues))
-UNSUPPORTED(fmi3GetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, size_t valueSizes[], fmi3Binary values[], size_t nValues))
-UNSUPPORTED(fmi3GetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, fmi3Clock values[]))
 UNSUPPORTED(fmi3SetFloat32, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float32 values[], size_t nValues))
 UNSUPPORTED(fmi3SetInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Int8 values[], size_t nValues))
 UNSUPPORTED(fmi3SetUInt8, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt8 values[], size_t nValues))
@@ -224,8 +388,6 @@ UNSUPPORTED(fmi3SetInt64, (fmi3Instance instance, const fmi3ValueReference value
 UNSUPPORTED(fmi3SetUInt64, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 values[], size_t nValues))
 UNSUPPORTED(fmi3SetBoolean, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Boolean values[], size_t nValues))
 UNSUPPORTED(fmi3SetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3String values[], size_t nValues))
-UNSUPPORTED(fmi3SetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const size_t valueSizes[], const fmi3Binary values[], size_t nValues))
-UNSUPPORTED(fmi3SetClock, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Clock values[]))
 UNSUPPORTED(fmi3GetNumberOfVariableDependencies, (fmi3Instance instance, fmi3ValueReference valueReference, size_t* nDependencies))
 UNSUPPORTED(fmi3GetVariableDependencies, (fmi3Instance instance, fmi3ValueReference dependent, size_t elementIndicesOfDependent[], fmi3ValueReference independents[], size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[], size_t nDependencies))
 UNSUPPORTED(fmi3GetDirectionalDerivative, (fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns, const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[], size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity))
@@ -239,7 +401,6 @@ UNSUPPORTED(fmi3SetIntervalFraction, (fmi3Instance instance, const fmi3ValueRefe
 UNSUPPORTED(fmi3SetShiftDecimal, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3Float64 shifts[]))
 UNSUPPORTED(fmi3SetShiftFraction, (fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]))
 UNSUPPORTED(fmi3EvaluateDiscreteStates, (fmi3Instance instance))
-UNSUPPORTED(fmi3UpdateDiscreteStates, (fmi3Instance instance, fmi3Boolean* discreteStatesNeedUpdate, fmi3Boolean* terminateSimulation, fmi3Boolean* nominalsOfContinuousStatesChanged, fmi3Boolean* valuesOfContinuousStatesChanged, fmi3Boolean* nextEventTimeDefined, fmi3Float64* nextEventTime))
 UNSUPPORTED(fmi3EnterContinuousTimeMode, (fmi3Instance instance))
 UNSUPPORTED(fmi3CompletedIntegratorStep, (fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean* enterEventMode, fmi3Boolean* terminateSimulation))
 UNSUPPORTED(fmi3SetTime, (fmi3Instance instance, fmi3Float64 time))

@@ -4,6 +4,9 @@
 
 #include <stddef.h>
 #include "kernel.h"
+#ifdef BUS_TERMINAL
+#include "lsbus.h"
+#endif
 
 enum { ST_OK = 0, ST_WARNING = 1, ST_ERROR = 3 };  /* same codes in FMI 2.0 and 3.0 */
 enum { PH_INSTANTIATED, PH_INITIALIZATION, PH_STEP, PH_TERMINATED };
@@ -16,6 +19,11 @@ typedef struct {
     double start;    /* time kept as start + k h while h is constant, like the master */
     double h;
     long k;
+#ifdef BUS_TERMINAL
+    LsbusBuffer tx;  /* what the next tick of Tx_Clock carries */
+    double node[NODE_NS];  /* the protocol's own state (node.h) */
+    int event_mode, tx_active, tx_reported, rx_active;
+#endif
 } Core;
 
 typedef struct Instance Instance;
