@@ -196,7 +196,7 @@ def test_the_cia402_fmu_enables_the_drives_then_sends_the_asmc_torque(tmp_path: 
         fmu.step(**_inputs(k), **{RX: encode(frames), RX_CLOCK: True})
         ctrl.step(**_inputs(k), wheel_speed=speeds)
         assert fmu["wheel_speed"] == speeds
-    assert enabled_at is not None and enabled_at < 6  # walked to OPERATION ENABLED
+    assert enabled_at == 3  # disable voltage, shutdown, switch on, enable operation
 
 
 # -- refusals --------------------------------------------------------------------------------
