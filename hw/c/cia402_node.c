@@ -4,10 +4,11 @@
  * period RPDO1 to each drive — the controlword that walks it toward OPERATION ENABLED
  * (cia402_next_controlword of its last statusword, fault reset on a rising edge) and, once
  * enabled, the target torque limited to drive.torque_limit in per mille of drive.rated_torque —
- * then one SYNC; each TPDO1 received gives that drive's statusword and wheel speed. The SDO
+ * then one SYNC; each TPDO1 received gives that drive's statusword and wheel speed, and the
+ * period's feedback is complete when both drives' came since the last RPDOs. The SDO
  * configuration (cyclic synchronous torque mode, the PDO mapping) is the drive's own (its DCF,
  * or `twmr` run once with the can_drive block): the FMU sends no SDO. s[i] is drive i's last
- * statusword, s[2 + i] the controlword last sent to it. */
+ * statusword, s[2 + i] the controlword last sent to it, s[4 + i] whether its TPDO1 came. */
 #include <math.h>
 #include "cia402.h"
 #include "node.h"
@@ -44,17 +45,21 @@ void node_start(const Model *m, double *s, LsbusBuffer *tx) {
     }
 }
 
-void node_receive(Model *m, double *s, const CanFrame *f) {
+int node_receive(Model *m, double *s, const CanFrame *f) {
     unsigned status;
     long rpm;
     int i;
-    if (f->ide || f->rtr || (f->id & 0x780) != CIA402_TPDO1 || f->length < 6) return;
+    if (f->ide || f->rtr || (f->id & 0x780) != CIA402_TPDO1 || f->length < 6) return 0;
     for (i = 0; i < 2; i++) {
         if ((f->id & 0x7F) != node_id(m, i)) continue;
         cia402_decode_tpdo1(f->data, &status, &rpm);
         s[i] = status;
         m->v[V_wheel_speed + i] = cia402_velocity_to_si(rpm, m->v[V_drive_gear], 1.0);
+        if (s[4 + i] != 0.0) return 0;  /* a second TPDO1 of this drive in one period */
+        s[4 + i] = 1.0;
+        return s[4] != 0.0 && s[5] != 0.0;
     }
+    return 0;
 }
 
 void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
@@ -64,6 +69,7 @@ void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
     unsigned char d[8];
     CanFrame f = {0};
     int i;
+    s[4] = s[5] = 0.0;
     for (i = 0; i < 2; i++) {
         int state = cia402_state((unsigned)s[i]);
         unsigned word = cia402_next_controlword(state);

@@ -3,8 +3,10 @@
  * current limit drive.torque_limit / (gear K_t)), Set_Controller_Mode (torque, passthrough) and
  * Set_Axis_State (closed loop) to each axis; every period Set_Input_Torque with the torque limited
  * to drive.torque_limit, and a remote request of Get_Encoder_Estimates (encoder: polled); each
- * Get_Encoder_Estimates received gives that axis's wheel speed (non-finite ones are dropped).
- * ODRIVE_LINE (5 or 6) is the firmware line. The axis watchdog is not set (no RxSdo here). */
+ * Get_Encoder_Estimates received gives that axis's wheel speed (non-finite ones are dropped),
+ * and the period's feedback is complete when both axes' came since the last torques (s[i]: axis
+ * i's came). ODRIVE_LINE (5 or 6) is the firmware line. The axis watchdog is not set (no RxSdo
+ * here). */
 #include <math.h>
 #include "node.h"
 #include "odrive.h"
@@ -51,18 +53,22 @@ void node_start(const Model *m, double *s, LsbusBuffer *tx) {
     }
 }
 
-void node_receive(Model *m, double *s, const CanFrame *f) {
+int node_receive(Model *m, double *s, const CanFrame *f) {
     unsigned node, cmd;
     double angle, speed;
     int i;
-    (void)s;
     odrive_split_id(f->id, &node, &cmd);
-    if (f->ide || f->rtr || cmd != ODRIVE_GET_ENCODER_ESTIMATES || f->length < 8) return;
+    if (f->ide || f->rtr || cmd != ODRIVE_GET_ENCODER_ESTIMATES || f->length < 8) return 0;
     for (i = 0; i < 2; i++) {
         if (node != node_id(m, i)) continue;
         odrive_decode_encoder(f->data, m->v[V_drive_gear], &angle, &speed);
-        if (isfinite(speed)) m->v[V_wheel_speed + i] = speed;
+        if (!isfinite(speed)) return 0;
+        m->v[V_wheel_speed + i] = speed;
+        if (s[i] != 0.0) return 0;  /* a second estimate of this axis in one period */
+        s[i] = 1.0;
+        return s[0] != 0.0 && s[1] != 0.0;
     }
+    return 0;
 }
 
 void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
@@ -71,7 +77,7 @@ void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
     unsigned char d[8];
     CanFrame request = {0};
     int i;
-    (void)s;
+    s[0] = s[1] = 0.0;
     for (i = 0; i < 2; i++) {
         double tau = fmin(lim, fmax(-lim, v[V_torque + i]));
         send(tx, node_id(m, i), ODRIVE_SET_INPUT_TORQUE, d,

@@ -87,6 +87,9 @@ def test_the_odrive_fmu_is_a_valid_lsbus_can_node(odrive_fmu: Path) -> None:
 
 
 def test_the_odrive_fmu_sends_the_asmc_torque_as_set_input_torque(odrive_fmu: Path) -> None:
+    """Each step the drives' estimates arrive at its start and the FMU answers at once with the
+    block's torque at that point (`evaluate`); every seventh step no frame comes and the FMU
+    sends at the end of the step what the block outputs after `do_step`."""
     nodes, gear, limit = (3, 5), 2.5, 40.0
     rng = np.random.default_rng(26)
     fmu, ctrl = _fmu(odrive_fmu), _ctrl()
@@ -94,7 +97,6 @@ def test_the_odrive_fmu_sends_the_asmc_torque_as_set_input_torque(odrive_fmu: Pa
     ctrl.set(**_inputs(0))
     fmu.initialize()
     ctrl.initialize()
-    start = [CanTransmit(*p.encode_clear_errors(n, "0.6.10")) for n in nodes]
     want = []
     for n in nodes:
         want += [CanTransmit(*p.encode_clear_errors(n, "0.6.10")),
@@ -102,34 +104,36 @@ def test_the_odrive_fmu_sends_the_asmc_torque_as_set_input_torque(odrive_fmu: Pa
                  CanTransmit(*p.encode_controller_mode(n)),
                  CanTransmit(*p.encode_axis_state(n, p.AXIS_CLOSED_LOOP))]
     sent = _transmits(fmu[TX])
-    assert sent[:8] == want and start[0] in sent
-    worst = 0.0
+    assert sent[:8] == want
+    sent, py = sent[8:], ctrl["torque"]
+    worst, fallbacks = 0.0, 0
     for k in range(STEPS + 1):
-        if k:  # the torques for the next period, sent at the end of the step
-            sent = _transmits(fmu[TX])
-        torques = [op for op in sent if p.split_id(op.id)[1] == p.SET_INPUT_TORQUE]
-        requests = [op for op in sent if op.rtr]
-        assert [p.split_id(op.id)[0] for op in torques] == list(nodes)
-        assert requests == [CanTransmit(p.can_id(n, p.GET_ENCODER_ESTIMATES), rtr=True, dlc=8)
-                            for n in nodes]
-        py = ctrl["torque"]
-        for op, tau in zip(torques, py, strict=True):
-            got = p.decode_torque(op.data, gear)
-            held = min(limit, max(-limit, tau))
+        assert sent == [CanTransmit(*p.encode_torque(n, min(limit, max(-limit, tau)), gear))
+                        for n, tau in zip(nodes, py, strict=True)] + \
+            [CanTransmit(p.can_id(n, p.GET_ENCODER_ESTIMATES), rtr=True, dlc=8) for n in nodes]
+        for op, tau in zip(sent, py, strict=False):
+            got, held = p.decode_torque(op.data, gear), min(limit, max(-limit, tau))
             assert abs(got - held) <= _quantum(held, gear), (k, got, held)
             worst = max(worst, abs(got - held))
-        assert np.allclose(fmu["d_hat"], ctrl["d_hat"], rtol=1e-12, atol=1e-12)
         if k == STEPS:
             break
-        speeds = _speeds(rng)
-        frames = [CanTransmit(*p.encode_encoder(n, 0.1 * k, w, gear))
-                  for n, w in zip(nodes, speeds, strict=True)]
-        frames.insert(1, CanTransmit(*p.encode_heartbeat(nodes[0], p.Heartbeat(0, 8), "0.6.10")))
-        carried = tuple(p.decode_encoder(f.data, gear)[1] for f in frames if f.data and
-                        p.split_id(f.id)[1] == p.GET_ENCODER_ESTIMATES)
-        fmu.step(**_inputs(k), **{RX: encode(frames), RX_CLOCK: True})
-        ctrl.step(**_inputs(k), wheel_speed=carried)
-        assert fmu["wheel_speed"] == carried
+        if k % 7 == 6:  # no answer: the FMU sends at the end of the step
+            fmu.step(**_inputs(k), **{RX: b"", RX_CLOCK: False})
+            ctrl.step(**_inputs(k))
+            py, fallbacks = ctrl["torque"], fallbacks + 1
+        else:
+            frames = [CanTransmit(*p.encode_encoder(n, 0.1 * k, w, gear))
+                      for n, w in zip(nodes, _speeds(rng), strict=True)]
+            frames.insert(1, CanTransmit(*p.encode_heartbeat(nodes[0], p.Heartbeat(0, 8),
+                                                             "0.6.10")))
+            carried = tuple(p.decode_encoder(f.data, gear)[1] for f in (frames[0], frames[2]))
+            fmu.step(**_inputs(k), **{RX: encode(frames), RX_CLOCK: True})
+            py = ctrl.set(**_inputs(k), wheel_speed=carried).evaluate()["torque"]
+            ctrl.step()
+            assert fmu["wheel_speed"] == carried
+        sent = _transmits(fmu[TX])
+        assert np.allclose(fmu["d_hat"], ctrl["d_hat"], rtol=1e-12, atol=1e-12)
+    assert fallbacks == STEPS // 7
     assert worst > 0  # the wire quantised something
     assert max(abs(x) for x in ctrl["d_hat"]) > 0.01  # the adaptation ran
 
@@ -140,10 +144,14 @@ def test_encoder_frames_of_other_nodes_and_no_frames_leave_the_speeds(odrive_fmu
     fmu.initialize()
     own = CanTransmit(*p.encode_encoder(5, 0.0, 7.0, 2.5))
     other = CanTransmit(*p.encode_encoder(4, 0.0, 9.0, 2.5))
-    fmu.step(**{RX: encode([own, other]), RX_CLOCK: True})
+    fmu.step(**{RX: encode([own, other]), RX_CLOCK: True})  # one axis's: not complete
     assert fmu["wheel_speed"] == (0.0, p.decode_encoder(own.data, 2.5)[1])
     fmu.step(**{RX: b"", RX_CLOCK: False})
     assert fmu["wheel_speed"] == (0.0, p.decode_encoder(own.data, 2.5)[1])
+    # sent when initialization ended (that counts for the first step), then at the end of the
+    # second step, in which nothing was sent
+    ticks = [t for t, clock in fmu.component._events.ticks if clock == "CanChannel.Tx_Clock"]
+    assert ticks == pytest.approx([0.0, 2 * H])
 
 
 # -- CiA 402 ---------------------------------------------------------------------------------
@@ -153,7 +161,8 @@ CIA = {"drive.node_ids": [4, 9], "drive.gear": 3.0, "drive.torque_limit": 40.0,
 
 def test_the_cia402_fmu_enables_the_drives_then_sends_the_asmc_torque(tmp_path: Path) -> None:
     """The drives are emulated by hw's state table (`drive_transition`) from the controlwords
-    the FMU sends; their TPDO1 answers carry the statusword and the speed."""
+    the FMU sends; their TPDO1 answers carry the statusword and the speed, and the FMU answers
+    them at once."""
     path = export_c_fmu("asmc", tmp_path / "asmc_cia402.fmu", {**CTRL, **CIA}, fmi=3,
                         can="cia402")
     nodes, gear, rated, limit = (4, 9), 3.0, 5000, 40.0
@@ -165,16 +174,15 @@ def test_the_cia402_fmu_enables_the_drives_then_sends_the_asmc_torque(tmp_path: 
     ctrl.initialize()
     sent = _transmits(fmu[TX])
     assert sent[:2] == [CanTransmit(0x000, bytes([0x01, n])) for n in nodes]
+    sent, py = sent[2:], ctrl["torque"]
     states = {n: c.State.NOT_READY for n in nodes}
     previous = {n: 0 for n in nodes}
     enabled_at = None
     for k in range(STEPS + 1):
-        if k:
-            sent = _transmits(fmu[TX])
         rpdos = [op for op in sent if op.id & 0x780 == c.RPDO1]
         assert [op.id for op in rpdos] == [c.RPDO1 + n for n in nodes]
-        assert sent[-1] == CanTransmit(0x080)  # SYNC after the RPDOs
-        for op, n, tau in zip(rpdos, nodes, ctrl["torque"], strict=True):
+        assert sent[-1] == CanTransmit(0x080) and len(sent) == 3  # SYNC after the RPDOs
+        for op, n, tau in zip(rpdos, nodes, py, strict=True):
             word, permille = c.decode_rpdo1(op.data)
             expect = c.next_controlword(states[n])
             if expect == c.FAULT_RESET and previous[n] == c.FAULT_RESET:
@@ -194,8 +202,10 @@ def test_the_cia402_fmu_enables_the_drives_then_sends_the_asmc_torque(tmp_path: 
                   for n, v in zip(nodes, rpm, strict=True)]
         speeds = tuple(c.velocity_to_si(v, gear) for v in rpm)
         fmu.step(**_inputs(k), **{RX: encode(frames), RX_CLOCK: True})
-        ctrl.step(**_inputs(k), wheel_speed=speeds)
+        py = ctrl.set(**_inputs(k), wheel_speed=speeds).evaluate()["torque"]
+        ctrl.step()
         assert fmu["wheel_speed"] == speeds
+        sent = _transmits(fmu[TX])
     assert enabled_at == 3  # disable voltage, shutdown, switch on, enable operation
 
 

@@ -3,8 +3,10 @@
  * BUS_TERMINAL (a controller exported with --can), the FMU is also an FMI-LS-BUS CAN node with
  * the terminal CanChannel (node.h): it runs in event mode, the frames received on Rx_Data go to
  * the protocol's node_receive, and Tx_Clock (a triggered output clock) ticks when
- * initialization ends (the drives' start-up frames and the first torques) and at the end of
- * every doStep (the torques for the next period, computed from the inputs held over the step). */
+ * initialization ends (the drives' start-up frames and the first torques), in the event where
+ * the drives' feedback of a period is complete (the torques from the inputs at that point, as
+ * the block's evaluate), and at the end of a doStep in which nothing was sent (the torques
+ * from the inputs held over the step: a lost answer does not stop the exchange). */
 #include <stdlib.h>
 #include <string.h>
 #include "fmi3Functions.h"
@@ -109,8 +111,11 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 #ifdef BUS_TERMINAL
 /* the frames of one controller period, sent at the next tick of Tx_Clock */
 static void transmit(Instance *s) {
+    kernel_eval(&s->c.m);
+    s->c.dirty = 0;
     node_transmit(&s->c.m, s->c.node, &s->c.tx);
     s->c.tx_active = 1;
+    s->c.sent = 1;
     if (s->c.tx.overflow) {
         inst_log(s, ST_WARNING, "logStatusWarning", "%d bus operations did not fit in Tx_Data "
                  "(%d bytes) and were dropped", s->c.tx.overflow, LSBUS_TX_BYTES);
@@ -168,19 +173,22 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
     return fmi3OK;
 }
 
-/* the operations received: each CAN Transmit to the protocol, the others ignored */
+/* the operations received: each CAN Transmit to the protocol, the others ignored; the period's
+ * frames sent when they completed its feedback */
 static fmi3Status receive(Instance *s, const unsigned char *bytes, size_t size) {
     long at = 0;
     unsigned code;
+    int complete = 0;
     CanFrame f;
     while ((at = lsbus_next(bytes, size, (size_t)at, &code, &f)) > 0)
-        if (code == LSBUS_CAN_TRANSMIT) node_receive(&s->c.m, s->c.node, &f);
+        if (code == LSBUS_CAN_TRANSMIT) complete |= node_receive(&s->c.m, s->c.node, &f);
     if (at < 0) {
         inst_log(s, ST_ERROR, "logStatusError", "CanChannel.Rx_Data (%zu bytes) holds a malformed "
                  "bus operation", size);
         return fmi3Error;
     }
     s->c.dirty = 1;
+    if (complete) transmit(s);
     return fmi3OK;
 }
 
@@ -289,11 +297,12 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h,
     status = (fmi3Status)inst_step(INST, t, h);
     *event_handling_needed = fmi3False;
 #ifdef BUS_TERMINAL
-    if (status == fmi3OK) {  /* the outputs at t + h with the inputs held, then their frames */
-        kernel_eval(&INST->c.m);
-        INST->c.dirty = 0;
-        transmit(INST);
-        *event_handling_needed = fmi3True;
+    if (status == fmi3OK) {  /* nothing sent in this step: the outputs at t + h, inputs held */
+        if (!INST->c.sent) {
+            transmit(INST);
+            *event_handling_needed = fmi3True;
+        }
+        INST->c.sent = 0;
     }
 #endif
     *terminate = fmi3False;

@@ -23,6 +23,7 @@ typedef struct {
     LsbusBuffer tx;  /* what the next tick of Tx_Clock carries */
     double node[NODE_NS];  /* the protocol's own state (node.h) */
     int event_mode, tx_active, tx_reported, rx_active;
+    int sent;  /* frames of a period were sent since the step began */
 #endif
 } Core;
 

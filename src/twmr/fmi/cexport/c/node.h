@@ -14,8 +14,9 @@
 const char *node_check(const Model *m);
 /* the frames that configure and enable the drives (sent with the first tick, before any torque) */
 void node_start(const Model *m, double *s, LsbusBuffer *tx);
-/* one frame received: take what it carries into m (and s) */
-void node_receive(Model *m, double *s, const CanFrame *f);
+/* one frame received: take what it carries into m (and s); 1 when with it every drive's
+ * feedback came since the last node_transmit (the period's feedback is complete) */
+int node_receive(Model *m, double *s, const CanFrame *f);
 /* the frames of one controller period: the torques of m */
 void node_transmit(const Model *m, double *s, LsbusBuffer *tx);
 
