@@ -166,6 +166,14 @@ class Cia402Emulator:
             with self.axes[node].lock:
                 self.axes[node].external_speed = w
 
+    def applied(self) -> dict[int, float]:
+        """The wheel torque [N.m] each drive applies now (zero unless OPERATION ENABLED)."""
+        out = {}
+        for node, axis in self.axes.items():
+            with axis.lock:
+                out[node] = axis.torque if axis.state == State.OPERATION_ENABLED else 0.0
+        return out
+
     def _on_nmt(self, can_id: int, data: bytearray, timestamp: float) -> None:
         if len(data) < 2:
             self.malformed += 1

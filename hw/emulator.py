@@ -104,6 +104,11 @@ class OdriveEmulator:
             for node, w in speeds.items():
                 self.axes[node].external_speed = w
 
+    def applied(self) -> dict[int, float]:
+        """The wheel torque [N.m] each axis applies now (after its limits), by node."""
+        with self.lock:
+            return {n: axis.torque for n, axis in self.axes.items()}
+
     def close(self) -> None:
         self._stop.set()
         self._thread.join(timeout=1.0)

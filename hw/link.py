@@ -55,6 +55,10 @@ class Emulator(Protocol):
 
     def set_load_speeds(self, speeds: Mapping[int, float]) -> None: ...
 
+    def applied(self) -> dict[int, float]:
+        """The wheel torque [N.m] each axis applies now, by node."""
+        ...
+
     def close(self) -> None: ...
 
 
