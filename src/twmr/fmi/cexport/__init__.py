@@ -11,6 +11,7 @@ import shutil
 import subprocess
 import tempfile
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -155,6 +156,7 @@ def _bus_elements(comp: Any, kind: str, elems: list[Any], bus: busnode.Bus
     for e in elems:
         if e.port == node.replaces:
             e.code = "o"
+            e.var = replace(e.var, description=f"{e.var.description}, from the drives' frames")
     elems = [*elems, *busnode.node_elements(bus)]
     return elems, busnode.node_defines(bus, len(elems))
 
