@@ -83,6 +83,7 @@ def test_the_odrive_fmu_is_a_valid_lsbus_can_node(odrive_fmu: Path) -> None:
                                 "Tx_Clock": "CanChannel.Tx_Clock", "Tx_Data": TX}
     comp = _fmu(odrive_fmu).component
     assert comp.variables["wheel_speed"].kind == "output"  # the frames give it
+    assert not comp.has_feedthrough  # its outputs change at its events only
     assert comp.variables[RX].kind == "input" and comp.variables[TX].kind == "output"
 
 
@@ -115,6 +116,8 @@ def test_the_odrive_fmu_sends_the_asmc_torque_as_set_input_torque(odrive_fmu: Pa
             got, held = p.decode_torque(op.data, gear), min(limit, max(-limit, tau))
             assert abs(got - held) <= _quantum(held, gear), (k, got, held)
             worst = max(worst, abs(got - held))
+        # its Float64 outputs are those of the period it sent last
+        assert np.allclose(fmu["torque"], py, rtol=1e-12, atol=1e-12), k
         if k == STEPS:
             break
         if k % 7 == 6:  # no answer: the FMU sends at the end of the step

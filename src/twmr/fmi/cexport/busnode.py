@@ -127,7 +127,8 @@ def node_defines(bus: Bus, nv: int) -> dict[str, int | str]:
 
 
 def add_terminal(root: ET.Element, nv: int) -> None:
-    """The terminal's variables in modelDescription.xml (FMI 3.0), after `time`; event mode."""
+    """The terminal's variables in modelDescription.xml (FMI 3.0), after `time`; event mode;
+    no output depends directly on an input (they change at the node's events only)."""
     cs = root.find("CoSimulation")
     assert cs is not None
     cs.set("hasEventMode", "true")
@@ -152,6 +153,8 @@ def add_terminal(root: ET.Element, nv: int) -> None:
         "description": "ticks when initialization ends and at the end of every step"})
     structure = root.find("ModelStructure")
     assert structure is not None
+    for output in structure.iter("Output"):
+        output.set("dependencies", "")  # they change at the node's events only
     first_initial = next((i for i, e in enumerate(structure) if e.tag == "InitialUnknown"),
                          len(structure))
     for k, name in enumerate(("Tx_Data", "Tx_Clock")):

@@ -5,6 +5,12 @@
 #include <string.h>
 #include "instance.h"
 
+#ifdef BUS_TERMINAL
+#define EVALUATE_ON_GET 0  /* a bus node's outputs are those of the last period it sent */
+#else
+#define EVALUATE_ON_GET HAS_FEEDTHROUGH
+#endif
+
 void inst_reset(Instance *s) {
     memset(&s->c, 0, sizeof s->c);
     memcpy(s->c.m.v, START, sizeof START);
@@ -72,7 +78,7 @@ int inst_get(Instance *s, size_t index, size_t n, double *values) {
         inst_log(s, ST_ERROR, "logStatusError", "value reference %zu out of range", index + n - 1);
         return ST_ERROR;
     }
-    if (HAS_FEEDTHROUGH && s->c.dirty && s->c.phase == PH_STEP) {
+    if (EVALUATE_ON_GET && s->c.dirty && s->c.phase == PH_STEP) {
         kernel_eval(&s->c.m);
         s->c.dirty = 0;
         flush_warning(s);
