@@ -11,7 +11,6 @@ import shutil
 import subprocess
 import tempfile
 import zipfile
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -91,8 +90,8 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2,
                 bus: busnode.Bus | None = None) -> Path:
     """Build `out_path` (.fmu) of the configured component `comp` of the native kind `kind`
     (its parameters, initial states and input start values as the FMU's start values); the
-    path. `bus`: the CAN node of a bus node FMU (`busnode`). CosimError
-    for a variant the kind's C twin does not support."""
+    path. `bus`: the CAN node of a bus node FMU (`busnode`). CosimError for a variant the
+    kind's C twin does not support."""
     twin = twin_of(kind)
     options = twin.options(comp)  # refuses unsupported variants before anything is written
     twin.fill_empty(comp)
@@ -102,7 +101,7 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2,
     sources = ["instance.c", f"fmi{fmi}.c", twin.source.name]
     common = [*COMMON, *HEADERS[fmi], f"fmi{fmi}.c"]
     if bus is not None:
-        elems, extra = _bus_elements(comp, kind, elems, bus)
+        elems, extra = busnode.bus_elements(comp, kind, elems, bus)
         node = bus.node
         files += [node.source, *node.codec]
         common += [*busnode.LSBUS_HEADERS, *busnode.LSBUS_SOURCES]
@@ -126,7 +125,7 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2,
             (src / "buildDescription.xml").write_text(_build_description(identifier, sources))
         description = model_description(comp, twin, elems, guid, fmi, sources, __version__)
         if bus is not None:
-            description = _with_terminal(description, bus.protocol, len(elems))
+            description = busnode.with_terminal(description, bus.protocol, len(elems))
             for inside, text in busnode.EXTRA_FILES.items():
                 (root / inside).parent.mkdir(parents=True, exist_ok=True)
                 (root / inside).write_text(text())
@@ -141,34 +140,6 @@ def write_c_fmu(comp: Any, kind: str, out_path: str | Path, fmi: int = 2,
                 if path.is_file():
                     z.write(path, path.relative_to(root).as_posix())
     return out
-
-
-def _bus_elements(comp: Any, kind: str, elems: list[Any], bus: busnode.Bus
-                  ) -> tuple[list[Any], dict[str, int | str]]:
-    """The elements of a CAN node FMU (the input the drives' frames give is an output, the
-    node's parameters appended) and the node's #defines."""
-    protocol, node = bus.protocol, bus.node
-    for port in (node.replaces, node.sends):
-        if port not in comp.variables:
-            raise CosimError(f"export {kind} --can {protocol}: the kind has no port '{port}' "
-                             f"(the drives' frames give '{node.replaces}', the node sends "
-                             f"'{node.sends}'). Fix: export a controller with both (asmc, smc).")
-    for e in elems:
-        if e.port == node.replaces:
-            e.code = "o"
-            e.var = replace(e.var, description=f"{e.var.description}, from the drives' frames")
-    elems = [*elems, *busnode.node_elements(bus)]
-    return elems, busnode.node_defines(bus, len(elems))
-
-
-def _with_terminal(description: bytes, protocol: str, nv: int) -> bytes:
-    import xml.etree.ElementTree as ET
-
-    root = ET.fromstring(description)
-    root.set("description", f"{root.get('description', '')} An FMI-LS-BUS CAN node: the host "
-             f"of two {protocol} drives on its terminal {busnode.TERMINAL}.".strip())
-    busnode.add_terminal(root, nv)
-    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
 def _build_description(identifier: str, sources: list[str]) -> str:

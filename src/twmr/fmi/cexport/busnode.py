@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -124,6 +124,33 @@ def node_defines(bus: Bus, nv: int) -> dict[str, int | str]:
     texts = {k: str(bus.given.get(k, v)) for k, v in node.texts.items()}
     return {"BUS_TERMINAL": 1, "NODE_NS": max(1, node.state),
             **{k: nv + offset for k, (offset, _) in MEMBERS.items()}, **node.options(texts)}
+
+
+def bus_elements(comp: Any, kind: str, elems: list[Element], bus: Bus
+                 ) -> tuple[list[Element], dict[str, int | str]]:
+    """The elements of a CAN node FMU of `comp` (the input the drives' frames give is an
+    output, the node's parameters appended) and the node's #defines."""
+    protocol, node = bus.protocol, bus.node
+    for port in (node.replaces, node.sends):
+        if port not in comp.variables:
+            raise CosimError(f"export {kind} --can {protocol}: the kind has no port '{port}' "
+                             f"(the drives' frames give '{node.replaces}', the node sends "
+                             f"'{node.sends}'). Fix: export a controller with both (asmc, smc).")
+    for e in elems:
+        if e.port == node.replaces:
+            e.code = "o"
+            e.var = replace(e.var, description=f"{e.var.description}, from the drives' frames")
+    elems = [*elems, *node_elements(bus)]
+    return elems, node_defines(bus, len(elems))
+
+
+def with_terminal(description: bytes, protocol: str, nv: int) -> bytes:
+    """modelDescription.xml `description` of `nv` elements with the terminal added."""
+    root = ET.fromstring(description)
+    root.set("description", f"{root.get('description', '')} An FMI-LS-BUS CAN node: the host "
+             f"of two {protocol} drives on its terminal {TERMINAL}.".strip())
+    add_terminal(root, nv)
+    return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
 
 def add_terminal(root: ET.Element, nv: int) -> None:
