@@ -1,0 +1,182 @@
+"""FMI-LS-BUS CAN nodes on our bus block (`kind: can_bus`, the importer simulating the bus): the
+test nodes (`tests/fmus/lsbus/cannode.c`: a CAN Transmit of id 1, or 0x22, with 4 data bytes
+every 0.3 s after a Configuration of 100 kbit/s) exchange their frames with the end-of-frame
+times the bit count of each frame at 100 kbit/s implies (counted here from the frame's bits, its
+CRC-15 and the stuffing rule), the lower identifier first when both send at once, a Confirm to
+the sender, an ACK error (Bus Error) for a node alone; malformed operations and bad wiring are
+refused naming the FMU, the terminal, the time."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.fmu_build import build_lsbus_fmu
+from twmr.core import CosimError
+from twmr.fmi.lsbus import operations as ops
+from twmr.hw.canbus import read_log
+from twmr.master import simulate
+from twmr.scenario import loads
+
+RATE = 100_000  # bit/s, as the nodes configure
+H = 1e-4
+
+
+@pytest.fixture(scope="module")
+def nodes(tmp_path_factory) -> dict[str, str]:
+    d = tmp_path_factory.mktemp("lsbus_block")
+    return {n: str(build_lsbus_fmu(f"cannode_{n}", d)) for n in ("triggered", "countdown")}
+
+
+def crc15(bits: str) -> int:
+    crc = 0
+    for bit in bits:
+        top = int(bit) ^ (crc >> 14) & 1
+        crc = (crc << 1) & 0x7FFF
+        if top:
+            crc ^= 0x4599
+    return crc
+
+
+def bits_to_eof(ident: int, data: bytes) -> int:
+    """Bits of a classic 11-bit data frame from SOF to the end of EOF: SOF, id, RTR, IDE, r0,
+    DLC, data, CRC-15 with a stuff bit after every 5 equal bits (the stuff bit counts in the
+    next run), then CRC delimiter, ACK slot, ACK delimiter and 7 EOF bits."""
+    body = "0" + f"{ident:011b}" + "000" + f"{len(data):04b}" + \
+        "".join(f"{b:08b}" for b in data)
+    body += f"{crc15(body):015b}"
+    stuffed, last, run = 0, "", 0
+    for bit in body:
+        run = run + 1 if bit == last else 1
+        last = bit
+        if run == 5:
+            stuffed += 1
+            last, run = ("1" if bit == "0" else "0"), 1
+    return len(body) + stuffed + 10
+
+
+def scenario(a: str, b: str | None = None, extra: str = "", bus: str = "{kind: can_bus}",
+             stop: float = 0.65, wires: str = "") -> str:
+    """Node n1 (id 1, data 01 02 03 04) and, if `b`, node n2 (id 0x22, data 0a 0b 0c 0d) on
+    the can_bus block `bus`."""
+    second = f"  n2: {{kind: fmu, parameters: {{path: {b}, id: 0x22}}, initial: {{payload: " \
+        f"\"0a0b0c0d\"}}}}\n" if b else ""
+    return f"""
+components:
+  n1: {{kind: fmu, parameters: {{path: {a}{extra}}}}}
+{second}  bus: {bus}
+connections:
+  - n1.CanChannel -> bus.n1
+{"  - n2.CanChannel -> bus.n2" if b else ""}
+{wires}
+open: [n1.payload{", n2.payload" if b else ""}]
+experiment: {{start: 0.0, stop: {stop}, step: {H}}}
+"""
+
+
+def grid_after(t: float) -> float:
+    """The first communication point at or after t [s]."""
+    return round(math.ceil(round(t / H, 6)) * H, 9)
+
+
+def values(r, signal: str) -> list[float]:
+    return sorted({round(float(v), 9) for v in r[signal]})
+
+
+@pytest.mark.parametrize("second", ["countdown", "triggered"])
+def test_two_nodes_exchange_their_frames_through_the_bus_block(nodes, tmp_path, second) -> None:
+    system = loads(scenario(nodes["triggered"], nodes[second]), source="bus.yaml")
+    assert not system.paced
+    r = simulate(system, tmp_path)
+    first, other = bits_to_eof(0x1, bytes([1, 2, 3, 4])), bits_to_eof(0x22, bytes([10, 11, 12,
+                                                                                  13]))
+    log = read_log(tmp_path / "bus_frames.arrows")
+    sent = log[log.event == "transmit"]
+    assert list(sent.id) == [0x1, 0x22, 0x1, 0x22] and list(sent.sender) == ["n1", "n2"] * 2
+    for k, t in enumerate((0.3, 0.6)):
+        # both send at t: id 1 wins, 0x22 follows once the bus is free (3 intermission bits)
+        np.testing.assert_allclose(sent.start.iloc[2 * k], t, atol=1e-9)
+        np.testing.assert_allclose(sent.time.iloc[2 * k], t + first / RATE, atol=1e-9)
+        np.testing.assert_allclose(sent.start.iloc[2 * k + 1], t + (first + 3) / RATE,
+                                   atol=1e-9)
+        np.testing.assert_allclose(sent.time.iloc[2 * k + 1], t + (first + 3 + other) / RATE,
+                                   atol=1e-9)
+    lost = log[log.event == "arbitration_lost"]
+    assert list(lost.id) == [0x22, 0x22] and list(lost.sender) == ["n2", "n2"]
+    np.testing.assert_allclose(lost.time, [0.3, 0.6], atol=1e-9)
+    # each node receives the other's frame at the communication point at or after its end
+    ends = sent.time.to_numpy()
+    assert values(r, "n2.rx_time") == [-1.0, grid_after(ends[0]), grid_after(ends[2])]
+    assert values(r, "n1.rx_time") == [-1.0, grid_after(ends[1]), grid_after(ends[3])]
+    n1, n2 = system.components["n1"], system.components["n2"]
+    assert (n2.get("rx_id"), n1.get("rx_id")) == (0x1, 0x22)
+    assert r["n1.confirms"][-1] == r["n2.confirms"][-1] == 2
+    assert r["n1.rx_frames"][-1] == r["n2.rx_frames"][-1] == 2
+    assert r["n1.rx_unknown"][-1] == r["n2.rx_unknown"][-1] == 0
+    assert r["bus.frames"][-1] == 4 and r["bus.errors"][-1] == 0
+    bus = system.components["bus"]
+    assert bus.report()["frames"] == 4 and bus.report()["arbitration_lost"] == 2
+
+
+def test_the_bus_block_in_run_time_is_the_same_every_run(nodes, tmp_path) -> None:
+    logs = []
+    for k in range(2):
+        simulate(loads(scenario(nodes["countdown"], nodes["triggered"]), source="b.yaml"),
+                 tmp_path / str(k))
+        logs.append(read_log(tmp_path / str(k) / "bus_frames.arrows"))
+    assert len(logs[0]) == 6
+    assert logs[0].equals(logs[1])
+
+
+def test_a_node_alone_gets_an_ack_error_as_a_bus_error(nodes, tmp_path) -> None:
+    system = loads(scenario(nodes["triggered"], stop=0.35), source="alone.yaml")
+    r = simulate(system, tmp_path)
+    log = read_log(tmp_path / "bus_frames.arrows")
+    assert list(log.event) == ["bus_error"] and log.detail[0].startswith("ACK error")
+    np.testing.assert_allclose(log.time[0], 0.3 + bits_to_eof(1, bytes([1, 2, 3, 4])) / RATE,
+                               atol=1e-9)
+    told = system.components["bus"].get("n1.Tx_Data")
+    assert ops.decode(told) == [ops.BusError(0x1, ops.ERROR_ACK, ops.FLAG_PRIMARY, True)]
+    assert r["bus.errors"][-1] == 1 and r["n1.confirms"][-1] == 0
+    # the Bus Error reached the node with a tick of its Rx_Clock at the point after EOF
+    ticks = r["bus.n1.Tx_Clock"]
+    assert r["time"][np.flatnonzero(ticks)].tolist() == [grid_after(log.time[0])]
+
+
+@pytest.mark.parametrize("fault, words", [
+    (1, "length 21 runs past the end of the 20-byte buffer"),
+    (2, "unknown operation code 0x99"),
+])
+def test_malformed_operations_name_fmu_terminal_and_time(nodes, fault, words) -> None:
+    system = loads(scenario(nodes["triggered"], nodes["countdown"], f", fault: {fault}"),
+                   source="bus.yaml")
+    with pytest.raises(CosimError) as err:
+        simulate(system)
+    text = str(err.value)
+    assert "component 'n1' at t = 0.3 s" in text and "bus terminal 'CanChannel'" in text
+    assert "cannode_triggered.fmu" in text and words in text
+
+
+@pytest.mark.parametrize("wires, words", [
+    ("  - n1.CanChannel -> bus.frames",
+     "'n1.CanChannel' is a bus terminal of 'n1' and 'bus.frames' is not a bus terminal"),
+    ("  - bus.n1 -> bus2.n1", "'bus' and 'bus2' are both can_bus blocks: two buses joined"),
+])
+def test_bad_bus_wiring_is_refused_at_check(nodes, wires, words) -> None:
+    text = scenario(nodes["triggered"], wires=wires).replace(
+        "  bus: {kind: can_bus}\n", "  bus: {kind: can_bus}\n  bus2: {kind: can_bus}\n")
+    with pytest.raises(CosimError) as err:
+        loads(text, source="bus.yaml")
+    assert words in str(err.value)
+
+
+def test_a_node_rate_other_than_the_bus_bitrate_stops_the_run(nodes) -> None:
+    system = loads(scenario(nodes["triggered"], nodes["countdown"],
+                            bus="{kind: can_bus, parameters: {bitrate: 500000}}"),
+                   source="bus.yaml")
+    with pytest.raises(CosimError) as err:
+        simulate(system)
+    text = str(err.value)
+    assert "component 'bus' at t = 0 s" in text and "bus terminal 'n1'" in text
+    assert "sets the bitrate to 100000 bit/s, but the bus runs at 500000 bit/s" in text
