@@ -38,6 +38,7 @@ from twmr.core import (
 )
 from twmr.core.port import BINARY, CLOCK
 from twmr.fmi.lsbus import operations as ops
+from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import bus_options, describe, interface_problem
 from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
@@ -115,6 +116,7 @@ class CanBus(Component):
         self.can_get_and_set_state = False
         self._given: frozenset[str] = frozenset()
         self._nodes: dict[str, LsBusNode] = {}
+        self._limits: dict[str, int] = {}  # terminal -> the maxSize of its peer's Rx_Data
         self._busy = 0.0
         self._set_by = ""  # who set the bus's bit rate: '' (the block's parameter)
 
@@ -187,9 +189,12 @@ class CanBus(Component):
         (what the bus tells it)."""
         if name in self.variables:
             return None
-        if isinstance(peer, CanBus):
-            raise ValueError(f"'{peer.name}' and '{self.name}' are both can_bus blocks: two "
-                             f"buses joined into one")
+        source = getattr(peer, "source_path", None)
+        if isinstance(peer, CanBus) or (isinstance(source, Path) and is_bus_simulation(source)):
+            what = "can_bus blocks" if isinstance(peer, CanBus) else \
+                "buses (a can_bus and a bus-simulation FMU)"
+            raise ValueError(f"'{peer.name}' and '{self.name}' are both {what}: two buses "
+                             f"joined into one")
         if name in self.peers and self.peers[name] != (peer.name, terminal):
             other, term = self.peers[name]
             raise ValueError(f"terminal '{name}' of can_bus '{self.name}' is '{other}.{term}'s "
@@ -205,6 +210,9 @@ class CanBus(Component):
             self.__dict__[var.name] = var.start
         self.terminals[name] = {m: f"{name}.{m}" for m in members}
         self.peers[name] = (peer.name, terminal)
+        rx = peer.terminals[terminal].get("Rx_Data", "")
+        if isinstance(source, Path) and rx in (sizes := max_sizes(source)):
+            self._limits[name] = sizes[rx]
         return self.terminals[name]
 
     # -- life cycle ------------------------------------------------------------------------------
@@ -219,11 +227,10 @@ class CanBus(Component):
         stepped = not (self._wallclock or getattr(run, "paced", False))
         self.bus: BusRunner | SteppedBus | None = SteppedBus(self.name, model) if stepped \
             else BusRunner(self.name, channel_of(id(run), self.name), model, self._closed)
-        self._nodes = {}
-        for terminal, (peer, peer_terminal) in self.peers.items():
-            node = LsBusNode(terminal, peer, peer_terminal)
-            self.bus.join(node, keeps_open=False)
-            self._nodes[terminal] = node
+        self._nodes = {name: LsBusNode(name, peer, terminal, self._limits.get(name))
+                       for name, (peer, terminal) in self.peers.items()}
+        if stepped:
+            self._join(self.bus)
         out = self._run_folder
         name = f"{self.name}_frames.arrows" if self.log_file == "auto" else self.log_file
         # a step taken again (adaptive) takes its events back: the log is written at the end
@@ -260,6 +267,7 @@ class CanBus(Component):
         assert bus is not None
         if isinstance(bus, BusRunner) and math.isnan(bus.offset):
             bus.begin(t)
+            self._join(bus)  # the FMUs hear the bus from their time 0 on
         self._take(bus, t)
         if isinstance(bus, SteppedBus):
             bus.advance(t + h)
@@ -268,12 +276,16 @@ class CanBus(Component):
             told = node.received()
             d[f"{terminal}.Tx_Clock"] = bool(told)
             if told:
-                d[f"{terminal}.Tx_Data"] = ops.encode(told)
+                d[f"{terminal}.Tx_Data"] = told
         self.frames = float(bus.counts["transmit"])
         self.errors = float(bus.counts["bus_error"])
         busy = bus.model.busy_time
         self.load = min(1.0, (busy - self._busy) / h)
         self._busy = busy
+
+    def _join(self, bus: BusRunner | SteppedBus) -> None:
+        for node in self._nodes.values():
+            bus.join(node, keeps_open=False)
 
     def _take(self, bus: BusRunner | SteppedBus, t: float) -> None:
         """Decode what every terminal whose Rx_Clock ticked sent, tick by tick, and act on it."""

@@ -24,22 +24,27 @@ class LsBusNode:
     """Terminal `name` of a bus block, behind which `peer`'s bus terminal `terminal` is; events
     the bus delivers wait in `inbox` until the block's next communication point."""
 
-    def __init__(self, name: str, peer: str, terminal: str):
+    def __init__(self, name: str, peer: str, terminal: str, limit: int | None = None):
         self.name, self.peer, self.terminal = name, peer, terminal
+        self.limit = limit  # the most bytes its Rx_Data takes at once (its maxSize)
         self.inbox: deque[BusEvent] = deque()
         self.discard = False  # DISCARD_AND_NOTIFY configured
 
     def deliver(self, event: BusEvent) -> None:
         self.inbox.append(event)
 
-    def received(self) -> list[ops.Operation]:
-        """The operations for the node's Rx_Data: every event delivered since the last call."""
-        out: list[ops.Operation] = []
+    def received(self) -> bytes:
+        """The operations for the node's Rx_Data, encoded: the events delivered since the last
+        call, as many as `limit` bytes hold (the others wait for the next call)."""
+        out = bytearray()
         while self.inbox:
-            op = operation_of(self.inbox.popleft(), self.discard)
-            if op is not None:
-                out.append(op)
-        return out
+            op = operation_of(self.inbox[0], self.discard)
+            raw = ops.encode([op]) if op is not None else b""
+            if self.limit is not None and out and len(out) + len(raw) > self.limit:
+                break
+            self.inbox.popleft()
+            out += raw
+        return bytes(out)
 
 
 def frame_of(op: ops.CanTransmit | ops.CanFdTransmit) -> can.Message:

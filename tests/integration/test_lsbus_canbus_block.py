@@ -139,6 +139,7 @@ def test_a_node_alone_gets_an_ack_error_as_a_bus_error(nodes, tmp_path) -> None:
     told = system.components["bus"].get("n1.Tx_Data")
     assert ops.decode(told) == [ops.BusError(0x1, ops.ERROR_ACK, ops.FLAG_PRIMARY, True)]
     assert r["bus.errors"][-1] == 1 and r["n1.confirms"][-1] == 0
+    assert values(r, "n1.bus_errors") == [0, 1]
     # the Bus Error reached the node with a tick of its Rx_Clock at the point after EOF
     ticks = r["bus.n1.Tx_Clock"]
     assert r["time"][np.flatnonzero(ticks)].tolist() == [grid_after(log.time[0])]
@@ -162,10 +163,14 @@ def test_malformed_operations_name_fmu_terminal_and_time(nodes, fault, words) ->
     ("  - n1.CanChannel -> bus.frames",
      "'n1.CanChannel' is a bus terminal of 'n1' and 'bus.frames' is not a bus terminal"),
     ("  - bus.n1 -> bus2.n1", "'bus' and 'bus2' are both can_bus blocks: two buses joined"),
+    ("  - sim.Node1 -> bus.sim", "'sim' and 'bus' are both buses (a can_bus and a "
+     "bus-simulation FMU): two buses joined"),
 ])
-def test_bad_bus_wiring_is_refused_at_check(nodes, wires, words) -> None:
+def test_bad_bus_wiring_is_refused_at_check(nodes, tmp_path, wires, words) -> None:
+    sim = build_lsbus_fmu("canbus", tmp_path)
     text = scenario(nodes["triggered"], wires=wires).replace(
-        "  bus: {kind: can_bus}\n", "  bus: {kind: can_bus}\n  bus2: {kind: can_bus}\n")
+        "  bus: {kind: can_bus}\n", f"  bus: {{kind: can_bus}}\n  bus2: {{kind: can_bus}}\n"
+        f"  sim: {{kind: fmu, parameters: {{path: {sim}}}}}\n")
     with pytest.raises(CosimError) as err:
         loads(text, source="bus.yaml")
     assert words in str(err.value)
@@ -180,3 +185,52 @@ def test_a_node_rate_other_than_the_bus_bitrate_stops_the_run(nodes) -> None:
     text = str(err.value)
     assert "component 'bus' at t = 0 s" in text and "bus terminal 'n1'" in text
     assert "sets the bitrate to 100000 bit/s, but the bus runs at 500000 bit/s" in text
+
+
+def test_an_lsbus_node_and_emulated_drives_share_a_paced_bus(nodes, tmp_path) -> None:
+    """The bench scenario on a can_bus (emulated ODrives, paced) with a node on it at 1 Mbit/s:
+    its frames (id 0x600, below every drive frame in priority) go on the wire after its ticks,
+    each for the bits its frame has, confirmed to it; it hears the drives' frames."""
+    from tests.integration.test_hw_canbus import bench
+
+    text = bench(1.0, True).replace(
+        "  plant:\n", f"  ecu:\n    kind: fmu\n    parameters: {{path: {nodes['triggered']}, "
+        f"id: 0x600, bitrate: 1000000}}\n  plant:\n", 1)
+    text = text.replace("connections:\n", "connections:\n  - ecu.CanChannel -> can0.ecu\n", 1)
+    text = text.replace("record:\n", "open: [ecu.payload]\nrecord:\n", 1).replace(
+        "  signals: [", "  signals: [ecu.rx_frames, ecu.confirms, ecu.tx_frames, "
+        "ecu.bus_errors, ", 1)
+    (tmp_path / "mixed.yaml").write_text(text)
+    from twmr.api import read_result
+    from twmr.api import simulate as run
+
+    run(tmp_path / "mixed.yaml", out=tmp_path / "run")
+    rows = read_result(tmp_path / "run").to_pandas()
+    log = read_log(tmp_path / "run" / "can0_frames.arrows")
+    sent = log[log.event == "transmit"]
+    assert set(sent.sender) == {"motor", "motor (emulated)", "ecu"}
+    ecu = sent[sent.sender == "ecu"]
+    assert list(ecu.id) == [0x600] * 3
+    assert np.all(ecu.start.to_numpy() >= np.array([0.3, 0.6, 0.9]) - 1e-6)
+    np.testing.assert_allclose(ecu.time - ecu.start, bits_to_eof(0x600, bytes([1, 2, 3, 4]))
+                               / 1e6, atol=1e-9)
+    assert rows["ecu.tx_frames"].iloc[-1] == rows["ecu.confirms"].iloc[-1] == 3
+    heard = rows["ecu.rx_frames"].iloc[-1]
+    assert 0 < heard <= (sent.sender != "ecu").sum()
+    assert rows["ecu.bus_errors"].max() == 0 and (log.event == "bus_error").sum() == 0
+
+
+def test_the_adaptive_master_ends_its_steps_at_the_bus_events(nodes, tmp_path) -> None:
+    """Under algorithm: adaptive the bus block announces the end of the frame on the wire
+    (`next_event`) and saves its state: the same frames and deliveries as the fixed 0.1 ms
+    step, in far fewer steps."""
+    text = scenario(nodes["countdown"], nodes["triggered"]).replace(
+        f"step: {H}}}", f"step: {H}, algorithm: adaptive, max_step: 0.05}}")
+    fixed = simulate(loads(scenario(nodes["countdown"], nodes["triggered"]), source="f.yaml"),
+                     tmp_path / "fixed")
+    r = simulate(loads(text, source="adaptive.yaml"), tmp_path / "adaptive")
+    assert len(r["time"]) < len(fixed["time"]) / 10
+    log = read_log(tmp_path / "adaptive" / "bus_frames.arrows")
+    assert log.equals(read_log(tmp_path / "fixed" / "bus_frames.arrows"))
+    for signal in ("n1.rx_time", "n2.rx_time"):
+        assert values(r, signal) == values(fixed, signal)
