@@ -195,6 +195,8 @@ class CanBus(Component):
                 "buses (a can_bus and a bus-simulation FMU)"
             raise ValueError(f"'{peer.name}' and '{self.name}' are both {what}: two buses "
                              f"joined into one")
+        if terminal not in peer.terminals:
+            return None
         if name in self.peers and self.peers[name] != (peer.name, terminal):
             other, term = self.peers[name]
             raise ValueError(f"terminal '{name}' of can_bus '{self.name}' is '{other}.{term}'s "

@@ -114,7 +114,7 @@ def test_two_nodes_exchange_their_frames_through_the_bus_block(nodes, tmp_path, 
     assert r["n1.confirms"][-1] == r["n2.confirms"][-1] == 2
     assert r["n1.rx_frames"][-1] == r["n2.rx_frames"][-1] == 2
     assert r["n1.rx_unknown"][-1] == r["n2.rx_unknown"][-1] == 0
-    assert r["bus.frames"][-1] == 4 and r["bus.errors"][-1] == 0
+    assert r["bus.frames"][-1] == 4 and r["bus.errors"][-1] == 0 and r["bus.load"].max() > 0
     bus = system.components["bus"]
     assert bus.report()["frames"] == 4 and bus.report()["arbitration_lost"] == 2
 
@@ -163,6 +163,8 @@ def test_malformed_operations_name_fmu_terminal_and_time(nodes, fault, words) ->
     ("  - n1.CanChannel -> bus.frames",
      "'n1.CanChannel' is a bus terminal of 'n1' and 'bus.frames' is not a bus terminal"),
     ("  - bus.n1 -> bus2.n1", "'bus' and 'bus2' are both can_bus blocks: two buses joined"),
+    ("  - bus.x -> bus2.y", "'bus2' and 'bus' are both can_bus blocks: two buses joined"),
+    ("  - bus.n1 -> n1.payload", "'bus.n1' is a bus terminal of 'bus' and 'n1.payload' is not"),
     ("  - sim.Node1 -> bus.sim", "'sim' and 'bus' are both buses (a can_bus and a "
      "bus-simulation FMU): two buses joined"),
 ])
