@@ -85,7 +85,8 @@ class CanBus(Component):
 
     kind = "can_bus"
     construction_parameters = ("can_config",)
-    #: the bus's own settings that LS-BUS Configuration operations change or are checked against
+    #: beside the ports, what a step changes: the bus time busy so far [s], and which rates
+    #: LS-BUS nodes set (((key, who and when), ...))
     state_attributes = ("_busy", "_set_by")
 
     bitrate = Parameter(1_000_000, type="Integer", min=1, description="nominal bit rate [bit/s]")
@@ -118,7 +119,7 @@ class CanBus(Component):
         self._nodes: dict[str, LsBusNode] = {}
         self._limits: dict[str, int] = {}  # terminal -> the maxSize of its peer's Rx_Data
         self._busy = 0.0
-        self._set_by = ""  # who set the bus's bit rate: '' (the block's parameter)
+        self._set_by: tuple[tuple[str, str], ...] = ()
 
     @property
     def needs_realtime(self) -> bool:  # type: ignore[override]  # what joins decides
@@ -189,7 +190,7 @@ class CanBus(Component):
         (what the bus tells it)."""
         if name in self.variables:
             return None
-        source = getattr(peer, "source_path", None)
+        source = getattr(peer, "source_path", None) or getattr(peer, "path", None)  # an FMU's
         if isinstance(peer, CanBus) or (isinstance(source, Path) and is_bus_simulation(source)):
             what = "can_bus blocks" if isinstance(peer, CanBus) else \
                 "buses (a can_bus and a bus-simulation FMU)"
@@ -222,7 +223,7 @@ class CanBus(Component):
         self._run_folder = getattr(run, "folder", None)
         self._start = 0.0
         self._busy = 0.0
-        self._set_by = ""
+        self._set_by = ()
         self.gateway: Gateway | None = None
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
                             str(self.stuffing))
@@ -335,7 +336,7 @@ class CanBus(Component):
         now = getattr(model, key)
         if op.value == now:
             return
-        by = self._set_by if key == "bitrate" else ""
+        by = dict(self._set_by).get(key, "")
         if key in self._given or by:
             source = by or f"its parameter {key}"
             raise ComponentError(self.name, t, f"{self._about(node, raw)}: a Configuration sets "
@@ -345,8 +346,7 @@ class CanBus(Component):
                                  f"bus's: every node of a CAN bus runs at one rate.")
         with bus_lock(bus):
             setattr(model, key, float(op.value))
-        if key == "bitrate":
-            self._set_by = f"set by terminal '{node.name}' at t = {t:.9g} s"
+        self._set_by = (*self._set_by, (key, f"set by terminal '{node.name}' at t = {t:.9g} s"))
 
     def next_event(self, t: float) -> float | None:
         """In run time: the end of the frame on the wire, or the next arbitration."""
