@@ -236,3 +236,25 @@ def test_the_adaptive_master_ends_its_steps_at_the_bus_events(nodes, tmp_path) -
     assert log.equals(read_log(tmp_path / "fixed" / "bus_frames.arrows"))
     for signal in ("n1.rx_time", "n2.rx_time"):
         assert values(r, signal) == values(fixed, signal)
+
+
+@pytest.mark.parametrize("wire, ok", [("n1.CanChannel -> bus.n1", True),
+                                      ("n1.CanChannel -> bus.frames", False)])
+def test_twmr_check_shows_the_member_wires_or_the_refusal(nodes, tmp_path, wire, ok) -> None:
+    import subprocess
+    import sys
+
+    path = tmp_path / "bus.yaml"
+    path.write_text(scenario(nodes["triggered"]).replace("n1.CanChannel -> bus.n1", wire))
+    done = subprocess.run([sys.executable, "-m", "twmr.cli", "check", str(path)],
+                          capture_output=True, text=True)
+    assert "Traceback" not in done.stderr
+    if ok:
+        assert done.returncode == 0, done.stderr
+        for member in ("n1.CanChannel.Tx_Data -> bus.n1.Rx_Data",
+                       "n1.CanChannel.Tx_Clock -> bus.n1.Rx_Clock",
+                       "bus.n1.Tx_Data -> n1.CanChannel.Rx_Data",
+                       "bus.n1.Tx_Clock -> n1.CanChannel.Rx_Clock"):
+            assert member in done.stdout
+    else:
+        assert done.returncode != 0 and "is not a bus terminal" in done.stderr
