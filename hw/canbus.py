@@ -8,8 +8,9 @@ is counted and reported, never the end of the thread). Participants implement `P
 python-can buses of our own interface `twmr` (`BlockBus`: how drive links, emulated drives and
 canopen join), a `Gateway` to a python-can bus outside (virtual, udp_multicast, socketcan, ...),
 and FMI-LS-BUS terminals of FMUs (`twmr.hw.lsbus_node.LsBusNode`). `BusCore` is what this runner
-shares with the bus its block steps in run time (`twmr.hw.steppedbus.SteppedBus`). Runners are found by channel (`runner(channel)`), a
-name unique to the run and the bus block, so `can.Bus(interface="twmr", channel=...)` joins one.
+shares with the bus its block steps in run time (`twmr.hw.steppedbus.SteppedBus`). Runners are
+found by channel (`runner(channel)`), a name unique to the run and the bus block, so
+`can.Bus(interface="twmr", channel=...)` joins one.
 
 The runner outlives its block's `terminate()` until the last participant has left (a drive's
 terminate sends zero torque and disable through it, whatever the order of the stops), then

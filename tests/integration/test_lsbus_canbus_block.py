@@ -258,3 +258,20 @@ def test_twmr_check_shows_the_member_wires_or_the_refusal(nodes, tmp_path, wire,
             assert member in done.stdout
     else:
         assert done.returncode != 0 and "is not a bus terminal" in done.stderr
+
+
+@pytest.mark.parametrize("isolate", [False, True])
+def test_a_tick_inside_a_step_keeps_its_time_on_the_bus(nodes, tmp_path, isolate) -> None:
+    """A countdown node of 0.25 s on a 0.1 s grid: its frame goes on the wire at 0.25 s (its
+    tick), though the block reads it at 0.3 s; its peer is told at the end of the block's next
+    step, 0.4 s (docs/lsbus.md, Time)."""
+    text = scenario(nodes["countdown"], nodes["triggered"],
+                    f", period: 0.25, isolate: {str(isolate).lower()}", stop=0.5).replace(
+        f"step: {H}", "step: 0.1")
+    r = simulate(loads(text, source="tick.yaml"), tmp_path)
+    log = read_log(tmp_path / "bus_frames.arrows")
+    first = log[log.sender == "n1"].iloc[0]
+    assert first.start == pytest.approx(0.25, abs=1e-9)
+    assert first.time == pytest.approx(0.25 + bits_to_eof(1, bytes([1, 2, 3, 4])) / RATE,
+                                       abs=1e-9)
+    assert values(r, "n2.rx_time") == [-1.0, 0.4]
