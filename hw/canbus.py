@@ -7,8 +7,10 @@ computes and hands it to the participants, each through its `deliver` (never blo
 is counted and reported, never the end of the thread). Participants implement `Participant`:
 python-can buses of our own interface `twmr` (`BlockBus`: how drive links, emulated drives and
 canopen join), a `Gateway` to a python-can bus outside (virtual, udp_multicast, socketcan, ...),
-and later others (an FMI-LS-BUS terminal). Runners are found by channel (`runner(channel)`), a
-name unique to the run and the bus block, so `can.Bus(interface="twmr", channel=...)` joins one.
+and FMI-LS-BUS terminals of FMUs (`twmr.hw.lsbus_node.LsBusNode`). `BusCore` is what this runner
+shares with the bus its block steps in run time (`twmr.hw.steppedbus.SteppedBus`). Runners are
+found by channel (`runner(channel)`), a name unique to the run and the bus block, so
+`can.Bus(interface="twmr", channel=...)` joins one.
 
 The runner outlives its block's `terminate()` until the last participant has left (a drive's
 terminate sends zero torque and disable through it, whatever the order of the stops), then
@@ -53,24 +55,83 @@ def runner(channel: str) -> BusRunner | None:
         return _RUNNERS.get(channel)
 
 
-class BusRunner:
+class BusCore:
+    """What every bus of a block keeps: `model`, its participants, the events recorded for the
+    log, the counts and the first bus errors. Bus time is run time minus `offset`."""
+
+    def __init__(self, name: str, model: CanBusModel, offset: float):
+        self.name, self.model = name, model
+        self.offset = offset
+        #: (event, bus time, start, frame, sender, detail)
+        self.rows: list[tuple[Any, ...]] = []
+        self.failures: list[str] = []  # of participants, gateways, the log, the thread
+        self._errors: list[BusEvent] = []  # the first bus errors
+        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
+        self._members: dict[str, Participant] = {}
+        self._cond = threading.Condition()
+
+    def take_rows(self) -> list[tuple[Any, ...]]:
+        """The events recorded since the last call (for the log)."""
+        with self._cond:
+            rows, self.rows = self.rows, []
+        return rows
+
+    def problems(self) -> list[str]:
+        """The first bus errors (each naming the participant, the frame and its run time),
+        then any other failure."""
+        return [self.describe(e) for e in list(self._errors)] + list(self.failures)
+
+    def describe(self, event: BusEvent) -> str:
+        """One line naming the bus, the participant, the frame and the bus time."""
+        t = event.time + (0.0 if math.isnan(self.offset) else self.offset)
+        return (f"bus '{self.name}': frame {frame_text(event.frame)} of participant "
+                f"'{event.sender}' at t = {t:.6f} s: {event.detail}")
+
+    def _add(self, member: Participant) -> str:
+        name, n = member.name, 1
+        while name in self._members:
+            n += 1
+            name = f"{member.name}#{n}"
+        member.name = name
+        self._members[name] = member
+        self.model.join(name)
+        return name
+
+    def _record(self, event: BusEvent) -> None:
+        if event.kind in self.counts:
+            self.counts[event.kind] += 1
+        if event.kind != "confirm":
+            self.rows.append((event.kind, event.time, event.start, event.frame, event.sender,
+                              event.detail))
+        if event.kind == "bus_error" and len(self._errors) < 20:
+            self._errors.append(event)
+
+    def _dispatch(self, events: list[BusEvent], members: dict[str, Participant]) -> None:
+        for event in events:
+            targets = [m for n, m in members.items() if n != event.sender] \
+                if event.kind == "transmit" else [members[event.sender]] \
+                if event.sender in members else []
+            for member in targets:
+                try:
+                    member.deliver(event)
+                except Exception as err:  # noqa: BLE001 - one participant never stops the bus
+                    self.failures.append(f"bus '{self.name}': participant '{member.name}' "
+                                         f"failed on {frame_text(event.frame)}: "
+                                         f"{type(err).__name__}: {err}")
+
+
+class BusRunner(BusCore):
     """`model` on the monotonic clock, for the bus block `name` reached as `channel`;
     `on_close(self)` once it has stopped (every participant that keeps it open gone)."""
 
     def __init__(self, name: str, channel: str, model: CanBusModel,
                  on_close: Callable[[BusRunner], None] | None = None):
-        self.name, self.channel, self.model = name, channel, model
+        # bus time = monotonic + offset (set at the block's first step)
+        super().__init__(name, model, math.nan)
+        self.channel = channel
         self.on_close = on_close
-        self.offset = math.nan  # bus time = monotonic + offset (set at the block's first step)
-        #: (event, monotonic time, start, frame, sender, detail)
-        self.rows: list[tuple[Any, ...]] = []
-        self.failures: list[str] = []  # of participants, gateways, the log, the thread
-        self._errors: list[BusEvent] = []  # the first bus errors
-        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
         model.live = False  # until `begin`: the drives power up before the host joins
-        self._members: dict[str, Participant] = {}
         self._keepers: set[str] = set()
-        self._cond = threading.Condition()
         self._closing = False
         self._stopped = False
         self._thread = threading.Thread(target=self._run, name=f"can-bus {name}", daemon=True)
@@ -85,15 +146,9 @@ class BusRunner:
         with self._cond:
             if self._stopped:
                 raise can.CanInitializationError(f"bus '{self.name}' has stopped")
-            name, n = member.name, 1
-            while name in self._members:
-                n += 1
-                name = f"{member.name}#{n}"
-            member.name = name
-            self._members[name] = member
+            name = self._add(member)
             if keeps_open:
                 self._keepers.add(name)
-            self.model.join(name)
             return name
 
     def leave(self, name: str, flush: float = 0.5) -> None:
@@ -132,37 +187,11 @@ class BusRunner:
             self.offset = t - time.monotonic()
             self.model.live = not self._closing
 
-    def take_rows(self) -> list[tuple[Any, ...]]:
-        """The events recorded since the last call (for the log)."""
-        with self._cond:
-            rows, self.rows = self.rows, []
-        return rows
-
     def now(self) -> float:
         """Bus time [s] (the run's time once the block has stepped)."""
         return time.monotonic() + (0.0 if math.isnan(self.offset) else self.offset)
 
-    def problems(self) -> list[str]:
-        """The first bus errors (each naming the participant, the frame and its run time),
-        then any other failure."""
-        return [self.describe(e) for e in list(self._errors)] + list(self.failures)
-
-    def describe(self, event: BusEvent) -> str:
-        """One line naming the bus, the participant, the frame and the bus time."""
-        t = event.time + (0.0 if math.isnan(self.offset) else self.offset)
-        return (f"bus '{self.name}': frame {frame_text(event.frame)} of participant "
-                f"'{event.sender}' at t = {t:.6f} s: {event.detail}")
-
     # -- the thread ----------------------------------------------------------------------------
-    def _record(self, event: BusEvent) -> None:
-        if event.kind in self.counts:
-            self.counts[event.kind] += 1
-        if event.kind != "confirm":
-            self.rows.append((event.kind, event.time, event.start, event.frame, event.sender,
-                              event.detail))
-        if event.kind == "bus_error" and len(self._errors) < 20:
-            self._errors.append(event)
-
     def _run(self) -> None:
         while True:
             try:
@@ -184,19 +213,6 @@ class BusRunner:
                 self._dispatch(events, members)
             except Exception as err:  # noqa: BLE001 - the bus thread outlives any failure
                 self.failures.append(f"bus '{self.name}' thread: {type(err).__name__}: {err}")
-
-    def _dispatch(self, events: list[BusEvent], members: dict[str, Participant]) -> None:
-        for event in events:
-            targets = [m for n, m in members.items() if n != event.sender] \
-                if event.kind == "transmit" else [members[event.sender]] \
-                if event.sender in members else []
-            for member in targets:
-                try:
-                    member.deliver(event)
-                except Exception as err:  # noqa: BLE001 - one participant never stops the bus
-                    self.failures.append(f"bus '{self.name}': participant '{member.name}' "
-                                         f"failed on {frame_text(event.frame)}: "
-                                         f"{type(err).__name__}: {err}")
 
     # -- the end -------------------------------------------------------------------------------
     def close(self) -> None:
@@ -363,22 +379,25 @@ def _key(frame: can.Message) -> tuple[Any, ...]:
 class FrameLog:
     """A bus's events streamed to an Arrow IPC stream file (readable after a crash, like the
     run's `result.arrows`) by a thread of its own, every `period` [s] once the bus has its run
-    time (its block's first step): time (end of EOF, or of the refusal) and start [s, run
-    time], event, id, extended, remote, fd, brs, dlc, data, sender, detail."""
+    time (its block's first step; `period` None: no thread, all at `close`): time (end of
+    EOF, or of the refusal) and start [s, run time], event, id, extended, remote, fd, brs,
+    dlc, data, sender, detail."""
 
-    def __init__(self, bus: BusRunner, path: Path, period: float = 0.5):
+    def __init__(self, bus: BusCore, path: Path, period: float | None = 0.5):
         self.bus, self.path, self.period = bus, path, period
         self.error = ""
         self._writer: Any = None
         self._sink: Any = None
         self._schema: Any = None
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name=f"can-log {bus.name}",
-                                        daemon=True)
-        self._thread.start()
+        self._thread: threading.Thread | None = None
+        if period is not None:
+            self._thread = threading.Thread(target=self._run, args=(period,),
+                                            name=f"can-log {bus.name}", daemon=True)
+            self._thread.start()
 
-    def _run(self) -> None:
-        while not self._stop.wait(self.period):
+    def _run(self, period: float) -> None:
+        while not self._stop.wait(period):
             if not math.isnan(self.bus.offset):
                 self._write()
 
@@ -423,7 +442,8 @@ class FrameLog:
     def close(self) -> None:
         """Write what is left and close the file (after the bus has stopped)."""
         self._stop.set()
-        self._thread.join(timeout=5.0)
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
         if math.isnan(self.bus.offset):
             self.bus.offset = 0.0
         self._write()

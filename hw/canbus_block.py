@@ -1,15 +1,22 @@
 """`CanBus` (kind `can_bus`): one CAN bus of a scenario, simulated in time, that CAN participants
 join: `can_drive` blocks with `bus: <this block>` (their host side and their emulated drives), a
 python-can bus outside (`interface`/`channel` or `can_config`: real adapters, other processes),
-and later FMI-LS-BUS terminals (`twmr.hw.canbus.Participant`).
+and FMI-LS-BUS CAN terminals of FMUs, wired by terminal name (`ecu.CanChannel -> bus.ecu` opens
+terminal `ecu` on the block: inputs `ecu.Rx_Data`/`ecu.Rx_Clock` from the FMU's Tx members,
+outputs `ecu.Tx_Data`/`ecu.Tx_Clock` to its Rx members; `twmr.hw.lsbus_node`).
 
 What the bus does to frames is `twmr.hw.cansim`'s: arbitration by identifier, transmission time
 from `bitrate` (CAN FD with `fd: true` and `data_bitrate`), stuff bits `exact` or `worst`,
 delivery and confirmation at the end of EOF, ACK errors when no one else is there, refusal of
-frames that cannot exist on the bus. In a run with hardware the bus runs on the wall clock; the
-log's times are run times (the block's first step is its time 0 on the bus). Every event is
-streamed to `<name>_frames.arrows` (Arrow IPC stream; `twmr.hw.canbus.read_log`). Outputs: frames
-carried so far, bus errors so far, the bus load over the last step.
+frames that cannot exist on the bus. With a drive or a python-can bus outside, or in a paced
+run, the bus runs on the wall clock (`twmr.hw.canbus.BusRunner`); the log's times are run times
+(the block's first step is its time 0 on the bus). With LS-BUS terminals only it runs in run
+time inside the block's steps (`twmr.hw.steppedbus`): not paced, the same events every run, its
+state saved and restored for `algorithm: adaptive`, its next event its `next_event`. A frame an
+FMU sent at a tick goes on the bus at the tick's time; what the bus tells an FMU reaches it at
+the communication point that ends the step holding the event (the end of EOF). Every event is
+streamed to `<name>_frames.arrows` (Arrow IPC stream; `twmr.hw.canbus.read_log`). Outputs:
+frames carried so far, bus errors so far, the bus load over the last step.
 """
 from __future__ import annotations
 
@@ -17,12 +24,27 @@ import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
-from twmr.core import BOOLEAN, STRING, Component, HardwareError, Output, Parameter
+from twmr.core import (
+    BOOLEAN,
+    STRING,
+    Component,
+    ComponentError,
+    HardwareError,
+    Input,
+    Output,
+    Parameter,
+)
+from twmr.core.port import BINARY, CLOCK
+from twmr.fmi.lsbus import operations as ops
+from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
+from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import bus_options, describe, interface_problem
-from twmr.hw.canbus import INTERFACE, BusRunner, FrameLog, Gateway, runner
+from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
 from twmr.hw.cansim import STUFFING, CanBusModel
+from twmr.hw.lsbus_node import LsBusNode, frame_of
+from twmr.hw.steppedbus import SteppedBus
 
 
 def channel_of(run_id: int, name: str) -> str:
@@ -53,13 +75,19 @@ def bus_problem(own: str, ref: str, peers: Mapping[str, Component]) -> str:
             f"(can_bus blocks: {', '.join(buses) or 'none'})")
 
 
+def joins(own: str, ref: str, peers: Mapping[str, Component]) -> str:
+    """The component `bus: ref` of `own` names among `peers` ('' when none)."""
+    return next((name for name in candidates(own, ref) if name in peers), "")
+
+
 class CanBus(Component):
-    """A CAN bus in time (classic or FD) that drives and python-can buses join."""
+    """A CAN bus in time (classic or FD) that drives, python-can buses and LS-BUS FMUs join."""
 
     kind = "can_bus"
-    needs_realtime: ClassVar[bool] = True
-    can_get_and_set_state = False  # frames on a wire cannot be rolled back
     construction_parameters = ("can_config",)
+    #: beside the ports, what a step changes: the bus time busy so far [s], and which rates
+    #: LS-BUS nodes set (((key, who and when), ...))
+    state_attributes = ("_busy", "_set_by")
 
     bitrate = Parameter(1_000_000, type="Integer", min=1, description="nominal bit rate [bit/s]")
     fd = Parameter(False, type=BOOLEAN, description="CAN FD frames allowed")
@@ -80,6 +108,24 @@ class CanBus(Component):
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
     load = Output(unit="1", description="fraction of the last step the bus was busy")
 
+    def __init__(self, name: str = "", **parameters: Any):
+        super().__init__(name, **parameters)
+        self.terminals: dict[str, dict[str, str]] = {}
+        #: terminal -> (the component behind it, its bus terminal)
+        self.peers: dict[str, tuple[str, str]] = {}
+        self._wallclock = True  # a drive or a bus outside joins (found by check_peers)
+        self.can_get_and_set_state = False
+        self._given: frozenset[str] = frozenset()
+        self._nodes: dict[str, LsBusNode] = {}
+        self._limits: dict[str, int] = {}  # terminal -> the maxSize of its peer's Rx_Data
+        self._busy = 0.0
+        self._set_by: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def needs_realtime(self) -> bool:  # type: ignore[override]  # what joins decides
+        """Hardware in the loop: a drive or a python-can bus outside joins this bus."""
+        return self._wallclock
+
     @classmethod
     def create(cls, name: str, base_dir: Path, **construction: Any) -> CanBus:
         """A relative `can_config` resolves against the scenario's folder."""
@@ -88,6 +134,7 @@ class CanBus(Component):
         return cls(name, **files)
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
+        self._given = given
         problems: list[tuple[str, str, str]] = []
         if self.stuffing not in STUFFING:
             problems.append(("stuffing", f"stuffing '{self.stuffing}' is unknown.",
@@ -118,7 +165,13 @@ class CanBus(Component):
         return problems
 
     def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
-        """Two bus blocks bridged to the same python-can bus are one bus joined twice."""
+        """Two bus blocks bridged to the same python-can bus are one bus joined twice. Whether
+        the bus needs the wall clock: a drive (`bus:` naming it) or a bus outside joins."""
+        self._wallclock = bool(self.interface or self.can_config) or any(
+            isinstance(getattr(c, "bus", None), str) and c.bus and  # type: ignore[attr-defined]
+            joins(n, c.bus, peers) == self.name  # type: ignore[attr-defined]
+            for n, c in peers.items() if c is not self)
+        self.can_get_and_set_state = not self._wallclock
         if not self.interface or self.can_config:
             return []
         for name, other in peers.items():
@@ -130,19 +183,62 @@ class CanBus(Component):
                          "one can_bus block.")]
         return []
 
+    def open_terminal(self, name: str, peer: Component, terminal: str
+                      ) -> Mapping[str, str] | None:
+        """Terminal `name` for `peer`'s bus terminal `terminal`: inputs `name.Rx_Data` and
+        `name.Rx_Clock` (what the peer sends), outputs `name.Tx_Data` and `name.Tx_Clock`
+        (what the bus tells it)."""
+        if name in self.variables:
+            return None
+        source = getattr(peer, "source_path", None) or getattr(peer, "path", None)  # an FMU's
+        if isinstance(peer, CanBus) or (isinstance(source, Path) and is_bus_simulation(source)):
+            what = "can_bus blocks" if isinstance(peer, CanBus) else \
+                "buses (a can_bus and a bus-simulation FMU)"
+            raise ValueError(f"'{peer.name}' and '{self.name}' are both {what}: two buses "
+                             f"joined into one")
+        if terminal not in peer.terminals:
+            return None
+        if name in self.peers and self.peers[name] != (peer.name, terminal):
+            other, term = self.peers[name]
+            raise ValueError(f"terminal '{name}' of can_bus '{self.name}' is '{other}.{term}'s "
+                             f"already")
+        members = {"Rx_Data": Input(type=BINARY, description=f"operations {peer.name} sends"),
+                   "Rx_Clock": Input(type=CLOCK, description=f"ticks when {peer.name} sends"),
+                   "Tx_Data": Output(type=BINARY, description=f"operations for {peer.name}"),
+                   "Tx_Clock": Output(type=CLOCK, description=f"ticks when the bus tells "
+                                      f"{peer.name} something")}
+        for member, var in members.items():
+            var.name = f"{name}.{member}"
+            self.variables[var.name] = var
+            self.__dict__[var.name] = var.start
+        self.terminals[name] = {m: f"{name}.{m}" for m in members}
+        self.peers[name] = (peer.name, terminal)
+        rx = peer.terminals[terminal].get("Rx_Data", "")
+        if isinstance(source, Path) and rx in (sizes := max_sizes(source)):
+            self._limits[name] = sizes[rx]
+        return self.terminals[name]
+
     # -- life cycle ------------------------------------------------------------------------------
     def prepare(self, run: Any) -> None:
         self._run_folder = getattr(run, "folder", None)
         self._start = 0.0
         self._busy = 0.0
+        self._set_by = ()
         self.gateway: Gateway | None = None
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
                             str(self.stuffing))
-        self.bus: BusRunner | None = BusRunner(self.name, channel_of(id(run), self.name),
-                                               model, self._closed)
+        stepped = not (self._wallclock or getattr(run, "paced", False))
+        self.bus: BusRunner | SteppedBus | None = SteppedBus(self.name, model) if stepped \
+            else BusRunner(self.name, channel_of(id(run), self.name), model, self._closed)
+        self._nodes = {name: LsBusNode(name, peer, terminal, self._limits.get(name))
+                       for name, (peer, terminal) in self.peers.items()}
+        if stepped:
+            self._join(self.bus)
         out = self._run_folder
         name = f"{self.name}_frames.arrows" if self.log_file == "auto" else self.log_file
-        self.log: FrameLog | None = FrameLog(self.bus, Path(out) / name) \
+        # a step taken again (adaptive) takes its events back: the log is written at the end
+        period = None if stepped and getattr(run, "algorithm", "") == "adaptive" else 0.5
+        self.log: FrameLog | None = FrameLog(self.bus, Path(out) / name, period) \
             if self.log_file and out is not None else None
 
     def setup(self, start: float, stop: float | None) -> None:
@@ -152,14 +248,14 @@ class CanBus(Component):
         if getattr(self, "bus", None) is None:
             raise HardwareError(self.name, start, "the bus was not prepared by a run. Fix: run "
                                 "it in a scenario (twmr run, twmr.simulate).")
-        if not (self.interface or self.can_config):
+        if not (self.interface or self.can_config) or isinstance(self.bus, SteppedBus):
             return
         try:
             options = bus_options(self.interface, self.channel, int(self.bitrate),
                                   self.can_config, self.can_context)
             if options.get("interface") == INTERFACE:
                 raise ValueError(f"interface '{INTERFACE}' joins two bus blocks")
-            assert self.bus is not None
+            assert isinstance(self.bus, BusRunner)
             self.gateway = Gateway(self.bus, options, describe(options))
         except Exception as err:  # noqa: BLE001 - python-can backends raise many kinds
             raise HardwareError(self.name, start, f"cannot open the python-can bus to bridge "
@@ -167,15 +263,122 @@ class CanBus(Component):
                                 f"channel and can_config.") from err
 
     def do_step(self, t: float, h: float) -> None:
+        """The frames the terminals sent (each at its tick's time) onto the bus; in run time,
+        the bus advanced to t + h; what it told each terminal's FMU since the last step onto
+        that terminal's Tx members."""
         bus = self.bus
         assert bus is not None
-        if math.isnan(bus.offset):
+        if isinstance(bus, BusRunner) and math.isnan(bus.offset):
             bus.begin(t)
+            self._join(bus)  # the FMUs hear the bus from their time 0 on
+        self._take(bus, t)
+        if isinstance(bus, SteppedBus):
+            bus.advance(t + h)
+        d = self.__dict__
+        for terminal, node in self._nodes.items():
+            told = node.received()
+            d[f"{terminal}.Tx_Clock"] = bool(told)
+            if told:
+                d[f"{terminal}.Tx_Data"] = told
         self.frames = float(bus.counts["transmit"])
         self.errors = float(bus.counts["bus_error"])
         busy = bus.model.busy_time
         self.load = min(1.0, (busy - self._busy) / h)
         self._busy = busy
+
+    def _join(self, bus: BusRunner | SteppedBus) -> None:
+        for node in self._nodes.values():
+            bus.join(node, keeps_open=False)
+
+    def _take(self, bus: BusRunner | SteppedBus, t: float) -> None:
+        """Decode what every terminal whose Rx_Clock ticked sent, tick by tick, and act on it."""
+        d = self.__dict__
+        for terminal, node in self._nodes.items():
+            if not d[f"{terminal}.Rx_Clock"]:
+                continue
+            for tick, raw in tick_parts(d[f"{terminal}.Rx_Data"], t):
+                try:
+                    sent = ops.decode(raw)
+                except ops.BusOperationError as err:
+                    raise ComponentError(self.name, tick, self._about(node, raw) +
+                                         f": {err}. Fix: the component writes malformed bus "
+                                         f"operations; see its log.") from None
+                for op in sent:
+                    if isinstance(op, (ops.CanTransmit, ops.CanFdTransmit)):
+                        bus.submit(node.name, frame_of(op), at=tick)
+                    elif isinstance(op, ops.CanXlTransmit):
+                        raise ComponentError(self.name, tick, self._about(node, raw) +
+                                             f": a CAN XL Transmit (id 0x{op.id:x}), which a "
+                                             f"can_bus does not carry (classic CAN and CAN FD "
+                                             f"only). Fix: send CAN or CAN FD frames.")
+                    elif isinstance(op, ops.Configuration):
+                        self._configure(bus, node, op, tick, raw)
+
+    def _about(self, node: LsBusNode, raw: bytes) -> str:
+        return (f"bus terminal '{node.name}' ({node.peer}.{node.terminal}.Tx_Data, "
+                f"{len(raw)} bytes)")
+
+    def _configure(self, bus: BusRunner | SteppedBus, node: LsBusNode,
+                   op: ops.Configuration, t: float, raw: bytes) -> None:
+        """An LS-BUS Configuration: the arbitration-lost behaviour of the node, or a bit rate,
+        which sets the bus's unless the scenario gave it or another node set it first (then
+        it must agree)."""
+        model = bus.model
+        if op.parameter == ops.CONFIG_ARBITRATION_LOST_BEHAVIOR:
+            node.discard = op.value == ops.DISCARD_AND_NOTIFY
+            with bus_lock(bus):
+                (model.discarding.add if node.discard else model.discarding.discard)(node.name)
+            return
+        key = {ops.CONFIG_CAN_BAUDRATE: "bitrate",
+               ops.CONFIG_CANFD_BAUDRATE: "data_bitrate"}.get(op.parameter)
+        if key is None:
+            return
+        now = getattr(model, key)
+        if op.value == now:
+            return
+        by = dict(self._set_by).get(key, "")
+        if key in self._given or by:
+            source = by or f"its parameter {key}"
+            raise ComponentError(self.name, t, f"{self._about(node, raw)}: a Configuration sets "
+                                 f"the {key} to {op.value} bit/s, but the bus runs at "
+                                 f"{now:g} bit/s ({source}). Fix: give the can_bus the node's "
+                                 f"rate ({key}: {op.value}), or configure the node to the "
+                                 f"bus's: every node of a CAN bus runs at one rate.")
+        with bus_lock(bus):
+            setattr(model, key, float(op.value))
+        self._set_by = (*self._set_by, (key, f"set by terminal '{node.name}' at t = {t:.9g} s"))
+
+    def next_event(self, t: float) -> float | None:
+        """In run time: the end of the frame on the wire, or the next arbitration."""
+        bus = getattr(self, "bus", None)
+        upcoming = bus.next_time() if isinstance(bus, SteppedBus) else None
+        return upcoming if upcoming is not None and upcoming > t else None
+
+    def get_state(self) -> Any:
+        """In run time: the ports, the model and the records, and what waits for each
+        terminal."""
+        if not isinstance(getattr(self, "bus", None), SteppedBus):
+            raise self.no_state("save")
+        assert isinstance(self.bus, SteppedBus)
+        nodes = tuple((t, tuple(n.inbox), n.discard) for t, n in self._nodes.items())
+        return (super().get_state(), self.bus.snapshot(), nodes)
+
+    def set_state(self, state: Any) -> None:
+        if not isinstance(getattr(self, "bus", None), SteppedBus):
+            raise self.no_state("restore")
+        assert isinstance(self.bus, SteppedBus)
+        ports, bus, nodes = state
+        super().set_state(ports)
+        self.bus.restore(bus)
+        for terminal, inbox, discard in nodes:
+            node = self._nodes[terminal]
+            node.inbox.clear()
+            node.inbox.extend(inbox)
+            node.discard = discard
+
+    def why_no_state(self) -> str:
+        return ("a drive or a python-can bus outside joins it: frames on a wire on the wall "
+                "clock cannot be rolled back")
 
     def report(self) -> dict[str, Any]:
         """Frames, bus errors, arbitrations lost, the first problems (each naming the
@@ -196,13 +399,16 @@ class CanBus(Component):
         still pass, and go out through the link outside), then closes that link and writes its
         log."""
         bus, self.bus = getattr(self, "bus", None), None
-        if bus is not None:
+        if isinstance(bus, SteppedBus):
+            self.bus_done = bus
+            self._closed(bus)
+        elif bus is not None:
             self.bus_done = bus
             if math.isnan(bus.offset):
                 bus.offset = self._start - time.monotonic()
             bus.close()
 
-    def _closed(self, bus: BusRunner) -> None:
+    def _closed(self, bus: BusCore) -> None:
         """The bus has stopped: close the link outside, write the log."""
         gateway, self.gateway = getattr(self, "gateway", None), None
         if gateway is not None:
@@ -212,6 +418,11 @@ class CanBus(Component):
             log.close()
             if log.error:
                 bus.failures.append(f"bus '{self.name}': frame log {log.path.name}: {log.error}")
+
+
+def bus_lock(bus: BusRunner | SteppedBus) -> Any:
+    """The lock under which the bus's model may be changed (its thread reads it)."""
+    return bus._cond  # noqa: SLF001 - the block owns its bus
 
 
 def drive_options(own: str, ref: str, run: Any, participant: str) -> dict[str, Any]:

@@ -15,8 +15,10 @@ Bus time is in seconds, in whatever clock the caller uses. A participant hands f
 transmit queue (FIFO, as a socketcan socket); when the bus is free, the oldest frame of each
 participant pending at that instant contends and the lowest identifier wins (bitwise arbitration:
 a data frame beats a remote frame of the same identifier, a standard frame the extended one that
-shares its 11 bits; equal keys go in submission order); the others are told `arbitration_lost`
-and contend again when the bus is free. A frame is received by every other participant, and
+shares its 11 bits; equal keys go in submission order; frames handed over within `SAME_INSTANT`
+of each other contend as one instant); the others are told `arbitration_lost` and contend again
+when the bus is free, unless their sender is in `discarding` (LS-BUS DISCARD_AND_NOTIFY): then
+the frame is dropped. A frame is received by every other participant, and
 confirmed to its sender, at the end of its EOF; the bus is free 3 intermission bits later. A frame
 that no other participant is there to acknowledge ends in an ACK error (`bus_error` to its
 sender, not delivered, not retransmitted; while the bus is not `live`, as its runner keeps it
@@ -28,7 +30,6 @@ is no DLC, an identifier out of range, FD on a bus without `fd`) is refused at s
 from __future__ import annotations
 
 import functools
-import itertools
 import math
 import re
 from collections import deque
@@ -44,6 +45,8 @@ INTERMISSION = 3
 CRC15_POLY = 0x4599
 FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
 STUFFING = ("exact", "worst")
+#: frames handed over this close together [s] contend in one arbitration (far below a bit time)
+SAME_INSTANT = 1e-9
 
 
 def _crc15_table() -> tuple[int, ...]:
@@ -247,10 +250,12 @@ class CanBusModel:
     members: set[str] = field(default_factory=set)
     busy_time: float = 0.0  # [s] of bus time carrying frames (intermission included)
     live: bool = True  # False while the bus comes up or winds down: no ACK errors then
+    #: participants whose frames that lose arbitration are dropped, not sent again
+    discarding: set[str] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         self._queues: dict[str, deque[_Pending]] = {}
-        self._seq = itertools.count()
+        self._seq = 0
         self._on_wire: tuple[_Pending, float, Timing] | None = None
         self._free_at = -math.inf
         self._now: list[BusEvent] = []
@@ -274,8 +279,8 @@ class CanBusModel:
         if problem:
             self._now.append(BusEvent("bus_error", t, frame, sender, problem))
             return problem
-        self._queues.setdefault(sender, deque()).append(
-            _Pending(frame, sender, t, next(self._seq)))
+        self._seq += 1
+        self._queues.setdefault(sender, deque()).append(_Pending(frame, sender, t, self._seq))
         return ""
 
     def next_time(self) -> float | None:
@@ -319,11 +324,13 @@ class CanBusModel:
             start = max(self._free_at, min(h.time for h in heads))
             if start > until:
                 break
-            contenders = [h for h in heads if h.time <= start]
+            contenders = [h for h in heads if h.time <= start + SAME_INSTANT]
             winner = min(contenders, key=lambda h: (priority(h.frame), h.seq))
             self._queues[winner.sender].popleft()
             for lost in contenders:
                 if lost is not winner:
+                    if lost.sender in self.discarding:
+                        self._queues[lost.sender].popleft()
                     events.append(BusEvent("arbitration_lost", start, lost.frame, lost.sender,
                                            f"lost to 0x{winner.frame.arbitration_id:x}"))
             self._on_wire = (winner, start, frame_timing(winner.frame, self.bitrate,

@@ -317,6 +317,13 @@ class Component:
         scenario is built, as `check`'s."""
         return []
 
+    def open_terminal(self, name: str, peer: Component, terminal: str) -> Mapping[str, str] | None:
+        """A wire joins bus terminal `terminal` of `peer` to `name` of this block, which has no
+        terminal `name`: the members (member -> port) of the terminal this block opens for it
+        (a bus block opens one per participant), or None (it opens none). ValueError says why
+        it refuses."""
+        return None
+
     def check_step(self, h: float) -> list[tuple[str, str, str]]:
         """Problems of the parameters with communication steps of h [s] (the base step times
         the component's step_multiple), found when the scenario is built, as `check`'s."""

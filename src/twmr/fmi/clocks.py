@@ -17,7 +17,8 @@ clocks and the variables they clock, update the discrete states until they settl
 clocks' new intervals, return to step mode, and step on to the communication point. The doStep
 is split at every scheduled tick, so a countdown clock ticks at its own time. What ticked is
 visible to the other components at the end of the communication step; a Binary output of a bus
-terminal that ticks twice in one step carries the operations of both ticks, back to back.
+terminal that ticks twice in one step carries the operations of both ticks, back to back, as a
+`TickedData` that keeps each tick's time (for a bus that reads it at the communication point).
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from typing import TYPE_CHECKING
 
 from twmr.core.errors import FmuError
 from twmr.fmi.description import clock_timing
+from twmr.fmi.lsbus.ticks import TickedData
 
 if TYPE_CHECKING:
     from twmr.fmi.description import FmuPort
@@ -244,8 +246,9 @@ class EventMode:
                 if isinstance(value, bytes) or value is None:
                     value = value or b""
                     c.check_bus_data(name, value, t)
-                    if name in self._fresh and name in c.bus_data:
-                        value = before[name] + value
+                    if name in c.bus_data:
+                        value = before[name].then(t, value) if name in self._fresh else \
+                            TickedData(value, ((t, 0),))
                 d[name] = value
                 self._fresh.add(name)
                 k += n

@@ -94,8 +94,22 @@ def terminal_wires(comps: dict[str, Component], src: End, dst: End, loc: Locatio
     problem (one end a terminal, the other not)."""
     ta = comps[src.comp].terminals.get(src.port) if src.comp in comps else None
     tb = comps[dst.comp].terminals.get(dst.port) if dst.comp in comps else None
-    if ta is None and tb is None:
+    if ta is None and tb is None and not (src.comp in comps and dst.comp in comps and
+                                          src.port not in comps[src.comp].variables and
+                                          dst.port not in comps[dst.comp].variables):
         return None
+    try:
+        if ta is None and src.comp in comps and src.index is None:
+            ta = comps[src.comp].open_terminal(src.port, comps[dst.comp], dst.port)
+        if tb is None and ta is not None and dst.comp in comps and dst.index is None:
+            tb = comps[dst.comp].open_terminal(dst.port, comps[src.comp], src.port)
+        if ta is None and tb is None:
+            return None
+    except ValueError as err:
+        problems.append(Problem(loc, f"'{src.text} -> {dst.text}': {err}.",
+                                "wire each participant's terminal to a terminal of its own on "
+                                "one bus block, e.g. 'ecu.CanChannel -> bus.ecu'."))
+        return []
     if ta is None or tb is None or src.index is not None or dst.index is not None:
         term, other = (src, dst) if ta is not None else (dst, src)
         what = "a bus terminal" if (tb if ta is not None else ta) is not None else \

@@ -5,8 +5,8 @@
  * Bus terminal CanChannel: Rx_Data (Binary input clocked by Rx_Clock), Tx_Data (Binary output
  * clocked by Tx_Clock), Rx_Clock (triggered input clock), Tx_Clock: a triggered output clock, or
  * built with -DCOUNTDOWN an input countdown clock whose interval the FMU gives.
- * At instantiation the Tx buffer holds two Configuration operations (CAN baud rate 100000 bit/s,
- * arbitration lost behaviour BUFFER_AND_RETRANSMIT). Every `period` seconds (k = 1, 2, ...) the node
+ * At instantiation the Tx buffer holds two Configuration operations (CAN baud rate `bitrate`, start
+ * 100000 bit/s, arbitration lost behaviour BUFFER_AND_RETRANSMIT). Every `period` seconds (k = 1, 2, ...) the node
  * appends a CAN Transmit of identifier `id` with the 4 data bytes of its Binary input `payload`
  * (start 01 02 03 04, shorter or longer values cut or padded to 4).
  * Triggered: the Tx clock ticks at the end of the step holding the transmit time; with early return
@@ -14,7 +14,8 @@
  * after the interval (period) the FMU reports through fmi3GetIntervalDecimal after each tick.
  * Received operations (decoded when Rx_Clock ticked, in fmi3UpdateDiscreteStates): CAN Transmit
  * counts in rx_frames and sets rx_id, rx_time (the time of the event) and rx_payload; Confirm counts
- * in confirms; Configuration, Status, Bus Error and Arbitration Lost are ignored; anything else
+ * in confirms; Bus Error counts in bus_errors; Configuration, Status and Arbitration Lost are
+ * ignored; anything else
  * counts in rx_unknown. Parameter `fault` writes malformed operations instead: 1 a transmit whose
  * length field is one byte too long, 2 an unknown operation code 0x99.
  * Byte layout: header opcode (uint32) and total length (uint32), then the fields, packed,
@@ -25,16 +26,16 @@
 #include "fmi3Functions.h"
 
 enum { VR_RX_DATA = 0, VR_TX_DATA = 1, VR_RX_CLOCK = 2, VR_TX_CLOCK = 3, VR_ID = 10, VR_PERIOD = 11,
-       VR_FAULT = 12, VR_PAYLOAD = 13, VR_RX_FRAMES = 20, VR_RX_ID = 21, VR_RX_TIME = 22,
-       VR_RX_PAYLOAD = 23, VR_CONFIRMS = 24, VR_RX_UNKNOWN = 25, VR_TX_FRAMES = 26, VR_TX_TIME = 27,
+       VR_FAULT = 12, VR_PAYLOAD = 13, VR_BITRATE = 14, VR_RX_FRAMES = 20, VR_RX_ID = 21, VR_RX_TIME = 22,
+       VR_RX_PAYLOAD = 23, VR_CONFIRMS = 24, VR_RX_UNKNOWN = 25, VR_TX_FRAMES = 26, VR_TX_TIME = 27, VR_BUS_ERRORS = 28,
        VR_TIME = 1024 };
 enum { BUF = 2048 };
 typedef enum { M_INSTANTIATED, M_INIT, M_EVENT, M_STEP, M_TERMINATED } Mode;
 
 typedef struct {
     double time, period, next_tx, rx_time, tx_time;
-    unsigned id, rx_id;
-    int fault, rx_frames, confirms, rx_unknown, tx_frames, event_mode_used, early_allowed;
+    unsigned id, rx_id, bitrate;
+    int fault, bus_errors, rx_frames, confirms, rx_unknown, tx_frames, event_mode_used, early_allowed;
     unsigned char tx[BUF], rx[BUF], payload[4], rx_payload[64];
     size_t tx_len, rx_len, rx_payload_len;
     int tx_active, tx_reported, rx_active, interval_changed;
@@ -64,7 +65,7 @@ static void op(Inst *c, unsigned code, const unsigned char *body, size_t n) {
 }
 static void configure(Inst *c) {
     unsigned char baud[5] = {0x01}, behaviour[2] = {0x04, 0x01};
-    put32(baud + 1, 100000);
+    put32(baud + 1, c->bitrate);
     op(c, 0x40, baud, 5); op(c, 0x40, behaviour, 2);
     c->tx_active = 1;
 }
@@ -91,20 +92,25 @@ static void receive(Inst *c) {
             c->rx_payload_len = n <= 64 && 16 + n <= len ? n : 0;
             memcpy(c->rx_payload, p + 16, c->rx_payload_len);
         } else if (code == 0x20) c->confirms++;
-        else if (code != 0x40 && code != 0x41 && code != 0x31 && code != 0x30) c->rx_unknown++;
+        else if (code == 0x31) c->bus_errors++;
+        else if (code != 0x40 && code != 0x41 && code != 0x30) c->rx_unknown++;
         at += len;
     }
 }
-static void defaults(Inst *c) {
-    static const unsigned char start[4] = {1, 2, 3, 4};
-    c->time = 0; c->period = 0.3; c->id = 1; c->fault = 0; memcpy(c->payload, start, 4);
-    c->rx_frames = c->confirms = c->rx_unknown = c->tx_frames = 0; c->rx_id = 0; c->rx_time = -1;
-    c->tx_time = -1; c->rx_payload_len = 0; c->tx_len = c->rx_len = 0; c->rx_active = 0;
-    c->tx_reported = 0; c->interval_changed = 1; c->mode = M_INSTANTIATED;
+static void reconfigure(Inst *c) {
+    c->tx_len = 0;
     configure(c);
 #ifdef COUNTDOWN
     c->tx_active = 0; /* the configuration goes out with the first tick of Tx_Clock */
 #endif
+}
+static void defaults(Inst *c) {
+    static const unsigned char start[4] = {1, 2, 3, 4};
+    c->time = 0; c->period = 0.3; c->id = 1; c->bitrate = 100000; c->fault = 0; c->bus_errors = 0; memcpy(c->payload, start, 4);
+    c->rx_frames = c->confirms = c->rx_unknown = c->tx_frames = 0; c->rx_id = 0; c->rx_time = -1;
+    c->tx_time = -1; c->rx_payload_len = 0; c->tx_len = c->rx_len = 0; c->rx_active = 0;
+    c->tx_reported = 0; c->interval_changed = 1; c->mode = M_INSTANTIATED;
+    reconfigure(c);
 }
 
 const char *fmi3GetVersion(void) { return fmi3Version; }
@@ -177,6 +183,7 @@ fmi3Status fmi3GetUInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n
     Inst *i = (Inst *)c;
     for (size_t j = 0; j < n; j++) {
         if (vr[j] == VR_ID) v[j] = i->id;
+        else if (vr[j] == VR_BITRATE) v[j] = i->bitrate;
         else if (vr[j] == VR_RX_ID) v[j] = i->rx_id;
         else return bad_vr(i, "fmi3GetUInt32", vr[j]);
     }
@@ -185,8 +192,11 @@ fmi3Status fmi3GetUInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n
 fmi3Status fmi3SetUInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3UInt32 v[], size_t nv) {
     Inst *i = (Inst *)c;
     for (size_t j = 0; j < n; j++) {
-        if (vr[j] != VR_ID) return bad_vr(i, "fmi3SetUInt32", vr[j]);
-        i->id = v[j];
+        if (vr[j] == VR_BITRATE) {
+            if (i->mode != M_INSTANTIATED && i->mode != M_INIT) return fail(i, "bitrate is fixed");
+            i->bitrate = v[j]; reconfigure(i);
+        } else if (vr[j] == VR_ID) i->id = v[j];
+        else return bad_vr(i, "fmi3SetUInt32", vr[j]);
     }
     return fmi3OK;
 }
@@ -199,6 +209,7 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
         case VR_CONFIRMS: v[j] = i->confirms; break;
         case VR_RX_UNKNOWN: v[j] = i->rx_unknown; break;
         case VR_TX_FRAMES: v[j] = i->tx_frames; break;
+        case VR_BUS_ERRORS: v[j] = i->bus_errors; break;
         default: return bad_vr(i, "fmi3GetInt32", vr[j]);
         }
     }

@@ -112,6 +112,24 @@ def bus_terminals(path: Path, instance: str) -> list[BusTerminal]:
     return terminals
 
 
+def max_sizes(path: Path) -> dict[str, int]:
+    """Binary variable name -> its maxSize [bytes], for those of the FMU at `path` that give
+    one (what an importer may set at once)."""
+    raw = _read(path, "modelDescription.xml") or b"<x/>"
+    return {str(v.get("name")): int(str(v.get("maxSize"))) for v in etree.fromstring(raw).iter(
+        "Binary") if str(v.get("maxSize", "")).isdigit()}
+
+
+def is_bus_simulation(path: Path) -> bool:
+    """Whether the FMU at `path` says it is an LS-BUS bus simulation (its manifest's
+    `isBusSimulationFMU`)."""
+    raw = _read(path, MANIFEST)
+    if raw is None:
+        return False
+    root = etree.fromstring(raw)
+    return "true" in (root.get("isBusSimulationFMU"), root.get(f"{_LS}isBusSimulationFMU"))
+
+
 def _mime_types(path: Path) -> dict[str, str | None]:
     """Binary variable name -> its mimeType attribute (fmpy does not keep it)."""
     raw = _read(path, "modelDescription.xml") or b"<x/>"
