@@ -39,6 +39,13 @@ class SignalSummary(Observer):
         if self._first is None:
             self._first = block[0].copy()
         self._last = block[-1].copy()
+        if np.isfinite(block).all():  # the same figures as below, several times faster
+            self._min = np.fmin(self._min, block.min(axis=0))
+            self._max = np.fmax(self._max, block.max(axis=0))
+            with np.errstate(over="ignore"):
+                self._squares += (block * block).sum(axis=0)
+            self._count += len(block)
+            return
         with np.errstate(invalid="ignore"):
             self._min = np.fmin(self._min, np.nanmin(block, axis=0))
             self._max = np.fmax(self._max, np.nanmax(block, axis=0))
