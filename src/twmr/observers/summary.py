@@ -39,11 +39,12 @@ class SignalSummary(Observer):
         if self._first is None:
             self._first = block[0].copy()
         self._last = block[-1].copy()
-        if np.isfinite(block).all():  # the same figures as below, several times faster
-            self._min = np.fmin(self._min, block.min(axis=0))
-            self._max = np.fmax(self._max, block.max(axis=0))
+        if np.isfinite(block).all():  # the figures below, several times faster: by column
+            columns = np.ascontiguousarray(block.T)
+            self._min = np.fmin(self._min, columns.min(axis=1))
+            self._max = np.fmax(self._max, columns.max(axis=1))
             with np.errstate(over="ignore"):
-                self._squares += (block * block).sum(axis=0)
+                self._squares += np.einsum("ij,ij->i", columns, columns)
             self._count += len(block)
             return
         with np.errstate(invalid="ignore"):
