@@ -35,11 +35,13 @@ values, the step and the start time are arguments, so a sweep over parameter val
 once.
 
 Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
-from the first step when every kind of the system is compiled already (in this process or in
-numba's cache), whatever the run's length; else it compiles a run of at least
-`AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a shorter one in Python;
-FMUs and blocks without a kernel keep the Python schedule. `on` compiles before the first step
-and makes a missing kernel an error; `off` always runs the Python schedule.
+from the first step when every kind of the system is compiled already in this process, whatever
+the run's length, or in numba's cache, for a run of at least `AUTO_MIN_STEPS` steps (loading it
+imports numba: about half a second, more than a shorter run's Python steps); else it compiles a
+run of at least `AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a
+shorter one in Python; FMUs and blocks without a kernel keep the Python schedule. `on` compiles
+before the first step and makes a missing kernel an error; `off` always runs the Python
+schedule.
 """
 from __future__ import annotations
 
@@ -62,8 +64,9 @@ from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto', kinds not compiled yet: runs of at least this many base steps are compiled (a
-#: shorter one is over before numba would have compiled them)
+#: mode 'auto', kinds not held by this process: runs of at least this many base steps are
+#: compiled (a shorter one is over before numba would have compiled them, or loaded them from
+#: its cache)
 AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
 #: why a system with algebraic loops to solve keeps the Python schedule
@@ -121,6 +124,9 @@ class CompiledStep(Algorithm):
         #: whether numba compiled (or loaded from its cache) a kind's adapters or the driver for
         #: this run
         self.driver_compiled = False
+        self._source: str | None = ""
+        #: the kinds the driver runs (their adapters are the source shown)
+        self._kinds_run: list[driver.KindSpec] = []
 
     # -- Algorithm ---------------------------------------------------------------------------
     def refuse(self, system: System) -> Problem | None:
@@ -135,41 +141,56 @@ class CompiledStep(Algorithm):
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
-        self.source = self.python.source
+        self._source, self._kinds_run = None, []
         self._system, self._record, self._decimation = system, record, decimation
         self._check = check_finite
 
     def start(self) -> None:
         """Compile now (mode 'on', or a paced run: never while the clock runs), or once the
         first chunk has run in Python (mode 'auto': a stop signal during compilation then
-        finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`)."""
+        finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`). Mode 'auto'
+        compiles from the first step when every kind is compiled already: held by this process
+        (any run), or in numba's cache (a run of at least `AUTO_MIN_STEPS`: loading it imports
+        numba, which costs a short run more than its Python steps)."""
         self._pending = False
-        if self.mode == "on" or self._system.paced or self._ready():
+        long = self._system.experiment.n_steps >= AUTO_MIN_STEPS
+        if self.mode == "on" or self._system.paced:
             self._compile()
-        elif self._system.experiment.n_steps >= AUTO_MIN_STEPS:
+        elif (ready := self._ready(long)) is not None:
+            self._compile(ready)
+        elif long:
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
-                          f"{AUTO_MIN_STEPS} steps) with kinds not compiled yet"
+                          f"{AUTO_MIN_STEPS} steps) with kinds not held by this process"
 
-    def _ready(self) -> bool:
-        """Mode 'auto': whether every kind of the system is compiled already (in this process or
-        in numba's cache), so the whole run can be compiled from its first step."""
+    def _ready(self, cached: bool
+               ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:
+        """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
+        already (held by this process, or, if `cached`, in numba's cache), so the whole run can
+        be compiled from its first step; else None."""
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
-        return kinds is not None and driver.cached(list(kinds.values()), cache_dir())
+        if kernels is None or kinds is None:
+            return None
+        found = list(kinds.values())
+        return (kernels, kinds) if driver.held(found) or (
+            cached and driver.cached(found, cache_dir())) else None
 
-    def _compile(self) -> None:
+    def _compile(self, ready: tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None = None
+                 ) -> None:
         """Collect the kernels from the components as they are now (initialized, maybe stepped
-        by the Python schedule) and compile the loop; on failure keep the Python schedule
-        (mode 'auto') or raise `CompileError` (mode 'on')."""
+        by the Python schedule; `ready`: those and their kinds just collected) and compile the
+        loop; on failure keep the Python schedule (mode 'auto') or raise `CompileError` (mode
+        'on')."""
         system = self._system
         assert self.python.plan is not None
         if self.python.plan.loops:
             self.reason = LOOPS
             return
-        kernels, self.reason = _kernels(system, self._record, self.mode == "on")
+        kernels, self.reason = (ready[0], "") if ready is not None else \
+            _kernels(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(
@@ -182,7 +203,8 @@ class CompiledStep(Algorithm):
         exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
-        kinds = _kinds(system, kernels) if self.use_driver else None
+        kinds = ready[1] if ready is not None else \
+            _kinds(system, kernels) if self.use_driver else None
         if kinds is not None:
             self._compile_driver(kinds, kernels, t0)
             return
@@ -211,7 +233,7 @@ class CompiledStep(Algorithm):
             self._refuse(exc)
             return
         self.compile_seconds = time.perf_counter() - t0
-        self.source = source
+        self._source = source
         self.compiled = True
 
     def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
@@ -230,8 +252,19 @@ class CompiledStep(Algorithm):
         self._driver = driver_loop
         self.driver_compiled = fresh > 0
         self.compile_seconds = time.perf_counter() - t0
-        self.source = "\n".join(dict.fromkeys(driver.generate(k)[0] for k in kinds.values()))
+        self._kinds_run = list(kinds.values())
         self.compiled = True
+
+    @property
+    def source(self) -> str:  # type: ignore[override]
+        """The loop running: the generated one, the driver's adapters of the system's kinds
+        (rendered when asked), or the Python schedule's."""
+        if self._source is None:
+            if not self.compiled:
+                return self.python.source
+            self._source = "\n".join(dict.fromkeys(driver.generate(k)[0]
+                                                   for k in self._kinds_run))
+        return self._source
 
     def _refuse(self, exc: Exception) -> None:
         """numba failed on the loop: the Python schedule (mode 'auto') or `CompileError`."""

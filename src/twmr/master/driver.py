@@ -109,8 +109,16 @@ class KindSpec:
 
     @functools.cached_property
     def key(self) -> str:
-        """The adapters' source: equal keys, one adapter."""
-        return _adapters(self)
+        """The adapters' source: equal keys, one adapter (rendered once per process: a run of
+        a built system makes its kinds anew)."""
+        key = _KEYS.get(self)
+        if key is None:
+            key = _KEYS[self] = _adapters(self)
+        return key
+
+
+#: the keys of the kinds this process has met
+_KEYS: dict[KindSpec, str] = {}
 
 
 def kind_of(comp: Any, kern: Kernel) -> KindSpec:
@@ -402,6 +410,12 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
             fn.compile(sig)
             fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh
+
+
+def held(kinds: Sequence[KindSpec]) -> bool:
+    """Whether this process holds the adapters of every kind of `kinds` (and so has the driver
+    compiled)."""
+    return all(k.key in _LOADED for k in kinds)
 
 
 def cached(kinds: Sequence[KindSpec], folder: Any) -> bool:

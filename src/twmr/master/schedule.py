@@ -80,7 +80,7 @@ class FixedStep(Algorithm):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
-        self.source = ""
+        self._source: str | None = ""
         self.filename = ""
         self.plan: Plan | None = None
         self._system: System | None = None
@@ -95,10 +95,19 @@ class FixedStep(Algorithm):
         self.plan = build(system, self.method, record, decimation, check_finite)
         self._system = system
         self._run = self._finish = None
-        # until the components are initialized: every block that may run its kernel does
-        shapes = {n: Shape(True, True) for n, c in system.components.items()
-                  if runs_kernel(c) and self._kernels_wanted()}
-        self.source, self._owner, _ = _generate(system, self.plan, shapes)
+        self._source = None
+
+    @property
+    def source(self) -> str:  # type: ignore[override]
+        """The generated loop: the one running, else (rendered when asked) the loop before the
+        components are initialized, where every block that may run its kernel does."""
+        if self._source is None:
+            system, plan = self._system, self.plan
+            assert system is not None and plan is not None
+            shapes = {n: Shape(True, True) for n, c in system.components.items()
+                      if runs_kernel(c) and self._kernels_wanted()}
+            self._source, self._owner, _ = _generate(system, plan, shapes)
+        return self._source
 
     def _kernels_wanted(self) -> bool:
         """Whether blocks may run their kernels in the loop: not when an algebraic loop is solved
@@ -116,11 +125,11 @@ class FixedStep(Algorithm):
             k = python_kernel(comp, _step_of(system, name))
             if k is not None:
                 shapes[name] = Shape(k.evaluate is not None, k.step is not None)
-        self.source, self._owner, env = _generate(system, plan, shapes)
+        self._source, self._owner, env = _generate(system, plan, shapes)
         self.filename = f"<twmr schedule {system.source} {id(self):x}>"
-        linecache.cache[self.filename] = (len(self.source), None,
-                                          self.source.splitlines(True), self.filename)
-        exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        linecache.cache[self.filename] = (len(self._source), None,
+                                          self._source.splitlines(True), self.filename)
+        exec(compile(self._source, self.filename, "exec"), env)  # noqa: S102 - generated here
         timing = stats.timing_wanted()
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
