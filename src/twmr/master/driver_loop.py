@@ -43,6 +43,18 @@ def _call(typingctx: Any, addr: Any, t: Any, h: Any, sp: Any, xp: Any, pp: Any, 
     return sig, codegen
 
 
+@intrinsic
+def _vector(typingctx: Any, addr: Any) -> Any:
+    """The float64 vector at C address `addr`, indexed without numba's wraparound of negative
+    indices (every index of the plan is an offset >= 0)."""
+    ptr = types.CPointer(types.float64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.inttoptr(args[0], context.get_value_type(ptr))
+
+    return ptr(types.int64), codegen
+
+
 @njit(cache=True, error_model="numpy")
 def _block(col: int, b: int, t: float, h: float, S: Any, X: Any, P: Any, blocks: Any) -> None:
     _call(blocks[b, col], t, h, S.ctypes.data, X.ctypes.data,  # type: ignore[call-arg]
@@ -52,6 +64,7 @@ def _block(col: int, b: int, t: float, h: float, S: Any, X: Any, P: Any, blocks:
 @njit(cache=True, error_model="numpy")
 def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gains: Any,
            blocks: Any) -> None:
+    s: Any = _vector(S.ctypes.data)  # type: ignore[call-arg]
     for i in range(ops.shape[0]):
         m = ops[i, 3]
         if not final and m != 1 and n % m != 0:
@@ -61,9 +74,9 @@ def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gain
             a = ops[i, 1]
             b = ops[i, 2]
             for e in range(ops[i, 4]):
-                S[a + e] = S[b + e]
+                s[a + e] = s[b + e]
         elif code == 1:
-            S[ops[i, 1]] = S[ops[i, 2]] * gains[i, 0] + gains[i, 1]
+            s[ops[i, 1]] = s[ops[i, 2]] * gains[i, 0] + gains[i, 1]
         else:
             _block(0, ops[i, 1], t, 0.0, S, X, P, blocks)
 
@@ -71,14 +84,15 @@ def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gain
 @njit(cache=True, error_model="numpy")
 def _nonfinite(S: Any, chk: Any) -> bool:
     """The Python schedule's sum over the watched ports, chunk by chunk, is not finite."""
+    s: Any = _vector(S.ctypes.data)  # type: ignore[call-arg]
     v = 0.0
     cs = 0.0
     cur = -1
     for i in range(chk.shape[0]):
         o = chk[i, 0]
-        term = S[o]
+        term = s[o]
         for e in range(1, chk[i, 1]):
-            term = term + S[o + e]
+            term = term + s[o + e]
         if chk[i, 2] != cur:
             if cur >= 0:
                 v = v + cs
@@ -93,9 +107,10 @@ def _nonfinite(S: Any, chk: Any) -> bool:
 
 @njit(cache=True, error_model="numpy")
 def _record(k: int, t: float, S: Any, rec: Any, buf: Any) -> None:
+    s: Any = _vector(S.ctypes.data)  # type: ignore[call-arg]
     buf[k, 0] = t
     for j in range(rec.shape[0]):
-        buf[k, 1 + j] = S[rec[j]]
+        buf[k, 1 + j] = s[rec[j]]
 
 
 @njit(cache=True, error_model="numpy")
