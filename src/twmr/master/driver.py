@@ -280,8 +280,9 @@ class Layout:
     H: np.ndarray
     chk: np.ndarray
     rec: np.ndarray
-    #: per block (in plan order): its offset in S, in X and its state's shape
-    signal: list[int]
+    #: per block (in plan order): its ports (name, offset in S, width: None a scalar), and its
+    #: offset in X and its state's shape
+    ports: list[list[tuple[str, int, int | None]]]
     state: list[tuple[int, Shape]]
 
 
@@ -295,19 +296,22 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
     S: list[float] = []
     X: list[float] = []
     P: list[float] = []
-    blocks, signal, state = [], [], []
+    blocks: list[tuple[int, ...]] = []
+    ports: list[list[tuple[str, int, int | None]]] = []
+    state: list[tuple[int, Shape]] = []
     for b, name in enumerate(plan.order):
         comp, kern, kind = comps[name], kernels[name], kinds[name]
         so = len(S)
+        ports.append([])
         for port, var in {**comp.outputs, **comp.inputs}.items():
             slot[(name, port)] = len(S)
+            ports[-1].append((port, len(S), None if var.size is None else var.width))
             value = comp.__dict__[port]
             S.extend([float(value)] if var.size is None else [float(v) for v in value])
         xo, po = len(X), len(P)
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
         blocks.append((*addresses[kind.key], so, xo, po))
-        signal.append(so)
         state.append((xo, kind.state))
         assert b == len(blocks) - 1
     snap: dict[tuple[str, str], int] = {}
@@ -362,7 +366,7 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
                   np.array(P, dtype=np.float64), ints(ops, 5),
                   np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 5),
                   ints(steps, 2), np.array(H, dtype=np.float64), ints(chk, 3),
-                  np.array(rec, dtype=np.int64), signal, state)
+                  np.array(rec, dtype=np.int64), ports, state)
 
 
 # -- the compiled kinds ------------------------------------------------------------------------
