@@ -287,16 +287,12 @@ class CompiledStep(Algorithm):
     def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
         """As `_sync`, from the driver's vectors."""
         lay = self._layout
-        S = lay.S
-        for comp, kern, o, (xo, shape) in zip(self._comps, self._kernels, lay.signal,
-                                              lay.state, strict=True):
+        values = lay.S.tolist()
+        for comp, kern, ports, (xo, shape) in zip(self._comps, self._kernels, lay.ports,
+                                                  lay.state, strict=True):
             d = comp.__dict__
-            for port, var in {**comp.outputs, **comp.inputs}.items():
-                if var.size is None:
-                    d[port] = float(S[o])
-                else:
-                    d[port] = tuple(S[o:o + var.width].tolist())
-                o += var.width
+            for port, o, size in ports:
+                d[port] = values[o] if size is None else tuple(values[o:o + size])
             if kern.sync is not None:
                 kern.sync(driver.rebuild(lay.X, xo, shape)[0])
         if k and self._record:
