@@ -45,19 +45,8 @@ _FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
               "Boolean": "Boolean", "String": "String"}
 
 
-#: FMI 2.0 status codes above fmi2Warning
-_FMI2_STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
-
-
-def _real_ports(plan: list[Any]) -> tuple[tuple[tuple[str, int], ...], list[int]] | None:
-    """(ports [(name, width)], value references) of a call plan (`FmuComponent._plan`) holding
-    Real values only, in one call; None otherwise."""
-    if not plan:
-        return (), []
-    if len(plan) > 1 or plan[0][0].__name__ not in ("setReal", "getReal"):
-        return None
-    _, vrs, _, names, _ = plan[0]
-    return tuple((name, count) for name, _, count in names), list(vrs)
+#: FMI status codes above Warning (the names after fmi2 / fmi3)
+_FMI_STATUS = {2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
 
 
 def _call_suffix(fmi_type: str, fmi3: bool) -> str:
@@ -640,48 +629,32 @@ class FmuComponent(Component):
 
     def compiled_calls(self, h: float) -> Kernel | None:
         """This FMU's compiled form, for the compiled loop (`twmr.master.compiled`, mode 'on'):
-        the loop calls fmi2SetReal, fmi2GetReal and fmi2DoStep itself through their C function
-        pointers, with the calls and their order of `evaluate` / `do_step` (the wired inputs in
-        one fmi2SetReal, at `evaluate` when the FMU has feedthrough, else before the step; the
-        feedthrough outputs in one fmi2GetReal; after fmi2DoStep the other outputs the run
-        reads). None for FMI 3.0, model exchange, pythonfmu's own FMUs or non-Real ports (they
-        keep the Python loop). Call after `initialize`; `h` [s] is its step."""
-        import ctypes
-
-        import numpy as np
-
-        from twmr.core.kernel import FmuCalls, Kernel
+        the loop calls its set, get and doStep functions itself through their C function
+        pointers, with the calls and their order of `evaluate` / `do_step`
+        (`twmr.master.fmu_kernel`). None for model exchange, event mode, an isolated FMU or
+        pythonfmu's own FMUs (they keep the Python loop); `NotCompilable` for a port the loop
+        cannot carry. Call after `initialize`; `h` [s] is its step."""
+        from twmr.master.fmu_kernel import TERMINATE, compiled_form
 
         fmu = self._fmu
-        if fmu is None or self.me or self.fmi3 or self._pythonfmu or not hasattr(fmu, "dll"):
+        if fmu is None or self.me or self.event_mode or self._pythonfmu or \
+                not hasattr(fmu, "dll"):
             return None
-        plans = [_real_ports(p) for p in (self._set_all, self._get_ft, self._get_step)]
-        if any(p is None for p in plans):
-            return None
-        (ins, in_vrs), (ft, ft_vrs), (st, st_vrs) = [  # type: ignore[misc]
-            (ports, np.asarray(vrs, dtype=np.uint32)) for ports, vrs in plans]
-        size = ctypes.c_size_t
-        io = ctypes.CFUNCTYPE(ctypes.c_int, size, size, size, size)
-        step = ctypes.CFUNCTYPE(ctypes.c_int, size, ctypes.c_double, ctypes.c_double,
-                                ctypes.c_int)
-
-        def address(symbol: str) -> int:
-            return ctypes.cast(getattr(fmu.dll, symbol), ctypes.c_void_p).value or 0
-
-        instance = getattr(fmu.component, "value", fmu.component)
-        values = np.zeros(max(1, len(in_vrs), len(ft_vrs), len(st_vrs)))
-        params = (io(address("fmi2SetReal")), io(address("fmi2GetReal")),
-                  step(address("fmi2DoStep")), int(instance), in_vrs, ft_vrs, st_vrs, values)
+        version = "fmi3" if self.fmi3 else "fmi2"
 
         def error(call: str, status: int, t: float) -> BaseException:
             self._t = t
+            if status == TERMINATE:
+                return self._terminated(t, "(fmi3DoStep terminateSimulation)")
             if call == "fmi2DoStep" and status == 2 and self._fmi2_terminated():
                 return self._terminated(t, _FMI2_DISCARDED)
+            said = _FMI_STATUS.get(status, str(status))
             return FmuError(self.name, t, f"FMU '{self.path.name}': {call} returned "
-                            f"{_FMI2_STATUS.get(status, status)}. Fix: see the FMU's log; check "
-                            f"its inputs and parameters at this time.", self.log.tail())
+                            f"{version}{said}. Fix: see the FMU's log; check its inputs and "
+                            f"parameters at this time.", self.log.tail())
 
-        return Kernel(params=params, fmu=FmuCalls(ins, ft, st, error))
+        return compiled_form(self, fmu, self.fmi3, [self._set_all, self._get_ft,
+                                                    self._get_step], error)
 
     def get_state(self) -> Any:
         """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,
