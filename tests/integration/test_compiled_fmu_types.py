@@ -123,6 +123,32 @@ def test_every_scalar_type_bit_identical_python_and_compiled(fmus, chain) -> Non
     assert len(np.unique(python[:, 1])) > 400  # vdp's x0 went through both feedthroughs
 
 
+def test_a_feedthrough_fmu_is_evaluated_once_per_point(fmus) -> None:
+    """types3 has feedthrough outputs that feed nothing and depend on open inputs only
+    (Float32_output, visited before the wired Float64_input): visiting them evaluates nothing,
+    so along vdp -> a -> b each FMU is set and got once per point, after its input is written."""
+    from fmpy import read_model_description
+
+    inputs = [v.name for v in read_model_description(str(fmus["types3"])).modelVariables
+              if v.causality == "input" and v.name != "Float64_input"]
+    text = f"""
+components:
+  vdp: {{kind: fmu, parameters: {{path: {fmus['vdp3']}}}}}
+  a: {{kind: fmu, parameters: {{path: {fmus['types3']}}}}}
+  b: {{kind: fmu, parameters: {{path: {fmus['types3']}}}}}
+connections: [vdp.x0 -> a.Float64_input, a.Float64_output -> b.Float64_input]
+open: [{', '.join(f'{c}.{n}' for c in 'ab' for n in inputs)}]
+experiment: {{stop: 0.01, step: 0.001}}
+record: {{signals: [b.Float64_output]}}
+"""
+    python = Execution(loads(text, source="chain.yaml"), [ResultStore()],
+                       algorithm=make_algorithm("gauss_seidel", "off"))
+    python.run()
+    loop = python.algorithm.source.split("def finish")[0]
+    assert [loop.count(f"ev{i}(t)") for i in (1, 2)] == [1, 1], loop
+    assert np.array_equal(run(text, "off")[0], run(text, "on")[0])
+
+
 def test_fmi3_conversions_as_the_python_path(fmus) -> None:
     """Integers into Real inputs round to the nearest float (Float32: to float32), into
     narrower or unsigned ones wrap around as C does; the inputs hold the integers as given."""

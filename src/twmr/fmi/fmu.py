@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import operator
@@ -28,6 +29,7 @@ from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.fmi import guard
 from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
+from twmr.fmi.direct import accessor, stepper, supports
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
@@ -391,7 +393,14 @@ class FmuComponent(Component):
         self._get_step = self._plan([p for p in read if p.name not in feedthrough]
                                     if self.has_feedthrough and not self._after_step_all
                                     else read, 0)
+        self._read_ft, self._read_step = self._readers(self._get_ft), \
+            self._readers(self._get_step)
+        if not self.me:
+            self._sets = [(setter, vrs, gather) for setter, vrs, _, _, gather in self._set_all]
         self._sent = None
+        if not self.me and not self.event_mode:
+            self._step = stepper(f, self.fmi3) if hasattr(f, "_functions") and \
+                not self._pythonfmu else self._fmpy_step
         if self.event_mode:  # initialization ended in event mode
             self._events = EventMode(self)
             self._events.start(self.start_time)
@@ -434,15 +443,20 @@ class FmuComponent(Component):
         for p in ports:
             by.setdefault((_call_suffix(p.fmi_type, self.fmi3), p.display), []).append(p)
         plan = []
-        for (_, display), ps in by.items():
-            fn = self._accessors(ps[0].fmi_type)[which]
-            if which == 0 and ps[0].fmi_type == "String":
-                fn = _text_getter(fn)
-            if display is not None:
-                fn = _shown(fn, *display)
+        direct = not self._pythonfmu and hasattr(self._fmu, "_functions")
+        for (suffix, display), ps in by.items():
             vrs = [vr for p in ps for vr in p.vrs]
+            count = sum(p.count for p in ps)
+            if direct and display is None and supports(suffix, self.fmi3):
+                fn = accessor(self._fmu, self.fmi3, suffix, which, vrs, count)
+            else:
+                fn = self._accessors(ps[0].fmi_type)[which]
+                if which == 0 and ps[0].fmi_type == "String":
+                    fn = _text_getter(fn)
+                if display is not None:
+                    fn = _shown(fn, *display)
             names = [(p.name, p.scalar, p.count) for p in ps]
-            plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
+            plan.append((fn, vrs, count, names, self._gather(names)))
         return plan
 
     def _gather(self, names: list[tuple[str, bool, int]]) -> Callable[[], list[Any]]:
@@ -500,6 +514,25 @@ class FmuComponent(Component):
                 d[name] = values[k] if scalar else tuple(values[k:k + n])
                 k += n
 
+    def _readers(self, plan: list[Any]) -> list[Callable[[], None]]:
+        """One function per call of `plan` (a getter's) getting its values into the ports."""
+        d = self.__dict__
+        out: list[Callable[[], None]] = []
+        for entry in plan:
+            getter, vrs, count, names, _ = entry
+            if len(names) != 1 or not names[0][1]:
+                out.append(functools.partial(self._get, [entry]))
+            elif self.fmi3:
+                def read3(getter: Any = getter, vrs: Any = vrs, count: int = count,
+                          name: str = names[0][0]) -> None:
+                    d[name] = getter(vrs, count)[0]
+                out.append(read3)
+            else:
+                def read2(getter: Any = getter, vrs: Any = vrs, name: str = names[0][0]) -> None:
+                    d[name] = getter(vrs)[0]
+                out.append(read2)
+        return out
+
     def _set_inputs(self, t: float) -> None:
         """The wired inputs into the FMU; for model exchange a changed discrete input is set in
         event mode (an event at t), and a changed continuous one restarts the solver."""
@@ -526,11 +559,11 @@ class FmuComponent(Component):
             if self.me:
                 self._set_inputs(t)
             else:
-                self._sent = tuple(gather() for *_, gather in self._set_all)
-                for (setter, vrs, *_), values in zip(self._set_all, self._sent, strict=True):
+                self._sent = sent = tuple([gather() for _, _, gather in self._sets])
+                for (setter, vrs, _), values in zip(self._sets, sent, strict=True):
                     setter(vrs, values)
-            if self._get_ft:
-                self._get(self._get_ft)
+            for read in self._read_ft:
+                read()
         except (FmuError, Terminated):
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
@@ -545,21 +578,24 @@ class FmuComponent(Component):
                 self._set_inputs(t)
             else:
                 sent, self._sent = self._sent, None
-                for i, (setter, vrs, _, _, gather) in enumerate(self._set_all):
-                    values = gather()
-                    if sent is None or values != sent[i]:
-                        setter(vrs, values)
+                if sent is None:
+                    for setter, vrs, gather in self._sets:
+                        setter(vrs, gather())
+                else:
+                    for (setter, vrs, gather), values in zip(self._sets, sent, strict=True):
+                        now = gather()
+                        if now != values:
+                            setter(vrs, now)
+            terminate = False
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
-                result = None
             elif self._events is not None:
                 self._events.step(t, h)
-                result = None
-            else:
-                result = self._fmu.doStep(t, h)
-            if self._get_step:
-                self._get(self._get_step)
+            elif self._step(t, h):
+                terminate = True
+            for read in self._read_step:
+                read()
         except Terminated as stop:
             raise self._terminated(stop.args[0], "(terminateSimulation)") from None
         except FmuError:
@@ -570,8 +606,13 @@ class FmuComponent(Component):
             what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
                                                               else "fmi2DoStep")
             raise self._error(what, exc) from exc
-        if self.fmi3 and result is not None and result[1]:
+        if terminate:
             raise self._terminated(t, "(fmi3DoStep terminateSimulation)")
+
+    def _fmpy_step(self, t: float, h: float) -> bool:
+        """fmpy's doStep: whether the FMU asks to terminate (FMI 3.0)."""
+        result = self._fmu.doStep(t, h)
+        return bool(self.fmi3 and result[1])
 
     def _terminated(self, t: float, how: str) -> FmuTerminated:
         """The FMU's request at `t` to end the simulation, `how` it asked."""

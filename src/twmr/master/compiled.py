@@ -24,8 +24,9 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-An FMI 2.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
-functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
+An FMI 2.0 or 3.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
+functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`,
+`twmr.master.fmu_kernel`), its Integer and Boolean ports carried as integers.
 
 The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
 (`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
