@@ -153,8 +153,8 @@ def test_fmi3_conversions_as_the_python_path(fmus) -> None:
     """Integers into Real inputs round to the nearest float (Float32: to float32), into
     narrower or unsigned ones wrap around as C does; the inputs hold the integers as given."""
     store = ResultStore()
-    outcome = Execution(loads(fmi3_chain(fmus), source="typed.yaml"), [store],
-                        algorithm=make_algorithm("gauss_seidel", "on")).run()
+    system = loads(fmi3_chain(fmus), source="typed.yaml")
+    outcome = Execution(system, [store], algorithm=make_algorithm("gauss_seidel", "on")).run()
     assert outcome.extra["algorithm.compiled"] is True
     last = dict(zip(store.columns, store.data()[-1], strict=True))
     expect = {"c.Float64_output": float(2**64 - 1),
@@ -164,6 +164,8 @@ def test_fmi3_conversions_as_the_python_path(fmus) -> None:
               "c.Boolean_output": 1.0, "c.Int8_input": float(-2**53 - 1),
               "b.UInt64_output": float(2**64 - 1), "b.Int32_output": -2147483648.0}
     assert {k: last[k] for k in expect} == expect
+    b = system.components["b"]
+    assert b.get("Boolean_output") is True and b.get("UInt64_output") == 2**64 - 1
 
 
 def test_a_wired_string_refuses_the_compiled_loop(fmus) -> None:

@@ -116,8 +116,8 @@ def _number(value: Any, kind: str) -> Any:
 
 
 def _carried(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, str], str]:
-    """How the loop carries each port: 'f' float64, 'i' int64, 'u' uint64
-    (`fmu_kernel.carried`; an integer input as its source, so it holds the same integer) or 'x'
+    """How the loop carries each port: 'f' float64, 'i' int64, 'u' uint64, 'b' int64 as a bool
+    (`fmu_kernel.carried`; an integer input as its source, so it holds the same value) or 'x'
     not at all (a String, Binary or Clock port of an FMU that the run neither sets nor
     reads)."""
     from twmr.master.fmu_kernel import carried
@@ -125,14 +125,15 @@ def _carried(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, str]
     out: dict[tuple[str, str], str] = {}
     for name in system.order:
         comp = system.components[name]
-        fmi = {p.name: p.fmi_type for p in getattr(comp, "ports", ())} \
-            if kernels[name].fmu is not None else {}
+        fmu = kernels[name].fmu
+        fmi = {p.name: p.fmi_type for p in getattr(comp, "ports", ())} if fmu else {}
         for port, var in {**comp.outputs, **comp.inputs}.items():
             out[name, port] = "x" if var.type in (*TEXT_TYPES, CLOCK) else \
-                carried(fmi.get(port, "Real")) if var.type != "Real" else "f"
+                carried(fmi.get(port, "Real"), bool(fmu and fmu.fmi3)) if var.type != "Real" \
+                else "f"
     for conn in system.connections:
         dst = (conn.dst, conn.dst_port)
-        if out[dst] in ("i", "u") and conn.dst_index is None and conn.src_index is None:
+        if out[dst] in ("i", "u", "b") and conn.dst_index is None and conn.src_index is None:
             out[dst] = out[conn.src, conn.src_port]
     return out
 
@@ -333,8 +334,10 @@ class CompiledStep(Algorithm):
             d = comp.__dict__
             for port, value in (*zip(comp.outputs, y, strict=False),
                                 *zip(comp.inputs, u, strict=False)):
-                if kinds[name, port] != "x":
-                    d[port] = value
+                kind = kinds[name, port]
+                if kind != "x":
+                    d[port] = bool(value) if kind == "b" and not isinstance(value, tuple) \
+                        else value
             if kern.sync is not None:
                 kern.sync(x)
         if k and self._record:

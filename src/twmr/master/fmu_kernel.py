@@ -7,7 +7,8 @@ call per FMI type with the value references and a value buffer of that type laid
 calls, their order and their values are those of `FmuComponent.evaluate` / `do_step`. Port
 values are carried in the loop as the Python path holds them: a Real as a float64 (a Float32
 variable too: it is rounded to float32 only on its way into the FMU, as ctypes does), an
-Integer or a Boolean as an int64 (a UInt64 variable as a uint64), converted into the call's C
+Integer or a Boolean as an int64 (a UInt64 variable as a uint64; back in Python an FMI 3.0
+Boolean is a bool again), converted into the call's C
 type on the way in with C's wrap-around, as fmpy's ctypes arrays convert a Python int.
 
 Supported: FMI 2.0 and 3.0 co-simulation FMUs without event mode, whose set and got ports are
@@ -45,11 +46,14 @@ class NotCompilable(Exception):
     """An FMU the generated loop cannot call (the message says which port and why)."""
 
 
-def carried(fmi_type: str) -> str:
-    """How the loop carries a value of FMI type `fmi_type`: 'f' float64, 'i' int64 or 'u'
-    uint64."""
+def carried(fmi_type: str, fmi3: bool) -> str:
+    """How the loop carries a value of FMI type `fmi_type`: 'f' float64, 'i' int64, 'u' uint64
+    or 'b' an int64 that is a bool in Python (an FMI 3.0 Boolean; fmpy gives an FMI 2.0 one as
+    the int the FMU returned)."""
     if fmi_type in ("Real", "Float64", "Float32"):
         return "f"
+    if fmi_type == "Boolean" and fmi3:
+        return "b"
     return "u" if fmi_type == "UInt64" else "i"
 
 
