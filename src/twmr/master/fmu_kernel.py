@@ -81,15 +81,15 @@ def compiled_form(component: Any, fmu: Any, fmi3: bool, plans: list[list[Any]],
             suffix = what[3:]
             for name, scalar, _ in names:
                 port = ports[name]
+                if port.display is not None:
+                    raise NotCompilable(
+                        f"port '{component.name}.{name}' is an alias in a display unit of its "
+                        f"own, which the compiled loop does not convert")
                 if port.fmi_type in ("String", "Binary", "Clock") or suffix not in types:
                     raise NotCompilable(
                         f"port '{component.name}.{name}' is {port.fmi_type}, which the "
                         f"compiled loop does not carry (it carries Real, Integer and Boolean "
                         f"values)")
-                if port.display is not None:
-                    raise NotCompilable(
-                        f"port '{component.name}.{name}' is an alias in a display unit of its "
-                        f"own, which the compiled loop does not convert")
                 if not scalar and not types[suffix][1]:
                     raise NotCompilable(
                         f"port '{component.name}.{name}' is an array of {port.fmi_type}, and "

@@ -478,7 +478,9 @@ def evaluation_plan(comps: dict[str, Component], conns: list[Connection],
 
     Ports are visited in topological order: a connected input is written once its sources are
     final; a component is evaluated when one of its feedthrough outputs is reached and it has not
-    been evaluated at this point yet, or an input that output depends on was written since. So a
+    been evaluated at this point yet, or an input that output depends on was written since (an
+    output that feeds nothing and depends on no wired input evaluates nothing: its component is
+    evaluated later in the point, at the latest at its end). So a
     component is evaluated twice in a point when the wiring runs through it twice (y1 = f(u1)
     feeds a block that drives u2, and y2 = g(u2)). Each of `loops` (`find_loops`) is one node of
     that order, ("loop", index, ""): solved once everything it reads is final. With a cycle
