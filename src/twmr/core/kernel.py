@@ -108,17 +108,34 @@ class Kernel:
 
 
 @dataclass(frozen=True)
-class FmuCalls:
-    """What the generated loop needs to call an FMI 2.0 co-simulation FMU: the ports each call
-    carries, [(port, width)] in the order of their value references. The parameters of its
-    `Kernel` are (fmi2SetReal, fmi2GetReal, fmi2DoStep as ctypes functions taking pointers as
-    size_t, the instance, the value references of the inputs, of the feedthrough outputs and of
-    the outputs read after a step (uint32 arrays), a float64 value buffer); a status above
-    fmi2Warning stops the run, reported by `error(call, status, t)`."""
+class FmuTransfer:
+    """One set or get call of an FMU in the generated loop: the FMI function (e.g.
+    'fmi3SetInt8'), the ports it carries [(port, width)] in the order of their value
+    references, how many value references and values, and whether the loop carries the values
+    as floats (else as integers)."""
 
-    inputs: tuple[tuple[str, int], ...]
-    feedthrough: tuple[tuple[str, int], ...]
-    after_step: tuple[tuple[str, int], ...]
+    call: str
+    ports: tuple[tuple[str, int], ...]
+    nvr: int
+    count: int
+    real: bool
+
+
+@dataclass(frozen=True)
+class FmuCalls:
+    """What the generated loop needs to call an FMI 2.0 or 3.0 co-simulation FMU
+    (`twmr.master.fmu_kernel`): its calls, one per FMI type, setting the inputs, getting the
+    feedthrough outputs and getting the outputs read after a step. The parameters of its
+    `Kernel` are (doStep as a ctypes function taking pointers as size_t, the instance, doStep's
+    flags (3 booleans) and last successful time (FMI 3.0), then per call in that order (the
+    function, the value references as uint32, a value buffer of the call's C type)); a status
+    above Warning stops the run, reported by `error(call, status, t)` (status -1: fmi3DoStep
+    asked to terminate)."""
+
+    fmi3: bool
+    inputs: tuple[FmuTransfer, ...]
+    feedthrough: tuple[FmuTransfer, ...]
+    after_step: tuple[FmuTransfer, ...]
     error: Callable[[str, int, float], BaseException]
 
 
@@ -215,4 +232,5 @@ def _field_read(node: ast.expr, table: Any, parents: dict[ast.AST, ast.AST], bou
     return False
 
 
-__all__ = ["FmuCalls", "Kernel", "KernelFunction", "kernel_function", "python_params"]
+__all__ = ["FmuCalls", "FmuTransfer", "Kernel", "KernelFunction", "kernel_function",
+           "python_params"]
