@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401
 from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
@@ -64,10 +64,6 @@ from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto', kinds not held by this process: runs of at least this many base steps are
-#: compiled (a shorter one is over before numba would have compiled them, or loaded them from
-#: its cache)
-AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
@@ -153,7 +149,7 @@ class CompiledStep(Algorithm):
         (any run), or in numba's cache (a run of at least `AUTO_MIN_STEPS`: loading it imports
         numba, which costs a short run more than its Python steps)."""
         self._pending = False
-        long = self._system.experiment.n_steps >= AUTO_MIN_STEPS
+        long = compiled_pays(self._system.experiment.n_steps)
         if self.mode == "on" or self._system.paced:
             self._compile()
         elif (ready := self._ready(long)) is not None:

@@ -1,0 +1,65 @@
+"""A long run on the Python schedule calls the robot's kernel functions compiled from Python (the
+work of a step inside numba, the blocks' tables and state in Python), with the rows of the
+compiled loop; a short one imports no numba and runs the plain functions."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from twmr.components import _model
+from twmr.components.plant import plant_step
+from twmr.core.component import _CALLS
+from twmr.core.kernel import AUTO_MIN_STEPS
+from twmr.master import Execution
+from twmr.master.algorithm import make_algorithm
+from twmr.observers.store import ResultStore
+from twmr.scenario import load
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPER = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+
+
+def run(mode: str, stop: float) -> tuple[np.ndarray, dict, dict]:
+    """(rows, outcome extras, {block: its bound kernel}) of the paper scenario up to `stop`."""
+    system = load(PAPER, [f"experiment.stop={stop}"])
+    store = ResultStore()
+    outcome = Execution(system, [store], algorithm=make_algorithm("gauss_seidel", mode)).run()
+    bound = {n: c.__dict__[_CALLS].bound for n, c in system.components.items()
+             if _CALLS in c.__dict__}
+    return store.data(), outcome.extra, bound
+
+
+def test_a_long_python_schedule_run_calls_the_model_compiled_with_the_compiled_rows() -> None:
+    stop = AUTO_MIN_STEPS * 1e-3
+    rows, extra, bound = run("off", stop)
+    assert extra.get("algorithm.compiled") is not True
+    step = bound["plant"].step
+    assert step is not plant_step.py_func and step.__code__ is plant_step.py_func.__code__
+    assert step.__globals__["rk4"] is _model.rk4.jit  # a call's floats: the dispatcher
+    law = bound["ctrl"].evaluate.__globals__["limited_law"]  # takes the parameter table
+    assert law.__code__ is law.__wrapped__.__code__ and law is not law.__wrapped__
+    assert law.__globals__["tracking_law"] is _model.tracking_law.jit
+    compiled, extra, _ = run("on", stop)
+    assert extra["algorithm.compiled"] is True
+    assert rows.shape == compiled.shape == (AUTO_MIN_STEPS // 10 + 1, 16)
+    assert np.array_equal(rows, compiled), np.max(np.abs(rows - compiled))
+
+
+def test_a_short_python_schedule_run_binds_the_plain_functions_and_imports_no_numba() -> None:
+    code = (
+        "import os, sys\nos.environ['TWMR_COMPILED'] = 'off'\n"
+        "from twmr.components.plant import plant_step\n"
+        "from twmr.core.component import _CALLS\n"
+        "from twmr.master import Execution\n"
+        "from twmr.master.algorithm import make_algorithm\n"
+        "from twmr.scenario import load\n"
+        f"system = load({str(PAPER)!r}, ['experiment.stop=0.5'])\n"
+        "Execution(system, [], algorithm=make_algorithm('gauss_seidel', 'off')).run()\n"
+        "step = system.components['plant'].__dict__[_CALLS].bound.step\n"
+        "print(step is plant_step.py_func, 'numba' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    assert out.stdout.split() == ["True", "False"], out.stdout + out.stderr
