@@ -1,6 +1,7 @@
 """A long run on the Python schedule calls the robot's kernel functions compiled from Python (the
 work of a step inside numba, the blocks' tables and state in Python), with the rows of the
-compiled loop; a short one imports no numba and runs the plain functions."""
+compiled loop; a short one imports no numba and runs the plain functions; what numba cannot
+compile stays in Python."""
 from __future__ import annotations
 
 import subprocess
@@ -12,7 +13,7 @@ import numpy as np
 from twmr.components import _model
 from twmr.components.plant import plant_step
 from twmr.core.component import _CALLS
-from twmr.core.kernel import AUTO_MIN_STEPS
+from twmr.core.kernel import AUTO_MIN_STEPS, KernelFunction, kernel_function
 from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
 from twmr.observers.store import ResultStore
@@ -32,7 +33,8 @@ def run(mode: str, stop: float) -> tuple[np.ndarray, dict, dict]:
     return store.data(), outcome.extra, bound
 
 
-def test_a_long_python_schedule_run_calls_the_model_compiled_with_the_compiled_rows() -> None:
+def test_a_long_python_schedule_run_calls_the_model_compiled_with_the_same_rows(
+        monkeypatch) -> None:
     stop = AUTO_MIN_STEPS * 1e-3
     rows, extra, bound = run("off", stop)
     assert extra.get("algorithm.compiled") is not True
@@ -46,6 +48,10 @@ def test_a_long_python_schedule_run_calls_the_model_compiled_with_the_compiled_r
     assert extra["algorithm.compiled"] is True
     assert rows.shape == compiled.shape == (AUTO_MIN_STEPS // 10 + 1, 16)
     assert np.array_equal(rows, compiled), np.max(np.abs(rows - compiled))
+    monkeypatch.setattr(KernelFunction, "python", lambda kf, long: kf.py_func)
+    plain, _, bound = run("off", stop)
+    assert bound["plant"].step is plant_step.py_func
+    assert np.array_equal(rows, plain), np.max(np.abs(rows - plain))
 
 
 def test_a_short_python_schedule_run_binds_the_plain_functions_and_imports_no_numba() -> None:
@@ -63,3 +69,26 @@ def test_a_short_python_schedule_run_binds_the_plain_functions_and_imports_no_nu
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT)
     assert out.stdout.split() == ["True", "False"], out.stdout + out.stderr
+
+
+@kernel_function
+def _twice(v: float) -> float:
+    return 2.0 * v
+
+
+@kernel_function
+def _opaque(v: float) -> float:
+    return v + len(object.__name__)  # numba cannot type `object`
+
+
+@kernel_function
+def _outer(v: float, table: tuple) -> float:
+    return _twice(v) + _opaque(v) + _twice(table[0])
+
+
+def test_a_long_runs_python_form_keeps_in_python_what_numba_cannot_compile() -> None:
+    form = _outer.python(True)
+    assert form(1.5, (0.25,)) == _outer.py_func(1.5, (0.25,)) == 3.0 + 7.5 + 0.5
+    assert form.__globals__["_twice"] is _twice.jit
+    assert form.__globals__["_opaque"] is _opaque.python(True) is not _opaque.py_func
+    assert _outer.python(True) is form and _twice.py_func is not _twice.jit

@@ -87,8 +87,9 @@ class KernelFunction:
         """What a Python call of this function runs in a run that repays loading numba
         (`long`: `compiled_pays`; else only the kernel functions this process has compiled
         count): `py_func` calling each kernel function it names by its dispatcher when its
-        arguments are ones numba types cheaply (`_Callee`), else in this form again; a short
-        run with numba not imported: `py_func` itself."""
+        arguments are ones numba types cheaply (`_Callee`), else in this form again, with the
+        module's other globals as they are when the form is made (as numba freezes them); a
+        short run with numba not imported: `py_func` itself."""
         if not long and "numba" not in sys.modules:
             return self.py_func
         form = self._forms.get(long)
@@ -137,15 +138,23 @@ def _cheap(value: Any) -> bool:
 class _Callee:
     """Kernel function `kf` named `name` in the globals `names` of a `KernelFunction.python`
     form: at its first call replaced there by its dispatcher when the arguments are `_cheap`
-    (and the run `long`, or the function compiled already), else by its own Python form."""
+    (and the run `long`, or the function compiled already) and numba compiles it for them,
+    else by its own Python form."""
 
     def __init__(self, kf: KernelFunction, names: dict[str, Any], name: str, long: bool):
         self.kf, self.names, self.name, self.long = kf, names, name, long
 
     def __call__(self, *args: Any) -> Any:
         kf = self.kf
-        compiled = (self.long or kf.held()) and all(_cheap(a) for a in args)
-        fn = self.names[self.name] = kf.jit if compiled else kf.python(self.long)
+        if (self.long or kf.held()) and all(_cheap(a) for a in args):
+            try:
+                result = kf.jit(*args)
+            except Exception:  # noqa: BLE001 - numba cannot compile it (or it failed): Python
+                pass
+            else:
+                self.names[self.name] = kf.jit
+                return result
+        fn = self.names[self.name] = kf.python(self.long)
         return fn(*args)
 
 
