@@ -92,3 +92,24 @@ def test_a_long_runs_python_form_keeps_in_python_what_numba_cannot_compile() -> 
     assert form.__globals__["_twice"] is _twice.jit
     assert form.__globals__["_opaque"] is _opaque.python(True) is not _opaque.py_func
     assert _outer.python(True) is form and _twice.py_func is not _twice.jit
+
+
+def test_a_run_the_compiled_loop_refuses_loads_the_compiled_functions_before_its_first_step(
+        monkeypatch) -> None:
+    """The `random` slip profile has no kernel: mode 'auto' keeps the Python schedule, which
+    binds the plant's kernel (its RK4 compiled) in `start`, before the clock runs."""
+    system = load(PAPER, [f"experiment.stop={AUTO_MIN_STEPS * 1e-3}", "slip.profile=random"])
+    algo = make_algorithm("gauss_seidel", "auto")
+    plant = system.components["plant"]
+    seen = []
+    advance = algo.python.advance
+
+    def first(n0: int, n1: int, rows: list) -> int:
+        if not seen:
+            bound = plant.__dict__[_CALLS].bound if _CALLS in plant.__dict__ else None
+            seen.append(bound is not None and bound.step.__globals__["rk4"] is _model.rk4.jit)
+        return advance(n0, n1, rows)
+    monkeypatch.setattr(algo.python, "advance", first)
+    outcome = Execution(system, [ResultStore()], algorithm=algo).run()
+    assert outcome.status == "completed" and outcome.extra["algorithm.compiled"] is False
+    assert seen == [True]

@@ -147,7 +147,8 @@ class CompiledStep(Algorithm):
         finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`). Mode 'auto'
         compiles from the first step when every kind is compiled already: held by this process
         (any run), or in numba's cache (a run of at least `AUTO_MIN_STEPS`: loading it imports
-        numba, which costs a short run more than its Python steps)."""
+        numba, which costs a short run more than its Python steps). A run that starts on the
+        Python schedule starts it now (`FixedStep.start`)."""
         self._pending = False
         long = compiled_pays(self._system.experiment.n_steps)
         if self.mode == "on" or self._system.paced:
@@ -159,6 +160,8 @@ class CompiledStep(Algorithm):
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
                           f"{AUTO_MIN_STEPS} steps) with kinds not held by this process"
+        if not self.compiled:
+            self.python.start()
 
     def _ready(self, cached: bool
                ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:
