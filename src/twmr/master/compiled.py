@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401
+from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401 - re-exported
 from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
