@@ -56,7 +56,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401 - re-exported
 from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
@@ -66,10 +66,6 @@ from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto', kinds not held by this process: runs of at least this many base steps are
-#: compiled (a shorter one is over before numba would have compiled them, or loaded them from
-#: its cache)
-AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
 #: the recursion limit while numba compiles a generated loop (its SSA pass recurses per block)
 SSA_RECURSION = 50_000
@@ -190,9 +186,10 @@ class CompiledStep(Algorithm):
         finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`). Mode 'auto'
         compiles from the first step when every kind is compiled already: held by this process
         (any run), or in numba's cache (a run of at least `AUTO_MIN_STEPS`: loading it imports
-        numba, which costs a short run more than its Python steps)."""
+        numba, which costs a short run more than its Python steps). A run that starts on the
+        Python schedule starts it now (`FixedStep.start`)."""
         self._pending = False
-        long = self._system.experiment.n_steps >= AUTO_MIN_STEPS
+        long = compiled_pays(self._system.experiment.n_steps)
         if self.mode == "on" or self._system.paced:
             self._compile()
         elif (ready := self._ready(long)) is not None:
@@ -202,6 +199,8 @@ class CompiledStep(Algorithm):
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
                           f"{AUTO_MIN_STEPS} steps) with kinds not held by this process"
+        if not self.compiled:
+            self.python.start()
 
     def _ready(self, cached: bool
                ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:

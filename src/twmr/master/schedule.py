@@ -28,6 +28,7 @@ generated expressions, and there is no lookup by name inside the loop.
 """
 from __future__ import annotations
 
+import contextlib
 import linecache
 import math
 import traceback
@@ -87,6 +88,7 @@ class FixedStep(Algorithm):
         self._owner: dict[int, tuple[str, str]] = {}
         self.loops: list[loops.LoopSolver] = []
         self.probe: stats.Probe | None = None
+        self._shapes: dict[str, Shape] = {}
         self._run: Callable[[int, int, list[tuple[float, ...]]], None] | None = None
         self._finish: Callable[[int, list[tuple[float, ...]]], None] | None = None
 
@@ -116,6 +118,17 @@ class FixedStep(Algorithm):
         assert self.plan is not None
         return not stats.timing_wanted() and not self.plan.loops
 
+    def start(self) -> None:
+        """Generate the loop now, before the clock runs, and call each block's kernel once on
+        the values it holds (pure functions; the results dropped): the kernel functions a long
+        run calls compiled (`twmr.core.kernel.KernelFunction.python`) are loaded from numba's
+        cache (or compiled) here, not in the first step."""
+        self._load()
+        system = self._system
+        assert system is not None
+        for name in self._shapes:
+            _warm(system.components[name], _step_of(system, name), system.experiment.start)
+
     def _load(self) -> None:
         """Generate and compile the loop for the kernels the initialized components offer."""
         system, plan = self._system, self.plan
@@ -126,6 +139,7 @@ class FixedStep(Algorithm):
             if k is not None:
                 shapes[name] = Shape(k.evaluate is not None, k.step is not None)
         self._source, self._owner, env = _generate(system, plan, shapes)
+        self._shapes = shapes
         self.filename = f"<twmr schedule {system.source} {id(self):x}>"
         linecache.cache[self.filename] = (len(self._source), None,
                                           self._source.splitlines(True), self.filename)
@@ -184,6 +198,22 @@ class Shape(NamedTuple):
 def _step_of(system: System, name: str) -> float:
     """The communication step of component `name` [s]: its multiple of the base step."""
     return system.multiple(name) * system.experiment.step
+
+
+def _warm(comp: Component, h: float, t: float) -> None:
+    """Call the kernel `comp` runs with steps of `h` [s] once at `t` [s] on the values it
+    holds, dropping the results (a call its values do not suit yet: left to the loop)."""
+    k = bound_kernel(comp, h)
+    if k is None:
+        return
+    d = comp.__dict__
+    args = (d[_X], tuple(d[p] for p in comp.outputs), tuple(d[p] for p in comp.inputs),
+            k.params)
+    with contextlib.suppress(Exception):
+        if k.evaluate is not None:
+            k.evaluate(t, *args)
+        if k.step is not None:
+            k.step(t, h, *args)
 
 
 def _binder(comp: Component, h: float, shape: Shape) -> Callable[[], PythonKernel]:
