@@ -1,4 +1,5 @@
-"""The TWMR model of the paper in scalar arithmetic, compiled with numba when it is installed.
+"""The TWMR model of the paper in scalar arithmetic: `kernel_function`s, plain Python when called
+from Python (numba not imported), compiled with numba when the compiled loop calls them.
 
 Shared by the plant (eqs 1-8, 11) and the controllers (eqs 9-33). Everything is written with plain
 floats — the 2x2 algebra spelled out — so one compiled call does a whole step.
@@ -8,7 +9,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from numba import njit
+import numpy as np
+
+from twmr.core.kernel import kernel_function
 
 
 def inertia(a: float, I_G: float, I_D: float, I_W: float, r: float, b: float, m_W: float,
@@ -23,7 +26,7 @@ def inertia(a: float, I_G: float, I_D: float, I_W: float, r: float, b: float, m_
     return m11, m12, q1, q2
 
 
-@njit(cache=True, error_model="numpy")
+@kernel_function
 def derivative(x: float, y: float, th: float, wR: float, wL: float,
                tR: float, tL: float, muR: float, muL: float, dl: float,
                muR2: float, muL2: float, dl2: float, tdR: float, tdL: float,
@@ -79,7 +82,7 @@ class SlipProfile(NamedTuple):
 DESCRIPTOR = len(SlipProfile._fields)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel_function
 def slip_at(p: tuple, t: float, x: float, y: float
             ) -> tuple[float, float, float, float, float, float, float, float]:
     """Slip rates [m/s], slip accelerations [m/s2] and disturbance [N.m] of profile `p` (a
@@ -92,15 +95,17 @@ def slip_at(p: tuple, t: float, x: float, y: float
         c, s = math.cos(tp), math.sin(tp)
         return (g * (1.0 + c), g * (1.0 + s), g * c, -g * s, g * c, -g * s,
                 gd * 2.0 * math.sin(3.0 * tp), gd * 2.0 * math.cos(3.0 * tp))
+    # np.hypot: the C library's, as numba's and the C twin's (CPython's math.hypot rounds
+    # differently)
     on = code == CONSTANT or (code == STEP and t >= q.step_time) or (
-        code == MUD and math.hypot(x - q.mud_x, y - q.mud_y) <= q.mud_radius)
+        code == MUD and np.hypot(x - q.mud_x, y - q.mud_y) <= q.mud_radius)
     if not on:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     return (g * q.slip_R, g * q.slip_L, g * q.slip_delta, 0.0, 0.0, 0.0, gd * q.disturbance_R,
             gd * q.disturbance_L)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel_function
 def rk4(n: int, hs: float, t0: float, x: float, y: float, th: float, wR: float, wL: float,
         tR: float, tL: float, muR: float, muL: float, dl: float, muR2: float, muL2: float,
         dl2: float, tdR: float, tdL: float, p: tuple, m11: float, m12: float, q1: float,
@@ -143,7 +148,7 @@ def rk4(n: int, hs: float, t0: float, x: float, y: float, th: float, wR: float, 
     return x, y, th, wR, wL, x + a * math.cos(th), y + a * math.sin(th)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel_function
 def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float, yT: float,
                  vxT: float, vyT: float, dR: float, dL: float,
                  m11: float, m12: float, m_G: float, r: float, b: float,

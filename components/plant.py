@@ -1,12 +1,12 @@
 """The three-wheeled mobile robot with wheel slip: kinematics eqs (1)-(4), (11), dynamics eq. (8).
 
 State: pose of the rear-axle midpoint M (x_M, y_M, theta) and wheel speeds nu = (phi_R', phi_L').
-The model is integrated by classical RK4 with ceil(h / internal_step) equal substeps, compiled
-with numba (`_model.rk4`). Torques are held over a step (the controller's zero-order hold). Slip
-and disturbance are held too, unless `slip_model` is wired from a `slip_disturbance` block: the
-plant then evaluates that profile at every RK4 stage, so the slip is continuous in time and
-halving `internal_step` converges to the continuous-input solution (the held slip inputs are then
-not used).
+The model is integrated by classical RK4 with ceil(h / internal_step) equal substeps
+(`_model.rk4`, compiled with numba in the compiled loop). Torques are held over a step (the
+controller's zero-order hold). Slip and disturbance are held too, unless `slip_model` is wired
+from a `slip_disturbance` block: the plant then evaluates that profile at every RK4 stage, so the
+slip is continuous in time and halving `internal_step` converges to the continuous-input solution
+(the held slip inputs are then not used).
 
 Implemented exactly as printed in the paper (docs/model.md lists our errata): B has no factor a
 and m11 contains 2 m_W r^2. The centre of mass G is x_G = x_M + a cos(theta),

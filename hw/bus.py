@@ -62,8 +62,9 @@ def describe(options: dict[str, Any]) -> str:
 
 class FrameLog:
     """A python-can writer (`.asc` or `.blf`) shared by the sending thread and the bus's
-    notifier thread; sent frames are stamped with the wall time and marked Tx. Writing never
-    raises into the bus threads: the first failure is kept in `error` and ends the log."""
+    notifier thread; sent frames are stamped with the wall time and marked Tx, and no frame
+    keeps the bus's channel (the log is of one bus). Writing never raises into the bus threads:
+    the first failure is kept in `error` and ends the log."""
 
     def __init__(self, path: str | Path):
         Path(path).parent.mkdir(parents=True, exist_ok=True)
@@ -82,7 +83,9 @@ class FrameLog:
                 self.error = f"{type(err).__name__}: {err}"
 
     def received(self, msg: can.Message) -> None:
-        if isinstance(msg.channel, str):  # BLF reads a channel name's digits as a 16-bit number
+        # BLF packs a channel number into 16 bits: python-can makes a channel named by digits
+        # an int, and BLF reads the trailing digits of a channel name as one
+        if msg.channel is not None:
             msg = copy.copy(msg)
             msg.channel = None
         self._write(msg)

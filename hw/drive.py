@@ -23,6 +23,7 @@ refuse.
 """
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Mapping
@@ -45,6 +46,8 @@ from twmr.core import (
 from twmr.hw.bus import FrameLog, bus_options, interface_problem
 from twmr.hw.link import DriveSpec, Link, foreign_parameters, protocol, protocols
 from twmr.hw.safety import Fault, LinkError, clamp, stale
+
+log = logging.getLogger("twmr.hw")
 
 
 class CanMotorDrive(Component):
@@ -375,10 +378,13 @@ class CanMotorDrive(Component):
                 link.disable(emergency=self._tripped)
                 link.close()
         finally:
-            log, self.log = getattr(self, "log", None), None
-            if log is not None:
-                log.close()
-                self._log_error = log.error
+            frames, self.log = getattr(self, "log", None), None
+            if frames is not None:
+                frames.close()
+                self._log_error = frames.error
+                if frames.error:
+                    log.warning("%s: the frame log %s ended early (%s); the frames after that "
+                                "are not in it", self.name, frames.path, frames.error)
             for emu in getattr(self, "emulators", ()):
                 emu.close()
             self.emulators = []

@@ -33,6 +33,7 @@ import struct
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -589,29 +590,29 @@ def test_malformed_frame_to_an_emulated_drive_leaves_it_running(case: ToDrive,
         bench.close()
 
 
-# -- the frame log on an odd channel name ------------------------------------------------------
-@pytest.mark.parametrize("protocol", ["odrive", "cia402"])
-def test_frame_log_on_a_channel_named_with_a_large_number(protocol: str, tmp_path: Any,
-                                                          deaths: list[str]) -> None:
-    """A virtual channel (or any interface's channel) whose name ends in a number above 65535:
-    python-can's BLF writer turns the trailing digits into a 16-bit channel number. Logging must
-    not stop the run, and never as a 'malformed frame' of a drive; the log decodes afterwards."""
+# -- the frame log ------------------------------------------------------------------------------
+def run_logging(protocol: str, ch: str, folder: Any, fail_log: bool = False) -> Any:
+    """A drive pair on virtual channel `ch` with its frame log in `folder`, stepped 100 times
+    and terminated (its log failing at its first frame, as on a full disk, when `fail_log`)."""
     from types import SimpleNamespace
 
     from twmr.hw.drive import CanMotorDrive
-    from twmr.hw.replay import Decoder, decode_log
 
     gc.collect()
     gc.freeze()
     sys.setswitchinterval(2e-4)
-    drive = CanMotorDrive("motor", protocol=protocol, channel=f"{channel()}-70000",
+    drive = CanMotorDrive("motor", protocol=protocol, channel=ch,
                           watchdog_periods=N, log_file="auto",
                           node_ids=ODRIVE_NODES if protocol == "odrive" else CIA_NODES)
-    drive.prepare(SimpleNamespace(folder=tmp_path, step=H, paced=True))
-    log = tmp_path / "motor_frames.blf"
+    drive.prepare(SimpleNamespace(folder=folder, step=H, paced=True))
     loop = Paced(drive)
     try:
         drive.setup(0.0, None)
+        if fail_log:
+            def full(msg: can.Message) -> None:
+                raise OSError(28, "No space left on device")
+
+            drive.log._writer.on_message_received = full
         drive.initialize()
         loop.t0 = time.perf_counter()
         try:
@@ -620,7 +621,42 @@ def test_frame_log_on_a_channel_named_with_a_large_number(protocol: str, tmp_pat
             pytest.fail(f"the run stopped while logging frames: {err}", pytrace=False)
     finally:
         drive.terminate()
-    decoded = decode_log(log, Decoder(protocol=protocol))
+    return drive
+
+
+@pytest.mark.parametrize("protocol", ["odrive", "cia402"])
+@pytest.mark.parametrize("name", ["ending-in-70000", "digits"])
+def test_frame_log_on_a_channel_named_with_a_large_number(protocol: str, name: str,
+                                                          tmp_path: Any,
+                                                          deaths: list[str]) -> None:
+    """A virtual channel (or any interface's channel) whose name ends in a number above 65535
+    (python-can's BLF writer turns the trailing digits into a 16-bit channel number), or is
+    that number (python-can makes the channel an int). Logging must not stop the run, and never
+    as a 'malformed frame' of a drive; the log holds every frame sent and received."""
+    from twmr.hw.replay import Decoder, decode_log
+
+    ch = str(10**9 + uuid.uuid4().int % 10**9) if name == "digits" else f"{channel()}-70000"
+    drive = run_logging(protocol, ch, tmp_path)
+    assert "frame_log_error" not in drive.report()
+    decoded = decode_log(tmp_path / "motor_frames.blf", Decoder(protocol=protocol))
     torques = [d for d in decoded if d.direction == "Tx" and d.signal == "torque_command"]
     assert len(torques) >= 100 * 2, f"{len(torques)} torque commands in the log"
+    speeds = [d for d in decoded if d.direction == "Rx" and d.signal == "speed"]
+    assert len(speeds) >= 100 * 2, f"{len(speeds)} speeds received in the log"
+    assert_no_thread_died(deaths)
+
+
+def test_frame_log_that_cannot_be_written_is_reported_and_the_run_goes_on(
+        tmp_path: Any, caplog: pytest.LogCaptureFixture, deaths: list[str]) -> None:
+    """A frame log that fails (a full disk) ends there; the run goes on, and its report and a
+    warning at terminate name the log and the error (a run once left an empty log unnoticed)."""
+    import logging
+
+    with caplog.at_level(logging.WARNING, logger="twmr.hw"):
+        drive = run_logging("odrive", channel(), tmp_path, fail_log=True)
+    error = "OSError: [Errno 28] No space left on device"
+    assert drive.report()["frame_log_error"] == error
+    warned = [r.getMessage() for r in caplog.records if r.name == "twmr.hw"]
+    assert warned == [f"motor: the frame log {tmp_path / 'motor_frames.blf'} ended early "
+                      f"({error}); the frames after that are not in it"]
     assert_no_thread_died(deaths)

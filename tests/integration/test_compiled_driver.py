@@ -18,7 +18,7 @@ from numba.core import event
 from tests.integration.test_compiled import ROOT, rewired, run
 from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
-from twmr.master.compiled import CompiledStep
+from twmr.master.compiled import AUTO_MIN_STEPS, CompiledStep
 from twmr.observers.store import ResultStore
 from twmr.scenario import load
 
@@ -102,21 +102,24 @@ def test_auto_compiles_a_short_run_once_its_kinds_are_compiled() -> None:
 
 
 def test_auto_finds_the_driver_in_numba_cache_in_a_new_process(tmp_path: Path) -> None:
-    """`twmr run --compiled auto` of a short run in fresh processes: Python while the cache
-    folder is empty, compiled from the first step once a run has filled it."""
+    """`twmr run --compiled auto` in fresh processes: a short run in Python while the cache
+    folder is empty and still once a run has filled it (loading numba costs it more than its
+    steps), a run of `AUTO_MIN_STEPS` compiled from the cache."""
     import twmr
     from tests.hostile.runner import assert_ok, run_cli
 
     (tmp_path / "c.yaml").write_text(chain(3, stop=0.2))
+    (tmp_path / "long.yaml").write_text(chain(3, stop=AUTO_MIN_STEPS * 0.001))
     env = {**os.environ, "TWMR_CACHE_DIR": str(tmp_path / "cache")}
-    compiled = []
-    for mode, out in (("auto", "first"), ("on", "fill"), ("auto", "again")):
-        o = run_cli(["run", "c.yaml", "--compiled", mode, "--out", out], tmp_path, timeout=600,
-                    env=env)
+    pacing = []
+    for mode, name, out in (("auto", "c", "first"), ("on", "c", "fill"), ("auto", "c", "again"),
+                            ("auto", "long", "long")):
+        o = run_cli(["run", f"{name}.yaml", "--compiled", mode, "--out", out], tmp_path,
+                    timeout=600, env=env)
         assert_ok(o)
-        compiled.append(twmr.read_result(tmp_path / out).summary["pacing"]
-                        ["algorithm.compiled"])
-    assert compiled == [False, True, True]
+        pacing.append(twmr.read_result(tmp_path / out).summary["pacing"])
+    assert [p["algorithm.compiled"] for p in pacing] == [False, True, False, True]
+    assert "not held by this process" in pacing[2]["algorithm.not_compiled"]
 
 
 def test_a_block_whose_parameters_the_driver_cannot_hold_runs_the_generated_loop() -> None:

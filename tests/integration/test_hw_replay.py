@@ -27,7 +27,7 @@ def bench_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, Pat
     text = BENCH.read_text().replace("stop: 10.0", "stop: 0.3").replace(
         "decimation: 5", "decimation: 1").replace(
         "ctrl.torque,", "ctrl.torque, motor.torque, motor.measured_speed,").replace(
-        "channel: bench", f"channel: {uuid.uuid4().hex[:8]}, watchdog_periods: {WATCHDOG}")
+        "channel: bench", f"channel: bench-{uuid.uuid4().hex[:8]}, watchdog_periods: {WATCHDOG}")
     data = np.array(simulate(loads(text, source="bench.yaml"), out))
     return data, out / "motor_frames.blf"
 

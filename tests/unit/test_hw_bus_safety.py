@@ -1,8 +1,10 @@
-"""Bus options (python-can config files), the host watchdog's staleness rule, torque clamping,
-and the CiA 402 frame decoder of the replay against frames built from a real EDS by canopen."""
+"""Bus options (python-can config files), the frame log, the host watchdog's staleness rule,
+torque clamping, and the CiA 402 frame decoder of the replay against frames built from a real EDS
+by canopen."""
 from __future__ import annotations
 
 import math
+import uuid
 from pathlib import Path
 
 import can
@@ -10,8 +12,9 @@ import canopen
 import pytest
 
 from twmr.hw import cia402 as c
-from twmr.hw.bus import bus_options
-from twmr.hw.replay import Decoder
+from twmr.hw import protocol as odrive
+from twmr.hw.bus import FrameLog, bus_options
+from twmr.hw.replay import Decoder, decode_log
 from twmr.hw.safety import clamp, stale
 
 EDS = Path(__file__).resolve().parents[2] / "hw" / "data" / "maxon_epos4_module_50-5.eds"
@@ -27,6 +30,34 @@ def test_bus_options_from_parameters_and_from_a_python_can_file(tmp_path: Path) 
     assert (got["interface"], str(got["channel"]), int(got["bitrate"])) == ("kvaser", "0", 1000000)
     with pytest.raises(FileNotFoundError, match="does not exist"):
         bus_options("virtual", "x", 1, str(tmp_path / "missing.ini"))
+
+
+@pytest.mark.parametrize("suffix", [".blf", ".asc"])
+@pytest.mark.parametrize("name", ["digits", "name-70000"])
+def test_frame_log_keeps_the_frames_of_a_channel_named_by_digits(tmp_path: Path, suffix: str,
+                                                                 name: str) -> None:
+    """python-can makes a virtual channel named by digits an int (and BLF reads a channel
+    name's trailing digits as its number); BLF packs the channel into 16 bits, so such a frame
+    once ended the log at the first received frame: an empty log."""
+    ch = str(10**9 + uuid.uuid4().int % 10**9) if name == "digits" else \
+        f"{uuid.uuid4().hex[:8]}-70000"
+    drive, host = (can.Bus(interface="virtual", channel=ch) for _ in range(2))
+    log = FrameLog(tmp_path / f"frames{suffix}")
+    try:
+        drive.send(can.Message(arbitration_id=0x009, data=bytes(8), is_extended_id=False))
+        got = host.recv(timeout=1.0)
+        assert got is not None and got.channel is not None
+        log.received(got)
+        ident, data = odrive.encode_torque(0, 1.5, 1.0)
+        log.sent(can.Message(arbitration_id=ident, data=data, is_extended_id=False))
+    finally:
+        log.close()
+        drive.shutdown()
+        host.shutdown()
+    assert log.error == ""
+    decoded = decode_log(log.path, Decoder())
+    assert [(d.direction, d.node, d.signal, d.value) for d in decoded] == [
+        ("Rx", 0, "angle", 0.0), ("Rx", 0, "speed", 0.0), ("Tx", 0, "torque_command", 1.5)]
 
 
 def test_stale_names_the_first_old_feedback_then_heartbeat() -> None:

@@ -64,6 +64,18 @@ def test_a_valid_tiny_scenario_runs_without_jsonschema_dask_or_the_plugin_comman
     assert "jsonschema" in refused  # the problem is worded by jsonschema
 
 
+def test_the_paper_scenario_checks_and_runs_in_python_without_numba(tmp_path) -> None:
+    """The robot's model is `kernel_function`s: plain Python until a compiled loop calls them,
+    so checking the paper scenario and a run of it on the Python schedule import no numba."""
+    paper = str(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml")
+    checked = modules_after(f"from twmr.cli import main\nassert main(['check', {paper!r}]) == 0")
+    ran = modules_after(
+        f"import os\nos.environ['TWMR_COMPILED'] = 'off'\nimport twmr\n"
+        f"r = twmr.simulate(twmr.load({paper!r}, ['experiment.stop=0.05']))\n"
+        f"assert r.values.shape[0] == 6 and r.summary['status'] == 'completed'")
+    assert "twmr.components.plant" in ran and "numba" not in checked | ran
+
+
 def test_engine_sources_never_import_the_robot_or_can_packages() -> None:
     banned = re.compile(r"^\s*(from|import)\s+(twmr\.components|twmr\.hw|can|canopen|cantools)\b",
                         re.MULTILINE)

@@ -300,3 +300,33 @@ def test_an_error_in_the_user_class_constructor_names_its_line(tmp_path: Path) -
     assert "scenario.yaml:3 (components.blk)" in message
     assert "component 'blk' (my_block.py:Scale) cannot be created" in message
     assert f"{tmp_path / 'my_block.py'}:20: KeyError" in message
+
+
+TAGGED = '''
+from twmr.core import STRING, Component, Output, Parameter
+
+
+class Tagged(Component):
+    """A block with a text parameter and a whole-number one."""
+
+    tag = Parameter("", type=STRING)
+    count = Parameter(0, type="Integer")
+    y = Output(0.0)
+'''
+
+
+@pytest.mark.parametrize(("written", "text"), [
+    ("01234567", "01234567"), ("0x1f", "0x1f"), ("1.10", "1.10"), ("on", "on"), ("1e3", "1e3"),
+    ("'quoted'", "quoted"), ("42", "42")])
+def test_a_text_parameter_keeps_what_was_written_where_yaml_reads_a_number(
+        tmp_path: Path, written: str, text: str) -> None:
+    write_block(tmp_path, name="tagged.py", text=TAGGED)
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("components:\n  blk:\n    kind: tagged.py:Tagged\n"
+                        f"    parameters: {{tag: {written}, count: 0x10}}\n"
+                        "experiment: {stop: 0.01, step: 0.01}\n")
+    block = twmr.load(scenario).system.components["blk"]
+    assert block.tag == text
+    assert block.count == 16  # a number parameter takes the number
+    again = twmr.load(scenario, overrides=[f"blk.tag={written}"]).system.components["blk"]
+    assert again.tag == text

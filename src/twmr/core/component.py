@@ -27,7 +27,7 @@ from types import MappingProxyType
 from typing import Any, ClassVar, NamedTuple
 
 from twmr.core.errors import ComponentError
-from twmr.core.kernel import Kernel, KernelFunction, python_params
+from twmr.core.kernel import Kernel, KernelFunction, compiled_pays, python_params
 from twmr.core.port import Input, Output, Parameter, State, Variable
 
 #: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
@@ -56,10 +56,11 @@ def _frozen(value: Any) -> Any:
 _X, _CALLS = "_kernel_x", "_kernel_calls"
 
 
-def _python(fn: Any) -> Any:
-    """What a Python call runs of kernel function `fn`: a `kernel_function`'s plain function, a
-    numba function compiled."""
-    return fn.py_func if isinstance(fn, KernelFunction) else fn
+def _python(fn: Any, long: bool = False) -> Any:
+    """What a Python call runs of kernel function `fn`: a `kernel_function`'s Python form
+    (`KernelFunction.python`; `long`: the run repays loading numba), a numba function
+    compiled."""
+    return fn.python(long) if isinstance(fn, KernelFunction) else fn
 
 
 class PythonKernel(NamedTuple):
@@ -119,8 +120,9 @@ class _Calls:
         if k is None or k.fmu is not None:
             return None
         comp.__dict__.setdefault(_X, k.state)
-        ev, st = _python(k.evaluate), _python(k.step)
-        p = python_params(k.params, (ev, st))
+        p = python_params(k.params, (_python(k.evaluate), _python(k.step)))
+        long = h > 0.0 and compiled_pays(_steps(comp, h))
+        ev, st = _python(k.evaluate, long), _python(k.step, long)
         self.env.update(H=h, p=p, ev=ev, st=st,
                         report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
         self.bound = PythonKernel(p, ev, st, self.env["sync"])
@@ -141,6 +143,13 @@ class _Calls:
 
     def __deepcopy__(self, memo: dict[int, Any]) -> None:
         return None  # a copy of the component makes its own
+
+
+def _steps(comp: Component, h: float) -> float:
+    """How many steps of `h` [s] the run `comp` was set up for has (0: not set up, or no stop
+    time)."""
+    stop = getattr(comp, "stop_time", None)
+    return 0.0 if stop is None else (stop - comp.start_time) / h
 
 
 def _calls(comp: Component) -> _Calls:

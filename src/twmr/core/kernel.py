@@ -13,18 +13,31 @@ They are the block's definition: its Python `evaluate`/`do_step` run them
 calls them, so both give the same numbers by construction. A function decorated with
 `kernel_function` runs as plain Python (numba is not even imported) and is compiled by numba only
 when compiled code calls it; a numba `@njit` function may be given as well (it then runs
-compiled in Python too).
+compiled in Python too). A run long enough to repay loading numba (`compiled_pays`) calls its
+blocks' kernel functions from Python in their `KernelFunction.python` form with compiled callees:
+the work inside compiled, the block's tables and state handled by Python.
 """
 from __future__ import annotations
 
 import ast
 import functools
 import inspect
+import sys
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import FunctionType
+from types import CodeType, FunctionType
 from typing import Any
+
+#: runs of at least this many steps repay loading numba (its import and machine code from its
+#: cache: about half a second, more than a shorter run's Python steps)
+AUTO_MIN_STEPS = 10_000
+
+
+def compiled_pays(steps: float) -> bool:
+    """Whether a run of `steps` steps repays loading numba to run compiled kernels (mode
+    'auto' of `twmr.master.compiled`, and the Python forms of `KernelFunction.python`)."""
+    return steps >= AUTO_MIN_STEPS
 
 
 class KernelFunction:
@@ -47,6 +60,7 @@ class KernelFunction:
         functools.update_wrapper(self, fn)
         self.py_func = fn
         self._jit: Any = None
+        self._forms: dict[bool, FunctionType] = {}
 
     def __call__(self, *args: Any) -> Any:  # replaced by `py_func` in each instance's class
         return self.py_func(*args)
@@ -65,6 +79,31 @@ class KernelFunction:
             self._jit = njit(cache=True, error_model="numpy")(self.py_func)
         return self._jit
 
+    def held(self) -> bool:
+        """Whether this process has compiled the function (for some argument types)."""
+        return self._jit is not None and bool(self._jit.signatures)
+
+    def python(self, long: bool) -> Callable[..., Any]:
+        """What a Python call of this function runs in a run that repays loading numba
+        (`long`: `compiled_pays`; else only the kernel functions this process has compiled
+        count): `py_func` calling each kernel function it names by its dispatcher when its
+        arguments are ones numba types cheaply (`_Callee`), else in this form again, with the
+        module's other globals as they are when the form is made (as numba freezes them); a
+        short run with numba not imported: `py_func` itself."""
+        if not long and "numba" not in sys.modules:
+            return self.py_func
+        form = self._forms.get(long)
+        if form is None:
+            fn = self.py_func
+            names = dict(fn.__globals__)
+            for name in _names(fn.__code__):
+                if isinstance(names.get(name), KernelFunction):
+                    names[name] = _Callee(names[name], names, name, long)
+            form = self._forms[long] = FunctionType(fn.__code__, names, fn.__name__,
+                                                    fn.__defaults__, fn.__closure__)
+            functools.update_wrapper(form, fn)
+        return form
+
     @property
     def _numba_type_(self) -> Any:
         """How numba types this object when compiled code refers to it: as its dispatcher."""
@@ -77,6 +116,46 @@ class KernelFunction:
 
     def __repr__(self) -> str:
         return f"<kernel function {self.__module__}.{getattr(self, '__qualname__', '?')}>"
+
+
+def _names(code: CodeType) -> set[str]:
+    """The global names `code` and the code nested in it may load."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, CodeType):
+            names |= _names(const)
+    return names
+
+
+def _cheap(value: Any) -> bool:
+    """Whether numba types `value` in C at a call: a float, int or bool, or a plain tuple of
+    them (~0.2 us; a NamedTuple costs it ~1 us in Python, and as much again to return one)."""
+    if type(value) is tuple:
+        return all(_cheap(v) for v in value)
+    return type(value) in (float, int, bool)
+
+
+class _Callee:
+    """Kernel function `kf` named `name` in the globals `names` of a `KernelFunction.python`
+    form: at its first call replaced there by its dispatcher when the arguments are `_cheap`
+    (and the run `long`, or the function compiled already) and numba compiles it for them,
+    else by its own Python form."""
+
+    def __init__(self, kf: KernelFunction, names: dict[str, Any], name: str, long: bool):
+        self.kf, self.names, self.name, self.long = kf, names, name, long
+
+    def __call__(self, *args: Any) -> Any:
+        kf = self.kf
+        if (self.long or kf.held()) and all(_cheap(a) for a in args):
+            try:
+                result = kf.jit(*args)
+            except Exception:  # noqa: BLE001 - numba cannot compile it (or it failed): Python
+                pass
+            else:
+                self.names[self.name] = kf.jit
+                return result
+        fn = self.names[self.name] = kf.python(self.long)
+        return fn(*args)
 
 
 def kernel_function(fn: Callable[..., Any]) -> KernelFunction:
@@ -108,17 +187,34 @@ class Kernel:
 
 
 @dataclass(frozen=True)
-class FmuCalls:
-    """What the generated loop needs to call an FMI 2.0 co-simulation FMU: the ports each call
-    carries, [(port, width)] in the order of their value references. The parameters of its
-    `Kernel` are (fmi2SetReal, fmi2GetReal, fmi2DoStep as ctypes functions taking pointers as
-    size_t, the instance, the value references of the inputs, of the feedthrough outputs and of
-    the outputs read after a step (uint32 arrays), a float64 value buffer); a status above
-    fmi2Warning stops the run, reported by `error(call, status, t)`."""
+class FmuTransfer:
+    """One set or get call of an FMU in the generated loop: the FMI function (e.g.
+    'fmi3SetInt8'), the ports it carries [(port, width)] in the order of their value
+    references, how many value references and values, and whether the loop carries the values
+    as floats (else as integers)."""
 
-    inputs: tuple[tuple[str, int], ...]
-    feedthrough: tuple[tuple[str, int], ...]
-    after_step: tuple[tuple[str, int], ...]
+    call: str
+    ports: tuple[tuple[str, int], ...]
+    nvr: int
+    count: int
+    real: bool
+
+
+@dataclass(frozen=True)
+class FmuCalls:
+    """What the generated loop needs to call an FMI 2.0 or 3.0 co-simulation FMU
+    (`twmr.master.fmu_kernel`): its calls, one per FMI type, setting the inputs, getting the
+    feedthrough outputs and getting the outputs read after a step. The parameters of its
+    `Kernel` are (doStep as a ctypes function taking pointers as size_t, the instance, doStep's
+    flags (3 booleans) and last successful time (FMI 3.0), then per call in that order (the
+    function, the value references as uint32, a value buffer of the call's C type)); a status
+    above Warning stops the run, reported by `error(call, status, t)` (status -1: fmi3DoStep
+    asked to terminate)."""
+
+    fmi3: bool
+    inputs: tuple[FmuTransfer, ...]
+    feedthrough: tuple[FmuTransfer, ...]
+    after_step: tuple[FmuTransfer, ...]
     error: Callable[[str, int, float], BaseException]
 
 
@@ -215,4 +311,5 @@ def _field_read(node: ast.expr, table: Any, parents: dict[ast.AST, ast.AST], bou
     return False
 
 
-__all__ = ["FmuCalls", "Kernel", "KernelFunction", "kernel_function", "python_params"]
+__all__ = ["AUTO_MIN_STEPS", "FmuCalls", "FmuTransfer", "Kernel", "KernelFunction",
+           "compiled_pays", "kernel_function", "python_params"]

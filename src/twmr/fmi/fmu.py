@@ -13,6 +13,7 @@ instance, the FMU, the call and the time, with the FMU's last log lines.
 """
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import operator
@@ -28,6 +29,7 @@ from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.fmi import guard
 from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
+from twmr.fmi.direct import accessor, stepper, supports
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
@@ -45,19 +47,8 @@ _FMI2_CALL = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer",
               "Boolean": "Boolean", "String": "String"}
 
 
-#: FMI 2.0 status codes above fmi2Warning
-_FMI2_STATUS = {2: "fmi2Discard", 3: "fmi2Error", 4: "fmi2Fatal", 5: "fmi2Pending"}
-
-
-def _real_ports(plan: list[Any]) -> tuple[tuple[tuple[str, int], ...], list[int]] | None:
-    """(ports [(name, width)], value references) of a call plan (`FmuComponent._plan`) holding
-    Real values only, in one call; None otherwise."""
-    if not plan:
-        return (), []
-    if len(plan) > 1 or plan[0][0].__name__ not in ("setReal", "getReal"):
-        return None
-    _, vrs, _, names, _ = plan[0]
-    return tuple((name, count) for name, _, count in names), list(vrs)
+#: FMI status codes above Warning (the names after fmi2 / fmi3)
+_FMI_STATUS = {2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
 
 
 def _call_suffix(fmi_type: str, fmi3: bool) -> str:
@@ -402,7 +393,14 @@ class FmuComponent(Component):
         self._get_step = self._plan([p for p in read if p.name not in feedthrough]
                                     if self.has_feedthrough and not self._after_step_all
                                     else read, 0)
+        self._read_ft, self._read_step = self._readers(self._get_ft), \
+            self._readers(self._get_step)
+        if not self.me:
+            self._sets = [(setter, vrs, gather) for setter, vrs, _, _, gather in self._set_all]
         self._sent = None
+        if not self.me and not self.event_mode:
+            self._step = stepper(f, self.fmi3) if hasattr(f, "_functions") and \
+                not self._pythonfmu else self._fmpy_step
         if self.event_mode:  # initialization ended in event mode
             self._events = EventMode(self)
             self._events.start(self.start_time)
@@ -445,15 +443,20 @@ class FmuComponent(Component):
         for p in ports:
             by.setdefault((_call_suffix(p.fmi_type, self.fmi3), p.display), []).append(p)
         plan = []
-        for (_, display), ps in by.items():
-            fn = self._accessors(ps[0].fmi_type)[which]
-            if which == 0 and ps[0].fmi_type == "String":
-                fn = _text_getter(fn)
-            if display is not None:
-                fn = _shown(fn, *display)
+        direct = not self._pythonfmu and hasattr(self._fmu, "_functions")
+        for (suffix, display), ps in by.items():
             vrs = [vr for p in ps for vr in p.vrs]
+            count = sum(p.count for p in ps)
+            if direct and display is None and supports(suffix, self.fmi3):
+                fn = accessor(self._fmu, self.fmi3, suffix, which, vrs, count)
+            else:
+                fn = self._accessors(ps[0].fmi_type)[which]
+                if which == 0 and ps[0].fmi_type == "String":
+                    fn = _text_getter(fn)
+                if display is not None:
+                    fn = _shown(fn, *display)
             names = [(p.name, p.scalar, p.count) for p in ps]
-            plan.append((fn, vrs, sum(p.count for p in ps), names, self._gather(names)))
+            plan.append((fn, vrs, count, names, self._gather(names)))
         return plan
 
     def _gather(self, names: list[tuple[str, bool, int]]) -> Callable[[], list[Any]]:
@@ -511,6 +514,25 @@ class FmuComponent(Component):
                 d[name] = values[k] if scalar else tuple(values[k:k + n])
                 k += n
 
+    def _readers(self, plan: list[Any]) -> list[Callable[[], None]]:
+        """One function per call of `plan` (a getter's) getting its values into the ports."""
+        d = self.__dict__
+        out: list[Callable[[], None]] = []
+        for entry in plan:
+            getter, vrs, count, names, _ = entry
+            if len(names) != 1 or not names[0][1]:
+                out.append(functools.partial(self._get, [entry]))
+            elif self.fmi3:
+                def read3(getter: Any = getter, vrs: Any = vrs, count: int = count,
+                          name: str = names[0][0]) -> None:
+                    d[name] = getter(vrs, count)[0]
+                out.append(read3)
+            else:
+                def read2(getter: Any = getter, vrs: Any = vrs, name: str = names[0][0]) -> None:
+                    d[name] = getter(vrs)[0]
+                out.append(read2)
+        return out
+
     def _set_inputs(self, t: float) -> None:
         """The wired inputs into the FMU; for model exchange a changed discrete input is set in
         event mode (an event at t), and a changed continuous one restarts the solver."""
@@ -537,11 +559,11 @@ class FmuComponent(Component):
             if self.me:
                 self._set_inputs(t)
             else:
-                self._sent = tuple(gather() for *_, gather in self._set_all)
-                for (setter, vrs, *_), values in zip(self._set_all, self._sent, strict=True):
+                self._sent = sent = tuple([gather() for _, _, gather in self._sets])
+                for (setter, vrs, _), values in zip(self._sets, sent, strict=True):
                     setter(vrs, values)
-            if self._get_ft:
-                self._get(self._get_ft)
+            for read in self._read_ft:
+                read()
         except (FmuError, Terminated):
             raise
         except Exception as exc:  # noqa: BLE001 - fmpy raises FMICallException
@@ -556,21 +578,24 @@ class FmuComponent(Component):
                 self._set_inputs(t)
             else:
                 sent, self._sent = self._sent, None
-                for i, (setter, vrs, _, _, gather) in enumerate(self._set_all):
-                    values = gather()
-                    if sent is None or values != sent[i]:
-                        setter(vrs, values)
+                if sent is None:
+                    for setter, vrs, gather in self._sets:
+                        setter(vrs, gather())
+                else:
+                    for (setter, vrs, gather), values in zip(self._sets, sent, strict=True):
+                        now = gather()
+                        if now != values:
+                            setter(vrs, now)
+            terminate = False
             if self.me:
                 assert self._integrator is not None
                 self._integrator.advance(t + h)
-                result = None
             elif self._events is not None:
                 self._events.step(t, h)
-                result = None
-            else:
-                result = self._fmu.doStep(t, h)
-            if self._get_step:
-                self._get(self._get_step)
+            elif self._step(t, h):
+                terminate = True
+            for read in self._read_step:
+                read()
         except Terminated as stop:
             raise self._terminated(stop.args[0], "(terminateSimulation)") from None
         except FmuError:
@@ -581,8 +606,13 @@ class FmuComponent(Component):
             what = "the model-exchange step" if self.me else ("fmi3DoStep" if self.fmi3
                                                               else "fmi2DoStep")
             raise self._error(what, exc) from exc
-        if self.fmi3 and result is not None and result[1]:
+        if terminate:
             raise self._terminated(t, "(fmi3DoStep terminateSimulation)")
+
+    def _fmpy_step(self, t: float, h: float) -> bool:
+        """fmpy's doStep: whether the FMU asks to terminate (FMI 3.0)."""
+        result = self._fmu.doStep(t, h)
+        return bool(self.fmi3 and result[1])
 
     def _terminated(self, t: float, how: str) -> FmuTerminated:
         """The FMU's request at `t` to end the simulation, `how` it asked."""
@@ -640,48 +670,32 @@ class FmuComponent(Component):
 
     def compiled_calls(self, h: float) -> Kernel | None:
         """This FMU's compiled form, for the compiled loop (`twmr.master.compiled`, mode 'on'):
-        the loop calls fmi2SetReal, fmi2GetReal and fmi2DoStep itself through their C function
-        pointers, with the calls and their order of `evaluate` / `do_step` (the wired inputs in
-        one fmi2SetReal, at `evaluate` when the FMU has feedthrough, else before the step; the
-        feedthrough outputs in one fmi2GetReal; after fmi2DoStep the other outputs the run
-        reads). None for FMI 3.0, model exchange, pythonfmu's own FMUs or non-Real ports (they
-        keep the Python loop). Call after `initialize`; `h` [s] is its step."""
-        import ctypes
-
-        import numpy as np
-
-        from twmr.core.kernel import FmuCalls, Kernel
+        the loop calls its set, get and doStep functions itself through their C function
+        pointers, with the calls and their order of `evaluate` / `do_step`
+        (`twmr.master.fmu_kernel`). None for model exchange, event mode, an isolated FMU or
+        pythonfmu's own FMUs (they keep the Python loop); `NotCompilable` for a port the loop
+        cannot carry. Call after `initialize`; `h` [s] is its step."""
+        from twmr.master.fmu_kernel import TERMINATE, compiled_form
 
         fmu = self._fmu
-        if fmu is None or self.me or self.fmi3 or self._pythonfmu or not hasattr(fmu, "dll"):
+        if fmu is None or self.me or self.event_mode or self._pythonfmu or \
+                not hasattr(fmu, "dll"):
             return None
-        plans = [_real_ports(p) for p in (self._set_all, self._get_ft, self._get_step)]
-        if any(p is None for p in plans):
-            return None
-        (ins, in_vrs), (ft, ft_vrs), (st, st_vrs) = [  # type: ignore[misc]
-            (ports, np.asarray(vrs, dtype=np.uint32)) for ports, vrs in plans]
-        size = ctypes.c_size_t
-        io = ctypes.CFUNCTYPE(ctypes.c_int, size, size, size, size)
-        step = ctypes.CFUNCTYPE(ctypes.c_int, size, ctypes.c_double, ctypes.c_double,
-                                ctypes.c_int)
-
-        def address(symbol: str) -> int:
-            return ctypes.cast(getattr(fmu.dll, symbol), ctypes.c_void_p).value or 0
-
-        instance = getattr(fmu.component, "value", fmu.component)
-        values = np.zeros(max(1, len(in_vrs), len(ft_vrs), len(st_vrs)))
-        params = (io(address("fmi2SetReal")), io(address("fmi2GetReal")),
-                  step(address("fmi2DoStep")), int(instance), in_vrs, ft_vrs, st_vrs, values)
+        version = "fmi3" if self.fmi3 else "fmi2"
 
         def error(call: str, status: int, t: float) -> BaseException:
             self._t = t
+            if status == TERMINATE:
+                return self._terminated(t, "(fmi3DoStep terminateSimulation)")
             if call == "fmi2DoStep" and status == 2 and self._fmi2_terminated():
                 return self._terminated(t, _FMI2_DISCARDED)
+            said = _FMI_STATUS.get(status, str(status))
             return FmuError(self.name, t, f"FMU '{self.path.name}': {call} returned "
-                            f"{_FMI2_STATUS.get(status, status)}. Fix: see the FMU's log; check "
-                            f"its inputs and parameters at this time.", self.log.tail())
+                            f"{version}{said}. Fix: see the FMU's log; check its inputs and "
+                            f"parameters at this time.", self.log.tail())
 
-        return Kernel(params=params, fmu=FmuCalls(ins, ft, st, error))
+        return compiled_form(self, fmu, self.fmi3, [self._set_all, self._get_ft,
+                                                    self._get_step], error)
 
     def get_state(self) -> Any:
         """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,

@@ -24,8 +24,9 @@ Either may be None (no feedthrough; nothing to advance). String parameters are r
 in `kernel()`, which runs after `initialize()`, so set-up decisions (a drive direction, a
 discretisation) are made in Python once.
 
-An FMI 2.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
-functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`).
+An FMI 2.0 or 3.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
+functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`,
+`twmr.master.fmu_kernel`), its Integer and Boolean ports carried as integers.
 
 The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
 (`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
@@ -35,11 +36,13 @@ values, the step and the start time are arguments, so a sweep over parameter val
 once.
 
 Selection: `TWMR_COMPILED=auto|on|off` (`twmr run --compiled`). `auto` (default) runs compiled
-from the first step when every kind of the system is compiled already (in this process or in
-numba's cache), whatever the run's length; else it compiles a run of at least
-`AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a shorter one in Python;
-FMUs and blocks without a kernel keep the Python schedule. `on` compiles before the first step
-and makes a missing kernel an error; `off` always runs the Python schedule.
+from the first step when every kind of the system is compiled already in this process, whatever
+the run's length, or in numba's cache, for a run of at least `AUTO_MIN_STEPS` steps (loading it
+imports numba: about half a second, more than a shorter run's Python steps); else it compiles a
+run of at least `AUTO_MIN_STEPS` steps once the first chunk has run in Python, and runs a
+shorter one in Python; FMUs and blocks without a kernel keep the Python schedule. `on` compiles
+before the first step and makes a missing kernel an error; `off` always runs the Python
+schedule.
 """
 from __future__ import annotations
 
@@ -53,7 +56,8 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.core.kernel import FmuCalls, Kernel  # noqa: F401 - re-exported
+from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401 - re-exported
+from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
@@ -62,10 +66,9 @@ from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
 MODES = ("auto", "on", "off")
-#: mode 'auto', kinds not compiled yet: runs of at least this many base steps are compiled (a
-#: shorter one is over before numba would have compiled them)
-AUTO_MIN_STEPS = 10_000
 log = logging.getLogger("twmr.run")
+#: the recursion limit while numba compiles a generated loop (its SSA pass recurses per block)
+SSA_RECURSION = 50_000
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
 
@@ -92,11 +95,46 @@ def cache_dir() -> Path:
     return Path(base) / "twmr" / "schedules"
 
 
-def _port_value(var: Any, value: Any) -> Any:
-    """A port's value as the compiled loop holds it: a float or a tuple of floats."""
+def _port_value(var: Any, value: Any, kind: str) -> Any:
+    """A port's value as the compiled loop holds it (`kind` from `_carried`): a float, an
+    int64 or a uint64 (wrapped into its range), a tuple of them, or 0.0 for a port the loop
+    does not carry."""
+    if kind == "x":
+        return 0.0
     if var.size is None:
+        return _number(value, kind)
+    return tuple(_number(v, kind) for v in value)
+
+
+def _number(value: Any, kind: str) -> Any:
+    if kind == "f":
         return float(value)
-    return tuple(float(v) for v in value)
+    if kind == "u":
+        return np.uint64(int(value) % 2**64)
+    return np.int64((int(value) + 2**63) % 2**64 - 2**63)
+
+
+def _carried(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, str], str]:
+    """How the loop carries each port: 'f' float64, 'i' int64, 'u' uint64, 'b' int64 as a bool
+    (`fmu_kernel.carried`; an integer input as its source, so it holds the same value) or 'x'
+    not at all (a String, Binary or Clock port of an FMU that the run neither sets nor
+    reads)."""
+    from twmr.master.fmu_kernel import carried
+
+    out: dict[tuple[str, str], str] = {}
+    for name in system.order:
+        comp = system.components[name]
+        fmu = kernels[name].fmu
+        fmi = {p.name: p.fmi_type for p in getattr(comp, "ports", ())} if fmu else {}
+        for port, var in {**comp.outputs, **comp.inputs}.items():
+            out[name, port] = "x" if var.type in (*TEXT_TYPES, CLOCK) else \
+                carried(fmi.get(port, "Real"), bool(fmu and fmu.fmi3)) if var.type != "Real" \
+                else "f"
+    for conn in system.connections:
+        dst = (conn.dst, conn.dst_port)
+        if out[dst] in ("i", "u", "b") and conn.dst_index is None and conn.src_index is None:
+            out[dst] = out[conn.src, conn.src_port]
+    return out
 
 
 class CompiledStep(Algorithm):
@@ -121,6 +159,9 @@ class CompiledStep(Algorithm):
         #: whether numba compiled (or loaded from its cache) a kind's adapters or the driver for
         #: this run
         self.driver_compiled = False
+        self._source: str | None = ""
+        #: the kinds the driver runs (their adapters are the source shown)
+        self._kinds_run: list[driver.KindSpec] = []
 
     # -- Algorithm ---------------------------------------------------------------------------
     def refuse(self, system: System) -> Problem | None:
@@ -135,41 +176,59 @@ class CompiledStep(Algorithm):
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
-        self.source = self.python.source
+        self._source, self._kinds_run = None, []
         self._system, self._record, self._decimation = system, record, decimation
         self._check = check_finite
 
     def start(self) -> None:
         """Compile now (mode 'on', or a paced run: never while the clock runs), or once the
         first chunk has run in Python (mode 'auto': a stop signal during compilation then
-        finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`)."""
+        finds rows saved), or not at all (a run shorter than `AUTO_MIN_STEPS`). Mode 'auto'
+        compiles from the first step when every kind is compiled already: held by this process
+        (any run), or in numba's cache (a run of at least `AUTO_MIN_STEPS`: loading it imports
+        numba, which costs a short run more than its Python steps). A run that starts on the
+        Python schedule starts it now (`FixedStep.start`)."""
         self._pending = False
-        if self.mode == "on" or self._system.paced or self._ready():
+        long = compiled_pays(self._system.experiment.n_steps)
+        if self.mode == "on" or self._system.paced:
             self._compile()
-        elif self._system.experiment.n_steps >= AUTO_MIN_STEPS:
+        elif (ready := self._ready(long)) is not None:
+            self._compile(ready)
+        elif long:
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
-                          f"{AUTO_MIN_STEPS} steps) with kinds not compiled yet"
+                          f"{AUTO_MIN_STEPS} steps) with kinds not held by this process"
+        if not self.compiled:
+            self.python.start()
 
-    def _ready(self) -> bool:
-        """Mode 'auto': whether every kind of the system is compiled already (in this process or
-        in numba's cache), so the whole run can be compiled from its first step."""
+    def _ready(self, cached: bool
+               ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:
+        """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
+        already (held by this process, or, if `cached`, in numba's cache), so the whole run can
+        be compiled from its first step; else None."""
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
-        return kinds is not None and driver.cached(list(kinds.values()), cache_dir())
+        if kernels is None or kinds is None:
+            return None
+        found = list(kinds.values())
+        return (kernels, kinds) if driver.held(found) or (
+            cached and driver.cached(found, cache_dir())) else None
 
-    def _compile(self) -> None:
+    def _compile(self, ready: tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None = None
+                 ) -> None:
         """Collect the kernels from the components as they are now (initialized, maybe stepped
-        by the Python schedule) and compile the loop; on failure keep the Python schedule
-        (mode 'auto') or raise `CompileError` (mode 'on')."""
+        by the Python schedule; `ready`: those and their kinds just collected) and compile the
+        loop; on failure keep the Python schedule (mode 'auto') or raise `CompileError` (mode
+        'on')."""
         system = self._system
         assert self.python.plan is not None
         if self.python.plan.loops:
             self.reason = LOOPS
             return
-        kernels, self.reason = _kernels(system, self._record, self.mode == "on")
+        kernels, self.reason = (ready[0], "") if ready is not None else \
+            _kernels(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(
@@ -182,36 +241,44 @@ class CompiledStep(Algorithm):
         exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
-        kinds = _kinds(system, kernels) if self.use_driver else None
+        kinds = ready[1] if ready is not None else \
+            _kinds(system, kernels) if self.use_driver else None
         if kinds is not None:
             self._compile_driver(kinds, kernels, t0)
             return
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
-        self._Y = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.outputs.items())
-                        for c in self._comps)
-        self._U = tuple(tuple(_port_value(v, c.__dict__[p]) for p, v in c.inputs.items())
-                        for c in self._comps)
+        carried = self._carried = _carried(system, kernels)
+        self._Y = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
+                              for p, v in comps[n].outputs.items()) for n in order)
+        self._U = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
+                              for p, v in comps[n].inputs.items()) for n in order)
         self._H = tuple(system.multiple(n) * exp.step for n in order)
         self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
         try:
             assert self.python.plan is not None
-            source, names = _generate(system, self.python.plan, kernels)
+            source, names = _generate(system, self.python.plan, kernels, carried)
             self._run, self._finish = _load(source, names)
             # compile (or load from numba's cache) now, for the argument types of this run
             from numba import typeof
 
             buf = np.empty((1, self._ncols))
-            self._run.compile(tuple(typeof(a) for a in (
-                0, 0, exp.start, exp.step, self._H, self._P, self._X, self._Y, self._U, buf,
-                self._decimation)))
-            self._finish.compile(tuple(typeof(a) for a in (
-                0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
+            # numba's SSA pass recurses once per block of the loop: every FMU call is a branch
+            limit = sys.getrecursionlimit()
+            sys.setrecursionlimit(max(limit, SSA_RECURSION))
+            try:
+                self._run.compile(tuple(typeof(a) for a in (
+                    0, 0, exp.start, exp.step, self._H, self._P, self._X, self._Y, self._U,
+                    buf, self._decimation)))
+                self._finish.compile(tuple(typeof(a) for a in (
+                    0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
+            finally:
+                sys.setrecursionlimit(limit)
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self._refuse(exc)
             return
         self.compile_seconds = time.perf_counter() - t0
-        self.source = source
+        self._source = source
         self.compiled = True
 
     def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
@@ -230,8 +297,19 @@ class CompiledStep(Algorithm):
         self._driver = driver_loop
         self.driver_compiled = fresh > 0
         self.compile_seconds = time.perf_counter() - t0
-        self.source = "\n".join(dict.fromkeys(driver.generate(k)[0] for k in kinds.values()))
+        self._kinds_run = list(kinds.values())
         self.compiled = True
+
+    @property
+    def source(self) -> str:  # type: ignore[override]
+        """The loop running: the generated one, the driver's adapters of the system's kinds
+        (rendered when asked), or the Python schedule's."""
+        if self._source is None:
+            if not self.compiled:
+                return self.python.source
+            self._source = "\n".join(dict.fromkeys(driver.generate(k)[0]
+                                                   for k in self._kinds_run))
+        return self._source
 
     def _refuse(self, exc: Exception) -> None:
         """numba failed on the loop: the Python schedule (mode 'auto') or `CompileError`."""
@@ -254,16 +332,12 @@ class CompiledStep(Algorithm):
     def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
         """As `_sync`, from the driver's vectors."""
         lay = self._layout
-        S = lay.S
-        for comp, kern, o, (xo, shape) in zip(self._comps, self._kernels, lay.signal,
-                                              lay.state, strict=True):
+        values = lay.S.tolist()
+        for comp, kern, ports, (xo, shape) in zip(self._comps, self._kernels, lay.ports,
+                                                  lay.state, strict=True):
             d = comp.__dict__
-            for port, var in {**comp.outputs, **comp.inputs}.items():
-                if var.size is None:
-                    d[port] = float(S[o])
-                else:
-                    d[port] = tuple(S[o:o + var.width].tolist())
-                o += var.width
+            for port, o, size in ports:
+                d[port] = values[o] if size is None else tuple(values[o:o + size])
             if kern.sync is not None:
                 kern.sync(driver.rebuild(lay.X, xo, shape)[0])
         if k and self._record:
@@ -282,13 +356,16 @@ class CompiledStep(Algorithm):
               status: int = 0) -> None:
         """Port values back into the components, their `sync`, the rows to `rows`; a NaN/Inf
         found at step `bad` raises `NonFinite` (the components then hold the values seen)."""
-        for comp, kern, x, y, u in zip(self._comps, self._kernels, self._X, self._Y,
-                                      self._U, strict=True):
+        kinds = self._carried
+        for name, comp, kern, x, y, u in zip(self._system.order, self._comps, self._kernels,
+                                             self._X, self._Y, self._U, strict=True):
             d = comp.__dict__
-            for port, value in zip(comp.outputs, y, strict=False):
-                d[port] = value
-            for port, value in zip(comp.inputs, u, strict=False):
-                d[port] = value
+            for port, value in (*zip(comp.outputs, y, strict=False),
+                                *zip(comp.inputs, u, strict=False)):
+                kind = kinds[name, port]
+                if kind != "x":
+                    d[port] = bool(value) if kind == "b" and not isinstance(value, tuple) \
+                        else value
             if kern.sync is not None:
                 kern.sync(x)
         if k and self._record:
@@ -297,9 +374,11 @@ class CompiledStep(Algorithm):
             exp = self._system.experiment
             t = exp.start + bad * exp.step
             if fail >= 0:
-                fmu = self._kernels[fail // 3].fmu
+                from twmr.master.fmu_kernel import CALLS, call_names
+
+                fmu = self._kernels[fail // CALLS].fmu
                 assert fmu is not None
-                raise fmu.error(("fmi2SetReal", "fmi2GetReal", "fmi2DoStep")[fail % 3], status, t)
+                raise fmu.error(call_names(fmu)[fail % CALLS], status, t)
             raise NonFinite(t)
 
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
@@ -372,6 +451,8 @@ def jacobi(compiled: str = "auto") -> Algorithm:
 
 def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
+    from twmr.master.fmu_kernel import NotCompilable
+
     """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
     'on': in 'auto' an FMU keeps the Python loop, whose chunks of steps are smaller — a crash
     inside the FMU's code then loses fewer rows)."""
@@ -393,12 +474,15 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
                                      for m in ("evaluate", "do_step")):
             return None, f"'{name}' ({type(comp).__name__}) overrides the methods its " \
                          f"kernel mirrors"
-        kern = make(system.multiple(name) * h) if make is not None else None
+        try:
+            kern = make(system.multiple(name) * h) if make is not None else None
+        except NotCompilable as exc:
+            return None, str(exc)
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
         for port, var in {**comp.inputs, **comp.outputs}.items():
-            if var.type != "Real":
+            if var.type != "Real" and kern.fmu is None:
                 return None, f"port '{name}.{port}' is {var.type}, not Real"
         if comp.has_feedthrough and kern.evaluate is None and kern.fmu is None:
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
@@ -430,11 +514,16 @@ def _tuple(items: list[str]) -> str:
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
 
 
-def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[str, dict[str, Any]]:
+def _generate(system: System, plan: Plan, kernels: dict[str, Kernel],
+              kinds: dict[tuple[str, str], str]) -> tuple[str, dict[str, Any]]:
     """(source, {name: kernel function}) of `run(n0, n1, start, h, H, P, X, Y, U, buf, dec)` and
     `finish(n, start, h, P, X, Y, U, buf)` rendered from `plan` over `kernels`; both return (X, Y,
-    U, rows written, the step of a NaN/Inf or of a failed FMU call or -1, 3 * component index +
-    call (0 set, 1 get, 2 step) of that failure or -1, its status)."""
+    U, rows written, the step of a NaN/Inf or of a failed FMU call or -1, `fmu_kernel.CALLS` *
+    component index + the call's index (`fmu_kernel.call_names`) of that failure or -1, its
+    status). Port values are carried as `kinds` says; a Real input written from an Integer or
+    Boolean source gets the source's value as a float."""
+    from twmr.master.fmu_kernel import call_lines
+
     comps = system.components
     order = plan.order
     ids = {name: i for i, name in enumerate(order)}
@@ -453,55 +542,12 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
             return f"y{ids[name]}_{outs[name].index(port)}"
         return f"u{ids[name]}_{ins[name].index(port)}"
 
-    def fmu_lines(name: str, call: int, args: str) -> list[str]:
-        """An FMU's set (call 0), get of the feedthrough outputs (1) or step (2, `args` its
-        time and step) through its function pointers; a bad status leaves the loop."""
-        i, f = ids[name], kernels[name].fmu
-        assert f is not None
-        lines: list[str] = []
-
-        def status(code: int) -> None:
-            lines.append(f"if s > 1: fail = {3 * i + code}; fstat = s; bad = n; break")
-
-        def move(ports: tuple[tuple[str, int], ...], into: bool) -> None:
-            j = 0
-            for port, width in ports:
-                v, scalar = local(name, port), comps[name].variables[port].size is None
-                if into:
-                    for e in range(width):
-                        lines.append(f"p{i}[7][{j + e}] = {v if scalar else f'{v}[{e}]'}")
-                else:
-                    items = [f"p{i}[7][{j + e}]" for e in range(width)]
-                    lines.append(f"{v} = {items[0] if scalar else _tuple(items)}")
-                j += width
-
-        def transfer(ports: tuple[tuple[str, int], ...], fn: int, vrs: int, into: bool,
-                     code: int) -> None:
-            if not ports:
-                return
-            if into:
-                move(ports, True)
-            count = sum(w for _, w in ports)
-            lines.append(f"s = p{i}[{fn}](p{i}[3], p{i}[{vrs}].ctypes.data, {count}, "
-                         f"p{i}[7].ctypes.data)")
-            status(code)
-            if not into:
-                move(ports, False)
-
-        if call == 0:
-            transfer(f.inputs, 0, 4, True, 0)
-            transfer(f.feedthrough, 1, 5, False, 1)
-        else:
-            if not comps[name].has_feedthrough:  # else `evaluate` has set the inputs
-                transfer(f.inputs, 0, 4, True, 0)
-            lines.append(f"s = p{i}[2](p{i}[3], {args}, 1)")
-            status(2)
-            transfer(f.after_step, 1, 6, False, 1)
-        return lines
-
     def call(name: str, fn: str, args: str) -> list[str]:
-        if kernels[name].fmu is not None:
-            return fmu_lines(name, 0 if fn == "ev" else 2, args)
+        fmu = kernels[name].fmu
+        if fmu is not None:
+            return call_lines(fmu, ids[name], None if fn == "ev" else args,
+                              not comps[name].has_feedthrough, lambda p: local(name, p),
+                              lambda p: comps[name].variables[p].size is None)
         i = ids[name]
         ys = [f"y{i}_{k}" for k in range(len(outs[name]))]
         us = [f"u{i}_{k}" for k in range(len(ins[name]))]
@@ -510,12 +556,21 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
         lines += [f"{y} = r[1][{k}]" for k, y in enumerate(ys)]
         return lines
 
+    def write(action: Write) -> str:
+        text = plan.assignment(action, local)
+        if kinds[action.name, action.port] == "f" and \
+                comps[action.name].variables[action.port].size is None and \
+                any(kinds[s] != "f" for s in action.sources):
+            cur, value = text.split(" = ", 1)
+            return f"{cur} = float({value})"
+        return text
+
     def point(w: _Lines, ind: int, final: bool) -> None:
         for k, (src, port) in enumerate(plan.snapshot):
             w.add(ind, f"s{k} = {local(src, port)}")
         for action in plan.point:
             assert not isinstance(action, Solve), "a loop to solve is refused before"
-            lines = [plan.assignment(action, local)] if isinstance(action, Write) \
+            lines = [write(action)] if isinstance(action, Write) \
                 else call(action.name, "ev", "t")
             cond = None if final else guard(action)
             if cond is not None:
@@ -580,6 +635,8 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel]) -> tuple[s
     for name in order:
         w.add(0, f"# component {ids[name]}: {name} ({type(comps[name]).__name__})")
     w.add(0, "from numba import njit")
+    if any(k.fmu is not None for k in kernels.values()):
+        w.add(0, "from numpy import float64, int64, uint64")
     for key, fn in names.items():
         w.add(0, f"from {fn.__module__} import {fn.__qualname__} as {key}")
     w.add(0, "")
@@ -638,7 +695,8 @@ def _load(source: str, names: dict[str, Any]) -> tuple[Any, Any]:
             log.debug("schedule cache not usable (%s); compiling without it", exc)
     env: dict[str, Any] = dict(names)
     body = "\n".join(line for line in source.splitlines()
-                     if not line.startswith("from ") or line.startswith("from numba"))
+                     if not line.startswith("from ") or line.startswith(("from numba",
+                                                                         "from numpy")))
     exec(compile(body.replace("cache=True", "cache=False"),  # noqa: S102 - generated here
                  "<twmr compiled schedule>", "exec"), env)
     return env["run"], env["finish"]

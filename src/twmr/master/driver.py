@@ -109,8 +109,16 @@ class KindSpec:
 
     @functools.cached_property
     def key(self) -> str:
-        """The adapters' source: equal keys, one adapter."""
-        return _adapters(self)
+        """The adapters' source: equal keys, one adapter (rendered once per process: a run of
+        a built system makes its kinds anew)."""
+        key = _KEYS.get(self)
+        if key is None:
+            key = _KEYS[self] = _adapters(self)
+        return key
+
+
+#: the keys of the kinds this process has met
+_KEYS: dict[KindSpec, str] = {}
 
 
 def kind_of(comp: Any, kern: Kernel) -> KindSpec:
@@ -153,12 +161,12 @@ def _read(src: _Src, ind: int, vec: str, shape: Shape, imports: dict[str, str]) 
     if shape in ("f", "i", "b"):
         v = src.var()
         conv = {"f": "{}", "i": "int({})", "b": "{} != 0.0"}[shape]
-        src.add(ind, f"{v} = {conv.format(f'{vec}[o]')}")
+        src.add(ind, f"{v} = {conv.format(f'{vec}p[o]')}")
         src.add(ind, "o += 1")
         return v
     if shape[0] == "a":
         v, nd = src.var(), shape[1]
-        dims = [f"int({vec}[o + {d}])" for d in range(nd)]
+        dims = [f"int({vec}p[o + {d}])" for d in range(nd)]
         src.add(ind, f"{v}n = {' * '.join(dims)}")
         if nd == 1:
             src.add(ind, f"{v} = {vec}[o + 1:o + 1 + {v}n]")
@@ -178,7 +186,7 @@ def _read(src: _Src, ind: int, vec: str, shape: Shape, imports: dict[str, str]) 
 def _write(src: _Src, ind: int, expr: str, shape: Shape) -> None:
     """Lines that store `expr` of `shape` into X at the running offset `o`."""
     if shape in ("f", "i", "b"):
-        src.add(ind, f"X[o] = {expr}")
+        src.add(ind, f"Xp[o] = {expr}")
         src.add(ind, "o += 1")
     elif shape[0] == "a":
         v = src.var()
@@ -194,14 +202,20 @@ def _write(src: _Src, ind: int, expr: str, shape: Shape) -> None:
             _write(src, ind, f"{t}[{j}]", s)
 
 
+def _has_array(shape: Shape) -> bool:
+    """Whether a value of `shape` holds an array (read and written as a slice of its vector;
+    scalars are read and written through the vector's pointer)."""
+    return shape not in ("f", "i", "b") and (shape[0] == "a" or any(map(_has_array, shape[2])))
+
+
 def _ports(sizes: tuple[int | None, ...], start: int) -> tuple[str, int]:
     """(tuple expression of the ports of `sizes` read from S at so + start, the offset after)."""
     items, o = [], start
     for size in sizes:
         if size is None:
-            items.append(f"S[so + {o}]")
+            items.append(f"Sp[so + {o}]")
         else:
-            items.append("(" + ", ".join(f"S[so + {o + e}]" for e in range(size)) +
+            items.append("(" + ", ".join(f"Sp[so + {o + e}]" for e in range(size)) +
                          ("," if size == 1 else "") + ")")
         o += _width(size)
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")", o
@@ -209,7 +223,8 @@ def _ports(sizes: tuple[int | None, ...], start: int) -> tuple[str, int]:
 
 def _adapters(kind: KindSpec, imports: dict[str, str] | None = None) -> str:
     """Source of `ev` and `st` (those the kind has), of the signature `driver_loop.ADAPTER`:
-    rebuild x, y, u, p from the vectors, call the kernel, store x and y back."""
+    rebuild x, y, u, p from the vectors, call the kernel, store x and y back (scalars through
+    the pointers: no index wraparound, no array built)."""
     imports = {} if imports is None else imports
     src = _Src()
     for fn, name in ((kind.evaluate, "ev"), (kind.step, "st")):
@@ -219,8 +234,9 @@ def _adapters(kind: KindSpec, imports: dict[str, str] | None = None) -> str:
         imports[alias] = f"from {fn.__module__} import {fn.__qualname__} as {alias}"
         src.add(0, "@njit(cache=True, error_model='numpy')")
         src.add(0, f"def {name}(t, h, Sp, Xp, Pp, nS, nX, nP, so, xo, po):")
-        for vec in "SXP":
-            src.add(1, f"{vec} = carray({vec}p, (n{vec},))")
+        for vec, shape in (("X", kind.state), ("P", kind.params)):
+            if _has_array(shape):
+                src.add(1, f"{vec} = carray({vec}p, (n{vec},))")
         src.add(1, "o = po")
         p = _read(src, 1, "P", kind.params, imports)
         src.add(1, "o = xo")
@@ -234,10 +250,10 @@ def _adapters(kind: KindSpec, imports: dict[str, str] | None = None) -> str:
         o = 0
         for j, size in enumerate(kind.outputs):
             if size is None:
-                src.add(1, f"S[so + {o}] = ry[{j}]")
+                src.add(1, f"Sp[so + {o}] = ry[{j}]")
             else:
                 for e in range(size):
-                    src.add(1, f"S[so + {o + e}] = ry[{j}][{e}]")
+                    src.add(1, f"Sp[so + {o + e}] = ry[{j}][{e}]")
             o += _width(size)
         src.add(1, "return 0")
         src.add(0, "")
@@ -272,8 +288,9 @@ class Layout:
     H: np.ndarray
     chk: np.ndarray
     rec: np.ndarray
-    #: per block (in plan order): its offset in S, in X and its state's shape
-    signal: list[int]
+    #: per block (in plan order): its ports (name, offset in S, width: None a scalar), and its
+    #: offset in X and its state's shape
+    ports: list[list[tuple[str, int, int | None]]]
     state: list[tuple[int, Shape]]
 
 
@@ -287,19 +304,22 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
     S: list[float] = []
     X: list[float] = []
     P: list[float] = []
-    blocks, signal, state = [], [], []
+    blocks: list[tuple[int, ...]] = []
+    ports: list[list[tuple[str, int, int | None]]] = []
+    state: list[tuple[int, Shape]] = []
     for b, name in enumerate(plan.order):
         comp, kern, kind = comps[name], kernels[name], kinds[name]
         so = len(S)
+        ports.append([])
         for port, var in {**comp.outputs, **comp.inputs}.items():
             slot[(name, port)] = len(S)
+            ports[-1].append((port, len(S), None if var.size is None else var.width))
             value = comp.__dict__[port]
             S.extend([float(value)] if var.size is None else [float(v) for v in value])
         xo, po = len(X), len(P)
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
         blocks.append((*addresses[kind.key], so, xo, po))
-        signal.append(so)
         state.append((xo, kind.state))
         assert b == len(blocks) - 1
     snap: dict[tuple[str, str], int] = {}
@@ -354,7 +374,7 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
                   np.array(P, dtype=np.float64), ints(ops, 5),
                   np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 5),
                   ints(steps, 2), np.array(H, dtype=np.float64), ints(chk, 3),
-                  np.array(rec, dtype=np.int64), signal, state)
+                  np.array(rec, dtype=np.int64), ports, state)
 
 
 # -- the compiled kinds ------------------------------------------------------------------------
@@ -402,6 +422,12 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
             fn.compile(sig)
             fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh
+
+
+def held(kinds: Sequence[KindSpec]) -> bool:
+    """Whether this process holds the adapters of every kind of `kinds` (and so has the driver
+    compiled)."""
+    return all(k.key in _LOADED for k in kinds)
 
 
 def cached(kinds: Sequence[KindSpec], folder: Any) -> bool:

@@ -256,7 +256,7 @@ class Execution:
                 sys.setswitchinterval(2e-4)
             self._lifecycle("prepare", lambda c: c.prepare(context))
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
-            self._lifecycle("initialize", lambda c: c.initialize())
+            self._lifecycle("initialize", lambda c: c.initialize(), self._hardware_last())
             self.algorithm.start()
             if paced:
                 gc.freeze()  # what set-up created too; no collection once drives run
@@ -454,9 +454,9 @@ class Execution:
             log.error("saving the results also failed: %s", "; ".join(failures))
         return error
 
-    def _lifecycle(self, call: str, fn: Any) -> None:
+    def _lifecycle(self, call: str, fn: Any, order: Sequence[str] | None = None) -> None:
         t = self.system.experiment.start
-        for name in self.system.order:
+        for name in self.system.order if order is None else order:
             comp = self.system.components[name]
             try:
                 fn(comp)
@@ -465,6 +465,13 @@ class Execution:
             except Exception as exc:  # noqa: BLE001 - every component failure is reported
                 raise ComponentError(name, t, f"{call}() raised {type(exc).__name__}: {exc}. "
                                      f"Fix: check the parameters of '{name}'.") from exc
+
+    def _hardware_last(self) -> list[str]:
+        """The components in order, those that need real time (drives, buses) last: started
+        hardware hears nothing until the first step, so another block's initialize (a numba
+        compile, an FMU instantiation: seconds) must not come in between."""
+        comps = self.system.components
+        return sorted(self.system.order, key=lambda name: comps[name].needs_realtime)
 
     def _time(self, n: int) -> float:
         exp = self.system.experiment

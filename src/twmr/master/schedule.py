@@ -28,6 +28,7 @@ generated expressions, and there is no lookup by name inside the loop.
 """
 from __future__ import annotations
 
+import contextlib
 import linecache
 import math
 import traceback
@@ -80,13 +81,14 @@ class FixedStep(Algorithm):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
-        self.source = ""
+        self._source: str | None = ""
         self.filename = ""
         self.plan: Plan | None = None
         self._system: System | None = None
         self._owner: dict[int, tuple[str, str]] = {}
         self.loops: list[loops.LoopSolver] = []
         self.probe: stats.Probe | None = None
+        self._shapes: dict[str, Shape] = {}
         self._run: Callable[[int, int, list[tuple[float, ...]]], None] | None = None
         self._finish: Callable[[int, list[tuple[float, ...]]], None] | None = None
 
@@ -95,10 +97,19 @@ class FixedStep(Algorithm):
         self.plan = build(system, self.method, record, decimation, check_finite)
         self._system = system
         self._run = self._finish = None
-        # until the components are initialized: every block that may run its kernel does
-        shapes = {n: Shape(True, True) for n, c in system.components.items()
-                  if runs_kernel(c) and self._kernels_wanted()}
-        self.source, self._owner, _ = _generate(system, self.plan, shapes)
+        self._source = None
+
+    @property
+    def source(self) -> str:  # type: ignore[override]
+        """The generated loop: the one running, else (rendered when asked) the loop before the
+        components are initialized, where every block that may run its kernel does."""
+        if self._source is None:
+            system, plan = self._system, self.plan
+            assert system is not None and plan is not None
+            shapes = {n: Shape(True, True) for n, c in system.components.items()
+                      if runs_kernel(c) and self._kernels_wanted()}
+            self._source, self._owner, _ = _generate(system, plan, shapes)
+        return self._source
 
     def _kernels_wanted(self) -> bool:
         """Whether blocks may run their kernels in the loop: not when an algebraic loop is solved
@@ -106,6 +117,17 @@ class FixedStep(Algorithm):
         calls are timed (`twmr.master.stats`)."""
         assert self.plan is not None
         return not stats.timing_wanted() and not self.plan.loops
+
+    def start(self) -> None:
+        """Generate the loop now, before the clock runs, and call each block's kernel once on
+        the values it holds (pure functions; the results dropped): the kernel functions a long
+        run calls compiled (`twmr.core.kernel.KernelFunction.python`) are loaded from numba's
+        cache (or compiled) here, not in the first step."""
+        self._load()
+        system = self._system
+        assert system is not None
+        for name in self._shapes:
+            _warm(system.components[name], _step_of(system, name), system.experiment.start)
 
     def _load(self) -> None:
         """Generate and compile the loop for the kernels the initialized components offer."""
@@ -116,11 +138,12 @@ class FixedStep(Algorithm):
             k = python_kernel(comp, _step_of(system, name))
             if k is not None:
                 shapes[name] = Shape(k.evaluate is not None, k.step is not None)
-        self.source, self._owner, env = _generate(system, plan, shapes)
+        self._source, self._owner, env = _generate(system, plan, shapes)
+        self._shapes = shapes
         self.filename = f"<twmr schedule {system.source} {id(self):x}>"
-        linecache.cache[self.filename] = (len(self.source), None,
-                                          self.source.splitlines(True), self.filename)
-        exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
+        linecache.cache[self.filename] = (len(self._source), None,
+                                          self._source.splitlines(True), self.filename)
+        exec(compile(self._source, self.filename, "exec"), env)  # noqa: S102 - generated here
         timing = stats.timing_wanted()
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
@@ -175,6 +198,22 @@ class Shape(NamedTuple):
 def _step_of(system: System, name: str) -> float:
     """The communication step of component `name` [s]: its multiple of the base step."""
     return system.multiple(name) * system.experiment.step
+
+
+def _warm(comp: Component, h: float, t: float) -> None:
+    """Call the kernel `comp` runs with steps of `h` [s] once at `t` [s] on the values it
+    holds, dropping the results (a call its values do not suit yet: left to the loop)."""
+    k = bound_kernel(comp, h)
+    if k is None:
+        return
+    d = comp.__dict__
+    args = (d[_X], tuple(d[p] for p in comp.outputs), tuple(d[p] for p in comp.inputs),
+            k.params)
+    with contextlib.suppress(Exception):
+        if k.evaluate is not None:
+            k.evaluate(t, *args)
+        if k.step is not None:
+            k.step(t, h, *args)
 
 
 def _binder(comp: Component, h: float, shape: Shape) -> Callable[[], PythonKernel]:

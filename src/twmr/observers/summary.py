@@ -39,6 +39,14 @@ class SignalSummary(Observer):
         if self._first is None:
             self._first = block[0].copy()
         self._last = block[-1].copy()
+        if np.isfinite(block).all():  # the figures below, several times faster: by column
+            columns = np.ascontiguousarray(block.T)
+            self._min = np.fmin(self._min, columns.min(axis=1))
+            self._max = np.fmax(self._max, columns.max(axis=1))
+            with np.errstate(over="ignore"):
+                self._squares += np.einsum("ij,ij->i", columns, columns)
+            self._count += len(block)
+            return
         with np.errstate(invalid="ignore"):
             self._min = np.fmin(self._min, np.nanmin(block, axis=0))
             self._max = np.fmax(self._max, np.nanmax(block, axis=0))

@@ -25,7 +25,7 @@ from twmr.core.errors import (
     UnitError,
     WiringError,
 )
-from twmr.core.port import CLOCK, TEXT_TYPES
+from twmr.core.port import CLOCK, STRING, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
@@ -221,7 +221,8 @@ class _Builder:
             construction = {k: params.pop(k) for k in cls.construction_parameters if k in params}
             try:
                 comp = cls.create(name, self.spec.base_dir,
-                                  **{k: v.value for k, v in construction.items()})
+                                  **{k: _as_given(v, getattr(cls, k, None))
+                                     for k, v in construction.items()})
             except CosimError as err:
                 where = next((v.where for v in construction.values()), spec.where)
                 self.problems.append(Problem(where, str(err)))
@@ -301,7 +302,7 @@ class _Builder:
         # sizing parameters first, elements ('pose[1]') after the whole values they change
         for key, given in sorted(values.items(), key=lambda kv: (kv[0] not in
                                  comp.sizing_parameters, "[" in kv[0])):
-            loc, value = given.where, given.value
+            loc, value = given.where, _as_given(given, comp.variables.get(key))
             element = _ELEMENT_KEY.match(key)
             if element and element["name"] in comp.variables:
                 self.configure_element(comp, name, element["name"], int(element["index"]),
@@ -625,6 +626,13 @@ class _Builder:
 
 _OPEN = re.compile(r"^(?P<pattern>[^\[\]]+?)\s*(?:\[(?P<elements>[\d,\s]+)\])?$")
 _ELEMENT_KEY = re.compile(r"^(?P<name>\w+)\[(?P<index>\d+)\]$")
+
+
+def _as_given(given: Given[Any], var: Any) -> Any:
+    """The value of `given` for variable `var`: the text as written for a String variable."""
+    if given.text is not None and getattr(var, "type", None) == STRING:
+        return given.text
+    return given.value
 
 
 def _value(value: Any, var: Any) -> Any:

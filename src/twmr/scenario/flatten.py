@@ -142,7 +142,7 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
                 out.miswired.add((dst[0].comp, dst[0].port))
             continue
         out.wires.append(Wire(f"{_text(src[0])} -> {_text(dst[0])}", given.where,
-                              src[1], dst[1]))
+                              src_via=src[1], dst_via=dst[1]))
     for given in spec.open:
         try:
             end = parse_end(str(given.value))

@@ -454,9 +454,12 @@ def _condensed(comps: dict[str, Component], edges: dict[Port, list[Port]],
 
 
 def _actions(comps: dict[str, Component], items: Sequence[Port | int], driven: set[Port],
-             loops: Sequence[Loop] = ()) -> list[Action]:
+             loops: Sequence[Loop] = (), feeding: set[Port] | None = None) -> list[Action]:
     """The writes and evaluations of ports visited in the order `items` (a loop's index: its
-    solution, ("loop", index, ""), after which its components are final)."""
+    solution, ("loop", index, ""), after which its components are final). With `feeding` (the
+    outputs wired to an input), an output that feeds nothing and depends on no driven input
+    evaluates nothing where it is visited: its value is the same wherever its component is
+    evaluated in the point."""
     plan: list[Action] = []
     evaluated: set[str] = set()
     written: dict[str, set[str]] = {name: set() for name in comps}
@@ -474,7 +477,9 @@ def _actions(comps: dict[str, Component], items: Sequence[Port | int], driven: s
             if item in driven:
                 plan.append(("write", name, port))
                 written[name].add(port)
-        elif deps and (name not in evaluated or written[name] & set(deps)):
+        elif deps and (name not in evaluated or written[name] & set(deps)) and not (
+                feeding is not None and item not in feeding and
+                not any((name, d) in driven for d in deps)):
             plan.append(("evaluate", name, ""))
             evaluated.add(name)
             written[name].clear()
@@ -487,7 +492,9 @@ def evaluation_plan(comps: dict[str, Component], conns: list[Connection],
 
     Ports are visited in topological order: a connected input is written once its sources are
     final; a component is evaluated when one of its feedthrough outputs is reached and it has not
-    been evaluated at this point yet, or an input that output depends on was written since. So a
+    been evaluated at this point yet, or an input that output depends on was written since (an
+    output that feeds nothing and depends on no wired input evaluates nothing: its component is
+    evaluated later in the point, at the latest at its end). So a
     component is evaluated twice in a point when the wiring runs through it twice (y1 = f(u1)
     feeds a block that drives u2, and y2 = g(u2)). Each of `loops` (`find_loops`) is one node of
     that order, ("loop", index, ""): solved once everything it reads is final. With a cycle
@@ -503,10 +510,11 @@ def evaluation_plan(comps: dict[str, Component], conns: list[Connection],
             return [], _cycle(edges, rest)
         items = list(ordered)
     driven = {(c.dst, c.dst_port) for c in conns}
-    plan = _actions(comps, items, driven, loops)
+    plan = _actions(comps, items, driven, loops, {(c.src, c.src_port) for c in conns})
     evaluated = {name for action, name, _ in plan if action == "evaluate"}
     evaluated |= {name for lp in loops for name in lp.components}
-    for name, comp in comps.items():  # feedthrough blocks whose outputs depend on nothing wired
+    # feedthrough blocks whose outputs depend on nothing wired, or feed nothing
+    for name, comp in comps.items():
         if comp.has_feedthrough and name not in evaluated:
             plan.append(("evaluate", name, ""))
     return plan, []

@@ -97,7 +97,7 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
             missing = default if i == len(path) - 1 else None  # a section may be left out
             node = node.get(key, missing) if isinstance(node, dict) else \
                 missing if node is None else node[key]
-        return Given(node, at(*path))
+        return Given(node, at(*path), lines.texts.get(path))
 
     comps = {}
     for name, spec in data["components"].items():

@@ -81,7 +81,9 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
         changes: dict[str, Any] = {name: Given(parsed, loc)}
         return dataclasses.replace(spec, experiment=dataclasses.replace(spec.experiment,
                                                                         **changes))
-    return assign(spec, path, name, Given(parsed, loc), problems)
+    written = value.strip()
+    as_written = written if isinstance(parsed, (int, float)) and written != str(parsed) else None
+    return assign(spec, path, name, Given(parsed, loc, as_written), problems)
 
 
 def _number(value: Any) -> Any:

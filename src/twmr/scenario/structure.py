@@ -25,10 +25,13 @@ T = TypeVar("T")
 
 @dataclass(frozen=True)
 class Given(Generic[T]):
-    """A value of the scenario and where it was given."""
+    """A value of the scenario and where it was given; `text` is what was written where YAML
+    read a number or a boolean that does not print back as written (a String parameter takes
+    the text: `channel: 01234567` is '01234567', not the octal number 342391)."""
 
     value: T
     where: Location
+    text: str | None = None
 
 
 @dataclass(frozen=True)

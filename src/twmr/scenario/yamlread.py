@@ -26,6 +26,9 @@ class Lines:
     def __init__(self, source: str):
         self.source = source
         self.lines: dict[Path_, int] = {}
+        #: the text of a plain scalar that YAML read as a number or a boolean it does not print
+        #: back ('01234567' is the octal 342391 to YAML 1.1, '1.10' is 1.1, 'on' is True)
+        self.texts: dict[Path_, str] = {}
         self.count = 0  # values converted so far
 
     def at(self, *path: Any) -> Location:
@@ -72,7 +75,10 @@ def _convert(node: yaml.Node, path: Path_, lines: Lines, loader: yaml.SafeLoader
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_convert(item, (*path, i), lines, loader) for i, item in enumerate(node.value)]
-    return loader.construct_object(node, deep=True)
+    value = loader.construct_object(node, deep=True)
+    if isinstance(value, (int, float)) and not node.style and node.value != str(value):
+        lines.texts[path] = node.value
+    return value
 
 
 #: the largest scenario file read [bytes]

@@ -245,15 +245,23 @@ def append_row(journal: IO[str], row: dict[str, Any]) -> None:
 
 
 def write_table(rows: list[dict[str, Any]], folder: Path) -> Path:
-    """runs.parquet from `rows` (written whole, then renamed); the journal is then removed."""
-    import pandas as pd
+    """runs.parquet from `rows` in sample order (written whole, then renamed); the journal is
+    then removed. Built by pyarrow alone (`twmr.sweeps.table`) unless a column holds other
+    values than it builds: then by pandas."""
+    import pyarrow.parquet as pq
 
-    frame = pd.DataFrame(rows)
-    if "sample" in frame:
-        frame = frame.sort_values("sample", kind="stable").reset_index(drop=True)
+    from twmr.sweeps.table import arrow_table
+
+    ordered = sorted(rows, key=lambda r: (r.get("sample") is None, r.get("sample") or 0))
+    table = arrow_table(ordered, list(dict.fromkeys(k for row in rows for k in row)))
     target = folder / TABLE
     partial = folder / f".{TABLE}.{os.getpid()}.part"
-    frame.to_parquet(partial, index=False)
+    if table is not None:
+        pq.write_table(table, partial)
+    else:
+        import pandas as pd
+
+        pd.DataFrame(ordered).to_parquet(partial, index=False)
     os.replace(partial, target)
     (folder / JOURNAL).unlink(missing_ok=True)
     return target

@@ -1,0 +1,98 @@
+"""The per-step calls of a co-simulation FMU made straight through its C functions, with the
+value-reference and value arrays built once (`accessor`, `stepper`), in place of fmpy's methods,
+which build both arrays and go through a Python wrapper at every call.
+
+An accessor takes and returns what fmpy's does (`set(vrs, values)`; `get(vrs)` for FMI 2.0,
+`get(vrs, count)` for FMI 3.0, a list) and has its name (`setReal`, `getInt8`, ...), so a call
+plan holds either; the values go through the same ctypes conversions (a value array of the
+call's C type, filled from the Python values), so they are the same bit for bit. A status above
+Warning raises fmpy's `FMICallException`, as fmpy does.
+"""
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Callable
+from typing import Any
+
+#: FMI call suffix -> the C value type of its array
+_FMI2: dict[str, Any] = {"Real": ctypes.c_double, "Integer": ctypes.c_int,
+                         "Boolean": ctypes.c_int}
+_FMI3: dict[str, Any] = {
+    "Float64": ctypes.c_double, "Float32": ctypes.c_float, "Int8": ctypes.c_int8,
+    "UInt8": ctypes.c_uint8, "Int16": ctypes.c_int16, "UInt16": ctypes.c_uint16,
+    "Int32": ctypes.c_int32, "UInt32": ctypes.c_uint32, "Int64": ctypes.c_int64,
+    "UInt64": ctypes.c_uint64, "Boolean": ctypes.c_bool}
+
+
+def supports(suffix: str, fmi3: bool) -> bool:
+    """Whether values of FMI call suffix `suffix` ('Real', 'Int8', ...) have a direct
+    accessor (not String nor Binary)."""
+    return suffix in (_FMI3 if fmi3 else _FMI2)
+
+
+def accessor(fmu: Any, fmi3: bool, suffix: str, which: int, vrs: list[int],
+             count: int) -> Callable[..., Any]:
+    """The getter (which=0) or setter (1) of value type `suffix` of fmpy's instantiated `fmu`
+    for value references `vrs` carrying `count` values."""
+    from fmpy.fmi1 import FMICallException
+
+    version = "fmi3" if fmi3 else "fmi2"
+    name = f"{version}{'Set' if which else 'Get'}{suffix}"
+    fn = fmu._functions[name]  # fmpy's ctypes function, its argtypes set
+    inst = fmu.component
+    vr = (ctypes.c_uint * len(vrs))(*vrs)
+    nvr = len(vrs)
+    buf = (_FMI3 if fmi3 else _FMI2)[suffix] * count
+    values = buf()
+    tail = (count,) if fmi3 else ()
+
+    if which:
+        def set_(_: Any, given: list[Any]) -> None:
+            values[:] = given
+            status = fn(inst, vr, nvr, values, *tail)
+            if status > 1:
+                raise FMICallException(function=name, status=status)
+
+        set_.__name__ = f"set{suffix}"
+        return set_
+
+    def get(*_: Any) -> list[Any]:
+        status = fn(inst, vr, nvr, values, *tail)
+        if status > 1:
+            raise FMICallException(function=name, status=status)
+        return values[:]
+
+    get.__name__ = f"get{suffix}"
+    return get
+
+
+def stepper(fmu: Any, fmi3: bool) -> Callable[[float, float], bool]:
+    """doStep(t, h) of fmpy's instantiated co-simulation `fmu`: True when the FMU asks to
+    terminate the simulation (FMI 3.0's terminateSimulation; FMI 2.0 says so by a status)."""
+    from fmpy.fmi1 import FMICallException
+
+    if not fmi3:
+        fn2 = fmu._functions["fmi2DoStep"]
+        inst2 = fmu.component
+
+        def step2(t: float, h: float) -> bool:
+            status = fn2(inst2, t, h, 1)
+            if status > 1:
+                raise FMICallException(function="fmi2DoStep", status=status)
+            return False
+
+        return step2
+    fn = fmu._functions["fmi3DoStep"]
+    inst = fmu.component
+    flags = [ctypes.c_bool() for _ in range(3)]
+    last = ctypes.c_double()
+    refs = (*(ctypes.byref(f) for f in flags), ctypes.byref(last))
+    terminate = flags[1]
+
+    def step3(t: float, h: float) -> bool:
+        status = fn(inst, t, h, True, *refs)
+        if status > 1:
+            raise FMICallException(function="fmi3DoStep", status=status)
+        return terminate.value
+
+    return step3
