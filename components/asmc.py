@@ -35,11 +35,9 @@ def asmc_evaluate(t: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
 
 
 @kernel_function
-def asmc_step(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
-              ) -> tuple[TrackingState, tuple]:
-    """`AsmcController.do_step`: d_hat by eq. (33), held while saturated (anti-windup), clamped
-    to the projection; then the outputs at t + h with the inputs held, as its C FMU reports
-    them after fmi2DoStep (what a Jacobi master passes on)."""
+def asmc_advance(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
+                 ) -> tuple[TrackingState, tuple]:
+    """d_hat by eq. (33), held while saturated (anti-windup), clamped to the projection."""
     if not (x.saturated == 1.0 and p.hold_saturated == 1.0):
         s1, s2 = y[2]
         d1, d2 = y[3]
@@ -48,6 +46,15 @@ def asmc_step(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcP
         if m > 0.0:
             d1, d2 = min(m, max(-m, d1)), min(m, max(-m, d2))
         y = (y[0], y[1], y[2], (d1, d2))
+    return x, y
+
+
+@kernel_function
+def asmc_step(t: float, h: float, x: TrackingState, y: tuple, u: tuple, p: AsmcParams
+              ) -> tuple[TrackingState, tuple]:
+    """`AsmcController.do_step`: `asmc_advance`, then the outputs at t + h with the inputs
+    held, as its C FMU reports them after fmi2DoStep (what a Jacobi master passes on)."""
+    x, y = asmc_advance(t, h, x, y, u, p)
     return asmc_evaluate(t + h, x, y, u, p)
 
 
@@ -71,4 +78,5 @@ class AsmcController(TrackingController):
         return Kernel(params=AsmcParams(self.law_params(), float(self.eta),
                                         float(self.d_hat_limit),
                                         1.0 if self.hold_saturated else 0.0),
-                      state=TrackingState(0.0), evaluate=asmc_evaluate, step=asmc_step)
+                      state=TrackingState(0.0), evaluate=asmc_evaluate, step=asmc_step,
+                      advance=asmc_advance)

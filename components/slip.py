@@ -51,6 +51,14 @@ def slip_step(t: float, h: float, x: tuple, y: tuple, u: tuple, p: SlipProfile
     return slip_evaluate(t + h, x, y, u, p)
 
 
+@kernel_function
+def slip_advance(t: float, h: float, x: tuple, y: tuple, u: tuple, p: SlipProfile
+                 ) -> tuple[tuple, tuple]:
+    """`slip_step` without its outputs at t + h (all but `model`, which it keeps, are the
+    next point's `slip_evaluate`)."""
+    return x, y
+
+
 class SlipDisturbance(Component):
     """Slip velocities, slip accelerations and disturbance torques; see the module for profiles."""
 
@@ -99,7 +107,8 @@ class SlipDisturbance(Component):
         """The definition of every profile but `random` (a numpy Generator: Python only)."""
         if self.profile == "random":
             return None
-        return Kernel(params=self.params(), evaluate=slip_evaluate, step=slip_step)
+        return Kernel(params=self.params(), evaluate=slip_evaluate, step=slip_step,
+                      advance=slip_advance)
 
     def evaluate(self, t: float) -> None:
         if self.profile != "random":

@@ -345,6 +345,74 @@ def test_c_twins_exported_as_fmi3_equal_the_python_forms(kind: str) -> None:
     check()
 
 
+def _advances(kind: str) -> bool:
+    """Whether the kernel of `kind` with its defaults has `advance`."""
+    try:
+        with Harness(kind).initialize() as dut:
+            kern = dut.component.kernel(1e-3)
+    except Exception:  # noqa: BLE001 - a kind that needs parameters to have a kernel
+        return False
+    return kern is not None and kern.advance is not None
+
+
+ADVANCING = [k for k in KINDS if _advances(k)]
+
+
+def test_the_paper_blocks_advance_without_their_outputs() -> None:
+    assert {"asmc", "slip_disturbance"} <= set(ADVANCING), ADVANCING
+
+
+def _bit_list(value: Any) -> list[int]:
+    return [int(b) for b in _bits(np.array(list(_leaves(value)), dtype=float))]
+
+
+def _leaves(value: Any) -> Any:
+    if isinstance(value, tuple):
+        for v in value:
+            yield from _leaves(v)
+    else:
+        yield from np.ravel(value)
+
+
+@pytest.mark.parametrize("kind", ADVANCING)
+def test_advance_is_the_step_without_what_evaluate_recomputes(kind: str) -> None:
+    """`Kernel.advance` gives the state and every output that depends on no input as `step`
+    does, bit for bit, and the next point's `evaluate` (with new inputs) gives the same from
+    either (tests/integration/test_driver_advance.py: the driver's use of it)."""
+    @SETTINGS
+    @given(case(kind))
+    def check(c: dict[str, Any]) -> None:
+        with _harness(kind, c) as dut:
+            comp = dut.component
+            kern = comp.kernel(c["h"])
+            if kern is None or kern.advance is None:
+                return
+            x, p, h = kern.state, kern.params, c["h"]
+            y = tuple(_port(v, comp.get(n)) for n, v in comp.outputs.items())
+            kept = [j for j, v in enumerate(comp.outputs.values()) if not v.depends_on]
+
+            def inputs(n: int) -> tuple:
+                return tuple(_port(v, v.coerce(c["inputs"][n][name]))
+                             for name, v in comp.inputs.items())
+
+            for n in range(len(c["inputs"]) - 1):
+                t = c["start"] + n * h
+                if comp.has_feedthrough:
+                    x, y = kern.evaluate(t, x, y, inputs(n), p)
+                xs, ys = kern.step(t, h, x, y, inputs(n), p)
+                xa, ya = kern.advance(t, h, x, y, inputs(n), p)
+                assert _bit_list(xa) == _bit_list(xs), (n, xa, xs)
+                for j in kept:
+                    assert _bit_list(ya[j]) == _bit_list(ys[j]), (n, j, ya[j], ys[j])
+                if comp.has_feedthrough:
+                    after = [kern.evaluate(t + h, xx, yy, inputs(n + 1), p)
+                             for xx, yy in ((xs, ys), (xa, ya))]
+                    assert _bit_list(after[0]) == _bit_list(after[1]), (n, after)
+                x, y = xs, ys
+
+    check()
+
+
 def test_every_c_twin_belongs_to_a_block_and_has_its_source() -> None:
     for kind in twins():
         assert kind in kinds(), f"C twin '{kind}' has no component kind"

@@ -172,12 +172,19 @@ class Kernel:
     parameter table `params` (a NamedTuple of floats, tuples of floats or numpy arrays) and its
     initial private state `state`, and `sync(x)`, called with the state after every chunk of
     compiled steps (and after every Python call) so the component can report (e.g. log a
-    warning)."""
+    warning).
+
+    `advance(t, h, x, y, u, p) -> (x, y)`, optional, is `step` without the work `evaluate` redoes
+    at the next point: the same state x and the same values of every output that depends on no
+    input, the feedthrough outputs left as they were. The compiled driver calls it instead of
+    `step` where the plan evaluates the block at the point after each step before anything
+    reads its feedthrough outputs (tests/property/test_block_forms.py holds it to `step`)."""
 
     params: tuple = ()
     state: tuple = ()
     evaluate: Any = None
     step: Any = None
+    advance: Any = None
     sync: Callable[[Any], None] | None = None
     #: an FMU the loop calls itself through its C function pointers (`twmr.master.fmu_kernel`)
     fmu: FmuCalls | None = None

@@ -164,13 +164,15 @@ def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: A
         if buf.shape[1] > 1 and n % dec == 0:
             _record(k, t, S, rec, buf)
             k += 1
+        last = n == n1 - 1
         for i in range(steps.shape[0]):
             b = steps[i, 0]
             m = steps[i, 1]
+            col = 5 if steps[i, 2] != 0 and not last else 1
             if m == 1:
-                _block(1, b, t, H[b], S, X, P, blocks)
+                _block(col, b, t, H[b], S, X, P, blocks)
             elif n % m == m - 1:
-                _block(1, b, t - (m - 1) * h, H[b], S, X, P, blocks)
+                _block(col, b, t - (m - 1) * h, H[b], S, X, P, blocks)
     return k, bad
 
 

@@ -132,6 +132,30 @@ class Plan:
         return f"{cur} = {write.template.format(*values, cur=cur)}"
 
 
+def advancing(system: System, plan: Plan) -> frozenset[str]:
+    """The components whose step may leave out what the next point's evaluation recomputes
+    (`Kernel.advance`): each evaluated at every point after its steps (the same multiple)
+    before any write reads one of its feedthrough outputs. None under Jacobi (its snapshot
+    reads the outputs of the steps) or with a loop to solve."""
+    if plan.snapshot or plan.loops:
+        return frozenset()
+    evaluated: dict[str, int] = {}
+    read_early: set[str] = set()
+    for action in plan.point:
+        if isinstance(action, Evaluate):
+            evaluated.setdefault(action.name, action.multiple)
+        elif isinstance(action, Write):
+            read_early.update(name for name, port in action.sources
+                              if name not in evaluated and _feedthrough(system, name, port))
+    return frozenset(s.name for s in plan.steps
+                     if evaluated.get(s.name) == s.multiple and s.name not in read_early)
+
+
+def _feedthrough(system: System, name: str, port: str) -> bool:
+    """Whether output `port` of `name` depends on an input directly."""
+    return bool(getattr(system.components[name].variables[port], "depends_on", None))
+
+
 def chunks(items: Sequence[T]) -> list[Sequence[T]]:
     """`items` cut into runs of at most `CHAIN`."""
     return [items[i:i + CHAIN] for i in range(0, len(items), CHAIN)]

@@ -1,0 +1,60 @@
+"""The compiled driver's lean steps (`Kernel.advance`, `twmr.master.plan.advancing`): under
+Gauss-Seidel the ASMC's and the slip block's steps leave their feedthrough outputs to the next
+point's evaluation, under Jacobi they do not, the rows equal the Python schedule's bit for bit,
+and after every chunk of steps the components hold what the Python schedule leaves them."""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tests.integration.test_compiled import ROOT
+from twmr.master import Execution, execution
+from twmr.master.algorithm import make_algorithm
+from twmr.master.compiled import CompiledStep
+from twmr.observers.base import Observer
+from twmr.observers.store import ResultStore
+from twmr.scenario import load
+
+PAPER = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+#: the ports the steps write that the next point's evaluation recomputes, and d_hat
+PORTS = ("ctrl.torque", "ctrl.error", "ctrl.s", "ctrl.d_hat", "slip.slip_rate",
+         "slip.disturbance", "plant.pose", "motor.torque")
+
+
+class AfterChunks(Observer):
+    """The values of `PORTS` in the components after each chunk of steps."""
+
+    def __init__(self, system: Any) -> None:
+        self.system, self.seen = system, []
+
+    def rows(self, block: np.ndarray, steps_done: int) -> None:
+        comps = self.system.components
+        self.seen.append((steps_done, [np.ravel(comps[p.split(".")[0]].get(p.split(".")[1]))
+                                       for p in PORTS]))
+
+
+def run(method: str, mode: str) -> tuple[np.ndarray, list, Any]:
+    system = load(PAPER, ["experiment.stop=2.0", f"experiment.algorithm={method}"])
+    algorithm = make_algorithm(method, mode) if mode == "off" else CompiledStep(method, mode)
+    store, after = ResultStore(), AfterChunks(system)
+    out = Execution(system, [store, after], algorithm=algorithm).run()
+    assert out.status == "completed", out.error
+    return store.data(), after.seen, algorithm
+
+
+@pytest.mark.parametrize("method", ["gauss_seidel", "jacobi"])
+def test_lean_steps_give_the_python_schedule_s_rows_and_chunk_ends(
+        method: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(execution, "CHUNK_SECONDS", 1e9)  # chunks of 64, 256, ... steps in both
+    python, python_seen, _ = run(method, "off")
+    compiled, seen, alg = run(method, "on")
+    lay, order = alg._layout, alg.python.plan.order
+    lean = {order[b] for b, _m, flag in lay.steps if flag}
+    assert lean == ({"ctrl", "slip"} if method == "gauss_seidel" else set())
+    assert np.array_equal(python, compiled)
+    assert [n for n, _ in seen] == [n for n, _ in python_seen] and len(seen) > 2
+    for (n, values), (_, expected) in zip(seen, python_seen, strict=True):
+        for port, v, e in zip(PORTS, values, expected, strict=True):
+            assert np.array_equal(v, e), (n, port, v, e)
