@@ -71,6 +71,8 @@ log = logging.getLogger("twmr.run")
 SSA_RECURSION = 50_000
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
+#: why a system that records Binary ports keeps the Python schedule
+TICKS = "its recorded Binary ports are taken by the Python schedule"
 
 
 class CompileError(CosimError):
@@ -207,6 +209,9 @@ class CompiledStep(Algorithm):
         """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
         already (held by this process, or, if `cached`, in numba's cache), so the whole run can
         be compiled from its first step; else None."""
+        assert self.python.plan is not None
+        if self.python.plan.ticks:
+            return None
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
@@ -224,8 +229,8 @@ class CompiledStep(Algorithm):
         'on')."""
         system = self._system
         assert self.python.plan is not None
-        if self.python.plan.loops:
-            self.reason = LOOPS
+        if self.python.plan.loops or self.python.plan.ticks:
+            self.reason = LOOPS if self.python.plan.loops else TICKS
             return
         kernels, self.reason = (ready[0], "") if ready is not None else \
             _kernels(system, self._record, self.mode == "on")

@@ -605,7 +605,7 @@ class _Builder:
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record
         everything = [(n, p) for n, c in comps.items() for p, v in c.variables.items()
-                      if v.kind != "parameter" and v.type not in TEXT_TYPES]
+                      if v.kind != "parameter" and v.type != STRING]  # Binary: at its ticks
         if spec.signals is None:
             chosen = [(n, p) for n, c in comps.items() for p, v in c.outputs.items()
                       if v.type not in TEXT_TYPES]
