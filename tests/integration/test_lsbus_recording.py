@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import logging
 import signal
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
@@ -15,7 +17,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import twmr
-from tests.fmu_build import build_lsbus_fmu
+from tests.fmu_build import build_c_fmu, build_lsbus_fmu
 from tests.hostile.test_signals import signal_run
 from twmr.fmi.lsbus import operations as ops
 
@@ -166,3 +168,53 @@ def test_a_killed_run_keeps_the_ticks_it_wrote(nodes, tmp_path) -> None:
     assert [o for _, o in found[1:]] == [[A_FRAME]] * (len(found) - 1)
     np.testing.assert_allclose([t for t, _ in found[1:]], 0.3 * np.arange(1, len(found)),
                                atol=1e-6)
+
+
+def _twmr(args: list[str], cwd) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "twmr.cli", *args], cwd=cwd,
+                          capture_output=True, text=True)
+
+
+def test_the_compiled_loop_on_refuses_a_binary_port_in_one_paragraph(nodes, tmp_path) -> None:
+    scenario = tmp_path / "bus.yaml"
+    scenario.write_text(direct(nodes["triggered"], nodes["triggered"],
+                               ["a.CanChannel.Tx_Data", "b.rx_frames"]))
+    done = _twmr(["run", str(scenario), "--out", "out", "--compiled", "on", "-q"], tmp_path)
+    assert done.returncode != 0 and "Traceback" not in done.stderr
+    assert "bus.yaml" in done.stderr and "record.signals" in done.stderr
+    assert "'a.CanChannel.Tx_Data'" in done.stderr and "Fix: " in done.stderr, done.stderr
+    assert len(done.stderr.strip().splitlines()) <= 3, done.stderr
+
+
+def test_a_string_port_in_record_is_refused_naming_it(tmp_path) -> None:
+    types3 = build_c_fmu("types3", tmp_path, fmi3=True)
+    scenario = tmp_path / "text.yaml"
+    scenario.write_text(f"""
+components:
+  a: {{kind: fmu, parameters: {{path: {types3}}}}}
+open: [a.*]
+record: {{signals: [a.Float64_output, a.String_output]}}
+experiment: {{start: 0.0, stop: 0.3, step: 0.1}}
+""")
+    done = _twmr(["check", str(scenario)], tmp_path)
+    assert done.returncode != 0 and "Traceback" not in done.stderr
+    assert "text.yaml:5" in done.stderr and "a.String_output" in done.stderr, done.stderr
+    assert "String port" in done.stderr and "Fix: " in done.stderr
+
+
+def test_a_binary_output_without_a_clock_is_kept_where_it_changes(tmp_path) -> None:
+    """An FMI 3.0 FMU without event mode whose Binary_output echoes Binary_input: kept at
+    0 s, where it changes; the numbers as without it."""
+    types3 = build_c_fmu("types3", tmp_path, fmi3=True)
+    text = f"""
+components:
+  a: {{kind: fmu, parameters: {{path: {types3}}}, initial: {{Binary_input: "00ff10"}}}}
+open: [a.*]
+record: {{signals: [a.Float64_outputEXTRA]}}
+experiment: {{start: 0.0, stop: 0.3, step: 0.1}}
+"""
+    r = twmr.simulate(twmr.load(text.replace("EXTRA", ", a.Binary_output")))
+    assert list(r.tick_times("a.Binary_output")) == [0.0]
+    assert r["a.Binary_output"][0] == bytes.fromhex("00ff10")
+    plain = twmr.simulate(twmr.load(text.replace("EXTRA", "")))
+    assert r.values.tobytes() == plain.values.tobytes()

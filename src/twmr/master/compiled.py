@@ -62,6 +62,7 @@ from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
 from twmr.master.schedule import FixedStep
+from twmr.master.ticks import binary_signals
 from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
@@ -167,6 +168,13 @@ class CompiledStep(Algorithm):
 
     # -- Algorithm ---------------------------------------------------------------------------
     def refuse(self, system: System) -> Problem | None:
+        binary = binary_signals(system, system.record.signals) if self.mode == "on" else []
+        if binary:
+            names = ", ".join(f"'{b.name}.{b.port}'" for b in binary)
+            return Problem(Location(system.source, 0, "record.signals"),
+                           f"the compiled loop (--compiled on) does not record Binary ports "
+                           f"({names}): {TICKS}.", "run with --compiled auto or off "
+                           "(TWMR_COMPILED), or leave those ports out of 'record: signals'.")
         if self.mode != "on" or self.method != "gauss_seidel" or \
                 system.experiment.loops != "solve" or \
                 not find_loops(system.components, system.connections)[0]:
