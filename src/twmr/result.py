@@ -139,7 +139,8 @@ class Result:
 def read_result(path: str | Path) -> Result:
     """The result in a run's folder (`result.arrows`, also after a crash), or in one of its
     exports (a file of a registered result format that can be read: .csv with `units.json`
-    beside it, .mat, .parquet; units it lacks come from the run's summary)."""
+    beside it, .mat, .parquet; units it lacks come from the run's summary); the recorded Binary
+    ports from `ticks.arrows` in the same folder."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     summary = _summary(folder)
