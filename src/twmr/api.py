@@ -165,7 +165,8 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     if out is None:
         ex = Execution(system, [store, summary, *extra, *observers])
         ex.run()
-        result = Result(ex.columns, ex.units, store.data(), summary.document)
+        result = Result(ex.columns, ex.units, store.data(), summary.document,
+                        ticks=store.tick_table())
         _add_metrics(result, metric_fns, None)
         return result
     from twmr.observers.pacing import PacingReport
@@ -263,7 +264,7 @@ def _finish_folder(folder: Path, formats: tuple[str, ...],
     result = read_result(folder)
     if formats and len(result):
         export(result.columns, [result.units[c] for c in result.columns], result.values, folder,
-               formats)
+               formats, result.ticks)
     _add_metrics(result, metric_fns, folder)
     return result
 

@@ -3,6 +3,10 @@
 `result.time`, `result["plant.pose[1]"]` (a column), `result.data` (a numpy structured array, one
 field per column), `result.to_pandas()` (a DataFrame, time column `time`, units in `attrs`),
 `result.summary` (what `summary.json` says: status, error, statistics, pacing).
+
+Recorded Binary ports (`result.binary`) are kept at their ticks (`twmr.observers.ticks`):
+`result["n1.CanChannel.Tx_Data"]` is the bytes of each tick (an object array),
+`result.tick_times(name)` their times [s], `result.ticks` the table of every port by time.
 """
 from __future__ import annotations
 
@@ -17,16 +21,19 @@ from twmr.core.jsonvalues import revive
 from twmr.observers.store import FILENAME as STORE
 from twmr.observers.store import read_store
 from twmr.observers.summary import FILENAME as SUMMARY
+from twmr.observers.ticks import FILENAME as TICKS
+from twmr.observers.ticks import TickTable, instant, read_ticks
 from twmr.observers.writers import format_of_suffix, result_formats
 from twmr.registry import FORMATS, plugins
 
 
 class Result:
-    """Recorded columns (time first) of one run, with their units and the run's summary."""
+    """Recorded columns (time first) of one run, with their units and the run's summary; the
+    recorded Binary ports at their ticks (`ticks`)."""
 
     def __init__(self, columns: list[str], units: list[str], values: np.ndarray,
                  summary: dict[str, Any] | None = None, folder: Path | None = None,
-                 intact: bool = True):
+                 intact: bool = True, ticks: TickTable | None = None):
         self.columns = list(columns)
         self.units = dict(zip(columns, units, strict=False))
         self.values = np.ascontiguousarray(values, dtype=float).reshape(-1, len(columns))
@@ -34,6 +41,21 @@ class Result:
         self.folder = folder
         #: False when the store ended in a torn chunk (the run was killed while writing it)
         self.intact = intact
+        self.ticks = ticks if ticks is not None else TickTable()
+
+    @property
+    def binary(self) -> list[str]:
+        """The recorded Binary ports ('n1.CanChannel.Tx_Data')."""
+        return self.ticks.names
+
+    def tick_times(self, name: str) -> np.ndarray:
+        """The times [s] of the ticks of Binary port `name` (those of `result[name]`)."""
+        return self._ticks_of(name)[0]
+
+    def _ticks_of(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        if name not in self.ticks.names:
+            raise KeyError(f"no Binary port '{name}'; recorded: {', '.join(self.binary)}")
+        return self.ticks.ticks(name)
 
     @property
     def status(self) -> str:
@@ -51,18 +73,23 @@ class Result:
         return self.values[:, 0]
 
     def __getitem__(self, column: str) -> np.ndarray:
+        if column in self.ticks.names:
+            return self._ticks_of(column)[1]
         try:
             return self.values[:, self.columns.index(column)]
         except ValueError:
-            raise KeyError(f"no column '{column}'; recorded: {', '.join(self.columns)}") from None
+            raise KeyError(f"no column '{column}'; recorded: "
+                           f"{', '.join(self.columns + self.binary)}") from None
 
     def __len__(self) -> int:
         return len(self.values)
 
     def __repr__(self) -> str:
         span = f", t = {self.time[0]:g}..{self.time[-1]:g} s" if len(self) else ""
+        binary = f", {len(self.binary)} Binary ports at {len(self.ticks)} times" \
+            if self.binary else ""
         return (f"<Result {self.status}: {len(self)} rows x {len(self.columns) - 1} signals"
-                f"{span}{f', in {self.folder}' if self.folder else ''}>")
+                f"{span}{binary}{f', in {self.folder}' if self.folder else ''}>")
 
     def _repr_html_(self) -> str:
         """A notebook's view: the status, the span and one row per signal with its unit and its
@@ -83,18 +110,37 @@ class Result:
 
     def to_pandas(self) -> Any:
         """A pandas DataFrame: column `time` [s] and one column per recorded scalar, named like
-        `plant.pose[1]`; `df.attrs['units']` maps each column to its unit."""
+        `plant.pose[1]`; `df.attrs['units']` maps each column to its unit. A recorded Binary
+        port is a column of `bytes` where it ticked and None elsewhere: in the recorded row of
+        the tick's instant (`twmr.observers.ticks.instant`), else in a row of its own (the
+        numbers NaN) at the tick's time."""
         import pandas as pd
 
         df = pd.DataFrame(self.values, columns=self.columns)
-        df.attrs["units"] = dict(self.units)
+        units = dict(self.units)
+        if self.binary:
+            times = self.ticks.time
+            at = np.searchsorted(self.time, times - [instant(t) for t in times])
+            hit = at < len(self)
+            hit[hit] = np.abs(self.time[at[hit]] - times[hit]) <= [instant(t)
+                                                                  for t in times[hit]]
+            ticks = self.ticks.to_pandas()
+            for name in self.binary:
+                column = np.full(len(df), None, dtype=object)
+                column[at[hit]] = ticks[name].to_numpy()[hit]
+                df[name] = column
+                units[name] = ""
+            df = pd.concat([df, ticks[~hit]], ignore_index=True) \
+                .sort_values("time", kind="stable", ignore_index=True)
+        df.attrs["units"] = units
         return df
 
 
 def read_result(path: str | Path) -> Result:
     """The result in a run's folder (`result.arrows`, also after a crash), or in one of its
     exports (a file of a registered result format that can be read: .csv with `units.json`
-    beside it, .mat, .parquet; units it lacks come from the run's summary)."""
+    beside it, .mat, .parquet; units it lacks come from the run's summary); the recorded Binary
+    ports from `ticks.arrows` in the same folder."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     summary = _summary(folder)
@@ -107,15 +153,18 @@ def read_result(path: str | Path) -> Result:
         if not path.is_file():
             raise CosimError(f"{path}: no such result{_siblings(path)}. Fix: give the folder "
                              f"`twmr run` wrote or one of its result files.")
+        ticks, ticks_intact = _ticks(folder)
         if path.suffix.lower() == ".arrows":
             columns, units, values, intact = read_store(path)
-            return Result(columns, units, values, summary, folder, intact)
+            return Result(columns, units, values, summary, folder, intact and ticks_intact,
+                          ticks)
         fmt = format_of_suffix(path.suffix)
         if fmt is not None:
             columns, units, values = fmt.read(path)
             unit_of = summary.get("units", {})
             units = [u or unit_of.get(c, "") for c, u in zip(columns, units, strict=True)]
-            return Result(columns, units, values.reshape(-1, len(columns)), summary, folder)
+            return Result(columns, units, values.reshape(-1, len(columns)), summary, folder,
+                          ticks_intact, ticks)
     except CosimError:
         raise
     except Exception as exc:  # noqa: BLE001 - any unreadable file is reported plainly
@@ -124,6 +173,15 @@ def read_result(path: str | Path) -> Result:
                          f"{_readable()}).") from None
     raise CosimError(f"{path}: unknown result format '{path.suffix}'. Fix: give a folder, or a "
                      f"result.arrows or export file ({_readable()}).")
+
+
+def _ticks(folder: Path) -> tuple[TickTable | None, bool]:
+    """The recorded Binary ports in `folder/ticks.arrows` (None: there is none), and whether
+    its last batch is whole."""
+    if not (folder / TICKS).is_file():
+        return None, True
+    names, events, intact = read_ticks(folder / TICKS)
+    return TickTable.of(names, events), intact
 
 
 def _readable() -> str:

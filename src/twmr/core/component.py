@@ -369,6 +369,15 @@ class Component:
         """Current value of any variable."""
         return self.__dict__[name]
 
+    def clock_of(self, port: str) -> str | None:
+        """The clock port that ticks when Binary `port` holds new data (a bus terminal's
+        Tx_Clock for its Tx_Data, Rx_Clock for its Rx_Data); None: it has none."""
+        for members in self.terminals.values():
+            for data, clock in (("Tx_Data", "Tx_Clock"), ("Rx_Data", "Rx_Clock")):
+                if members.get(data) == port and clock in members:
+                    return members[clock]
+        return None
+
     # -- life cycle (FMI 2.0 co-simulation) ---------------------------------------------------
     def prepare(self, run: Any) -> None:
         """Called first with the run's `RunContext`: `run.folder` is where the component may

@@ -188,6 +188,16 @@ class FmuComponent(Component):
         for key, value in parameters.items():
             self.set_parameter(key, value)
 
+    def clock_of(self, port: str) -> str | None:
+        """A terminal member's clock, else the first clock the model description says clocks
+        `port` (None: none)."""
+        found = super().clock_of(port)
+        if found is not None:
+            return found
+        clocks = {p.vrs[0]: p.name for p in self.ports if p.clock}
+        clocked = next((p.clocked_by for p in self.ports if p.name == port), ())
+        return next((clocks[vr] for vr in clocked if vr in clocks), None)
+
     def _bus_terminals(self, label: str) -> dict[str, dict[str, str]]:
         """The FMU's LS-BUS network terminals (member -> port), their members checked to be
         ports of the kind a bus terminal needs; a beta version's note is logged."""

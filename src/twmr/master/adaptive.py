@@ -57,6 +57,7 @@ from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
 from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
+from twmr.master.ticks import Tick
 from twmr.scenario.system import System
 
 log = logging.getLogger("twmr.adaptive")
@@ -384,7 +385,7 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
     NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H),
     `outputs()` (the `watched` port values) and `discrete()` (the `discrete` ones)."""
     ids = {name: i for i, name in enumerate(plan.order)}
-    env: dict[str, Any] = {"nonfinite": _nonfinite}
+    env: dict[str, Any] = {"nonfinite": _nonfinite, "Tick": Tick}
     for name, comp in system.components.items():
         i = ids[name]
         env.update({f"d{i}": comp.__dict__, f"ev{i}": comp.evaluate, f"st{i}": comp.do_step})

@@ -62,6 +62,7 @@ from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Solve, Write, guard
 from twmr.master.schedule import FixedStep
+from twmr.master.ticks import binary_signals
 from twmr.scenario.graph import find_loops
 from twmr.scenario.system import System
 
@@ -71,6 +72,8 @@ log = logging.getLogger("twmr.run")
 SSA_RECURSION = 50_000
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
+#: why a system that records Binary ports keeps the Python schedule
+TICKS = "its recorded Binary ports are taken by the Python schedule"
 
 
 class CompileError(CosimError):
@@ -165,6 +168,13 @@ class CompiledStep(Algorithm):
 
     # -- Algorithm ---------------------------------------------------------------------------
     def refuse(self, system: System) -> Problem | None:
+        binary = binary_signals(system, system.record.signals) if self.mode == "on" else []
+        if binary:
+            names = ", ".join(f"'{b.name}.{b.port}'" for b in binary)
+            return Problem(Location(system.source, 0, "record.signals"),
+                           f"the compiled loop (--compiled on) does not record Binary ports "
+                           f"({names}): {TICKS}.", "run with --compiled auto or off "
+                           "(TWMR_COMPILED), or leave those ports out of 'record: signals'.")
         if self.mode != "on" or self.method != "gauss_seidel" or \
                 system.experiment.loops != "solve" or \
                 not find_loops(system.components, system.connections)[0]:
@@ -207,6 +217,9 @@ class CompiledStep(Algorithm):
         """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
         already (held by this process, or, if `cached`, in numba's cache), so the whole run can
         be compiled from its first step; else None."""
+        assert self.python.plan is not None
+        if self.python.plan.ticks:
+            return None
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
@@ -224,8 +237,8 @@ class CompiledStep(Algorithm):
         'on')."""
         system = self._system
         assert self.python.plan is not None
-        if self.python.plan.loops:
-            self.reason = LOOPS
+        if self.python.plan.loops or self.python.plan.ticks:
+            self.reason = LOOPS if self.python.plan.loops else TICKS
             return
         kernels, self.reason = (ready[0], "") if ready is not None else \
             _kernels(system, self._record, self.mode == "on")

@@ -27,8 +27,10 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError, FmuTerminated
+from twmr.core.port import BINARY
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
+from twmr.master.ticks import Event, Tick, TickEvents, binary_signals
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
 
@@ -166,10 +168,10 @@ class _Relay:
                 except BaseException as exc:  # noqa: BLE001 - handed to the stepping thread
                     self._error = exc
 
-    def put(self, block: np.ndarray, n: int) -> None:
+    def put(self, block: np.ndarray, n: int, events: list[Event]) -> None:
         if self._error is not None:
             raise self._error
-        self._queue.put((block, n))
+        self._queue.put((block, n, events))
 
     def close(self, check: bool = True) -> None:
         """Deliver what is queued and end the thread; raise its failure when `check`."""
@@ -182,10 +184,13 @@ class _Relay:
 def columns_of(system: System, signals: Sequence[tuple[str, str]]
                ) -> tuple[list[str], list[str]]:
     """Column names and units of the recorded signals, time first; vector ports as
-    `inst.port[1]..inst.port[n]` (1-based, as Modelica tools name them)."""
+    `inst.port[1]..inst.port[n]` (1-based, as Modelica tools name them). Binary ports are
+    recorded at their ticks instead (`twmr.master.ticks`)."""
     names, units = ["time"], ["s"]
     for inst, port in signals:
         var = system.components[inst].variables[port]
+        if var.type == BINARY:
+            continue
         if var.size is None:
             names.append(f"{inst}.{port}")
             units.append(var.element_unit(0))
@@ -217,6 +222,7 @@ class Execution:
             self.algorithm = algorithm
         self.signals = list(system.record.signals)
         self.columns, self.units = columns_of(system, self.signals)
+        self.ticks = TickEvents(system, binary_signals(system, self.signals))
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
         self.outcome = Outcome(n_steps=exp.n_steps)
         self._relay: _Relay | None = None
@@ -237,7 +243,8 @@ class Execution:
         self._wall0 = math.nan
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
-                             self.folder, self.system.source, {"ports": self._recorded_ports()})
+                             self.folder, self.system.source, {"ports": self._recorded_ports()},
+                             tuple(self.ticks.names))
             for obs in self.observers:
                 self._write(obs.started, start)
             context = RunContext(
@@ -328,21 +335,29 @@ class Execution:
 
     def _emit(self) -> None:
         """Hand the rows recorded since the last call to every observer (in a paced run, to the
-        relay thread, so a slow disk never delays a step)."""
-        if not self._rows:
+        relay thread, so a slow disk never delays a step); the ticks of recorded Binary ports
+        apart from them."""
+        rows: list[Any] = self._rows
+        events: list[Event] = []
+        if self.ticks.names:
+            events = self.ticks.events([r for r in rows if type(r) is Tick])
+            rows = [r for r in rows if type(r) is not Tick]
+        if not rows:
             block = np.zeros((0, len(self.columns)))
-        elif isinstance(self._rows[0], np.ndarray):  # blocks of rows (the compiled loop)
-            block = np.concatenate(self._rows)
+        elif isinstance(rows[0], np.ndarray):  # blocks of rows (the compiled loop)
+            block = np.concatenate(rows)
         else:
-            block = np.array(self._rows, dtype=float)
+            block = np.array(rows, dtype=float)
         self._rows.clear()
         if self._relay is not None:
-            self._relay.put(block, self._n)
+            self._relay.put(block, self._n, events)
             return
-        self._deliver(block, self._n)
+        self._deliver(block, self._n, events)
 
-    def _deliver(self, block: np.ndarray, n: int) -> None:
+    def _deliver(self, block: np.ndarray, n: int, events: list[Event]) -> None:
         for obs in self.observers:
+            if events:
+                self._write(obs.ticks, events, n)
             self._write(obs.rows, block, n)
 
     def _write(self, fn: Any, *args: Any) -> None:
@@ -518,7 +533,7 @@ class Execution:
     def _recorded_ports(self) -> dict[str, dict[str, str]]:
         """Description and type of each recorded port ('plant.pose'), for plots and readers."""
         ports: dict[str, dict[str, str]] = {}
-        for column in self.columns[1:]:
+        for column in self.columns[1:] + self.ticks.names:
             name = column.partition("[")[0]
             owner, _, port = name.rpartition(".")
             var = self.system.components[owner].variables.get(port) \

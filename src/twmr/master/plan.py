@@ -5,8 +5,9 @@ A plan says what happens at every base step n, in order: the Jacobi snapshot of 
 outputs (Jacobi only), the point — input writes (each with its expression: unit gain and offset,
 element selection) and feedthrough evaluations in the order of the port graph, each guarded by its
 component's step multiple —, the NaN/Inf check over the outputs the run reads (in chunks of at
-most `CHAIN` terms), the recorded ports, and the steps with their multiples. A renderer only
-chooses how a port value, an evaluation and a step are written in its language, so the two loops
+most `CHAIN` terms), the recorded ports (a Binary one at each tick of its clock:
+`twmr.master.ticks`), and the steps with their multiples. A renderer only chooses how a port
+value, an evaluation and a step are written in its language, so the two loops
 compute the same expressions in the same order by construction.
 """
 from __future__ import annotations
@@ -16,6 +17,8 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from twmr.core.component import Component
+from twmr.core.port import BINARY
+from twmr.master.ticks import Ticked, binary_signals
 from twmr.scenario.graph import evaluation_plan, find_loops
 from twmr.scenario.system import Connection, System
 
@@ -113,6 +116,8 @@ class Plan:
     record: tuple[Signal, ...]
     decimation: int
     steps: tuple[Step, ...]
+    #: the recorded Binary ports
+    ticks: tuple[Ticked, ...] = ()
 
     @property
     def loops(self) -> tuple[Solve, ...]:
@@ -164,10 +169,13 @@ def chunks(items: Sequence[T]) -> list[Sequence[T]]:
 def build(system: System, method: str, record: Sequence[Port], decimation: int,
           check_finite: bool = True) -> Plan:
     """The plan of `system` under `method` ('gauss_seidel' | 'jacobi'), recording the `record`
-    ports every `decimation` steps; `check_finite` adds the NaN/Inf check."""
+    ports every `decimation` steps (a Binary port at its clock's ticks); `check_finite` adds the
+    NaN/Inf check."""
     if method not in METHODS:
         raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
     comps = system.components
+    binary = binary_signals(system, record)
+    record = [s for s in record if comps[s[0]].variables[s[1]].type != BINARY]
     order = tuple(system.order)
     incoming: dict[Port, list[Connection]] = {}
     for conn in system.connections:
@@ -215,7 +223,8 @@ def build(system: System, method: str, record: Sequence[Port], decimation: int,
     steps = tuple(Step(n, system.multiple(n)) for n in order
                   if type(comps[n]).do_step is not Component.do_step)
     return Plan(method, order, snapshot, tuple(point), check,
-                tuple(_signal(system, n, p) for n, p in record), decimation, steps)
+                tuple(_signal(system, n, p) for n, p in record), decimation, steps,
+                tuple(binary))
 
 
 def _signal(system: System, name: str, port: str) -> Signal:

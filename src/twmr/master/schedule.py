@@ -47,6 +47,7 @@ from twmr.core.errors import CosimError
 from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
 from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, build, chunks, guard
+from twmr.master.ticks import Tick
 from twmr.scenario.system import System
 
 
@@ -280,7 +281,8 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     _record(w, 2, plan, kern.ref, final=True)
     kern.epilogue(w, 1)
     loops.render(w, plan, ids, kern.ref)
-    env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite)
+    env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite,
+               Tick=Tick)
     return "\n".join(w.lines) + "\n", w.owner, env
 
 
@@ -408,7 +410,11 @@ def _sum_of(sums: list[str], zero: str) -> str:
 
 def _record(w: _Writer, ind: int, plan: Plan, ref: Ref, final: bool) -> None:
     """`rows.append(...)` of one flat tuple (t, the recorded values), every `decimation` steps
-    (at the final point always)."""
+    (at the final point always); a `Tick` of each recorded Binary port whose clock is True
+    (with no clock: always), at every point."""
+    for k, b in enumerate(plan.ticks):
+        line = f"rows.append(Tick(t, {k}, {ref(b.name, b.port)}))"
+        w.add(ind, line if b.clock is None else f"if {ref(*b.clock)}: {line}")
     if not plan.record:
         return
     parts: list[str] = []

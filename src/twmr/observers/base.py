@@ -12,8 +12,9 @@ import numpy as np
 @dataclass(frozen=True)
 class RunStart:
     """What an observer knows when the run starts: recorded columns (time first) with units, the
-    base step h [s], the number of base steps, the run's folder (None: nothing is written) and
-    the scenario's name."""
+    base step h [s], the number of base steps, the run's folder (None: nothing is written), the
+    scenario's name and the recorded Binary ports ('n1.CanChannel.Tx_Data'), given at their
+    ticks (`Observer.ticks`)."""
 
     columns: tuple[str, ...]
     units: tuple[str, ...]
@@ -22,6 +23,7 @@ class RunStart:
     folder: Path | None = None
     scenario: str = "<scenario>"
     metadata: dict[str, Any] = field(default_factory=dict)
+    binary: tuple[str, ...] = ()
 
 
 @dataclass
@@ -55,6 +57,11 @@ class Observer:
     def rows(self, block: np.ndarray, steps_done: int) -> None:
         """Recorded rows, a float64 array (rows x columns, time first); `steps_done` base steps
         have been taken so far."""
+
+    def ticks(self, events: list[tuple[float, int, bytes]], steps_done: int) -> None:
+        """Ticks of recorded Binary ports since the last call, before the rows of the same
+        chunk: (time [s], index into `RunStart.binary`, the bytes), in the order taken (an
+        output's ticks inside a step keep their own times, so not always sorted by time)."""
 
     def finished(self, outcome: Outcome) -> None:
         """The run ended (every component is already terminated)."""

@@ -18,6 +18,7 @@ rerun and rosbag2 read.
   wall-clock time put on the run's time axis through the pacer's `start_unix_s` in
   `summary.json` (`time_s` the same in seconds; frames of the set-up, before the start, have a
   negative `time_s` and log time 0).
+- Recorded Binary ports are left out (a note; they stay in `ticks.arrows`).
 - A `twmr.columns` metadata record holds the recorded column names and units in their order, so
   `read` gives back the columns of `result.arrows` exactly (JSON numbers round-trip float64).
 """

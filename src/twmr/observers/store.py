@@ -6,7 +6,8 @@ file stays readable after SIGKILL, a crash inside an FMU or a full disk — `rea
 whole batch and drops a torn last one. Each batch is handed to the operating system when written
 (a killed process loses nothing written); it is forced to the disk (fsync) at most every
 `sync_seconds`, so a power loss costs at most that much. One float64 column per recorded scalar,
-time first; each field carries its unit as metadata. Any number of columns.
+time first; each field carries its unit as metadata. Any number of columns. Recorded Binary
+ports go to `ticks.arrows` beside it, in the same way (`twmr.observers.ticks`).
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from twmr.observers.base import Observer, Outcome, RunStart
+from twmr.observers.ticks import Event, TickStream, TickTable
 
 FILENAME = "result.arrows"
 
@@ -29,6 +31,10 @@ class ResultStore(Observer):
     def __init__(self, sync_seconds: float = 1.0):
         self.sync_seconds = sync_seconds
         self.blocks: list[np.ndarray] = []
+        #: the ticks of recorded Binary ports kept in memory (no folder)
+        self.events: list[Event] = []
+        self.binary: tuple[str, ...] = ()
+        self._ticks: TickStream | None = None
         self.columns: tuple[str, ...] = ()
         self.units: tuple[str, ...] = ()
         self.path: Path | None = None
@@ -38,9 +44,11 @@ class ResultStore(Observer):
         self._synced = 0.0
 
     def started(self, run: RunStart) -> None:
-        self.columns, self.units = run.columns, run.units
+        self.columns, self.units, self.binary = run.columns, run.units, run.binary
         if run.folder is None:
             return
+        if run.binary:
+            self._ticks = TickStream(run.folder, run.binary, self.sync_seconds)
         import pyarrow as pa
 
         fields = [pa.field(c, pa.float64(), metadata={"unit": u})
@@ -72,22 +80,35 @@ class ResultStore(Observer):
             os.fsync(self._file.fileno())
             self._synced = time.monotonic()
 
+    def ticks(self, events: list[Event], steps_done: int) -> None:
+        if self._ticks is None:
+            self.events += events
+        else:
+            self._ticks.write(events)
+
     def finished(self, outcome: Outcome) -> None:
-        if self._writer is None:
-            return
+        ticks, self._ticks = self._ticks, None
         try:
-            self._writer.close()
-            self._file.flush()
-            os.fsync(self._file.fileno())
+            if self._writer is not None:
+                self._writer.close()
+                self._file.flush()
+                os.fsync(self._file.fileno())
         finally:
-            self._file.close()
-            self._writer = None
+            if self._writer is not None:
+                self._file.close()
+                self._writer = None
+            if ticks is not None:
+                ticks.close()
 
     def data(self) -> np.ndarray:
         """The rows kept in memory as one (rows x columns) float64 array."""
         if not self.blocks:
             return np.zeros((0, len(self.columns)))
         return np.concatenate(self.blocks) if len(self.blocks) > 1 else self.blocks[0]
+
+    def tick_table(self) -> TickTable:
+        """The ticks kept in memory, by time."""
+        return TickTable.of(self.binary, self.events)
 
 
 def read_store(path: str | Path) -> tuple[list[str], list[str], np.ndarray, bool]:

@@ -2,10 +2,14 @@
 entry-point group under its `--format` name. Built in: CSV (read by `pandas.read_csv` as is;
 units in `units.json` beside it), MATLAB `.mat` and Parquet (units as field metadata). All are made
 from the crash-consistent store after the run, so a failed export never costs the recorded rows.
+Recorded Binary ports (`twmr.observers.ticks`) go to a file of their own where the format holds
+them (`ticks.csv`, hex; `ticks.parquet`, binary columns); the others leave them out with a note
+(they stay in `ticks.arrows`).
 """
 from __future__ import annotations
 
 import json
+import logging
 import os
 import re
 from collections.abc import Iterable
@@ -15,9 +19,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.observers.ticks import FILENAME as TICKS
+from twmr.observers.ticks import TickTable
 from twmr.registry import FORMATS, plugin, plugins
 
 UNITS_FILE = "units.json"
+log = logging.getLogger("twmr.run")
 
 
 class ResultFormat:
@@ -28,6 +35,8 @@ class ResultFormat:
 
     #: the file's suffix, with its dot (e.g. '.csv'); the export is `result<suffix>`
     suffix: ClassVar[str] = ""
+    #: the file `write_ticks` makes beside it ('': the format leaves Binary ports out)
+    ticks_file: ClassVar[str] = ""
 
     def write(self, path: Path, columns: list[str], units: list[str],
               values: np.ndarray) -> list[Path]:
@@ -40,6 +49,11 @@ class ResultFormat:
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
         """(columns, units ('' where unknown), values) of a file this format wrote."""
         raise NotImplementedError(f"the result format of '{path.suffix}' files cannot be read")
+
+    def write_ticks(self, path: Path, ticks: TickTable) -> None:
+        """Write the recorded Binary ports to `path` (a temporary name, renamed to
+        `ticks_file`), when the format has a `ticks_file`."""
+        raise NotImplementedError
 
 
 def result_formats(names: Iterable[str]) -> dict[str, ResultFormat]:
@@ -66,28 +80,46 @@ def format_of_suffix(suffix: str) -> ResultFormat | None:
 
 
 def export(columns: list[str], units: list[str], values: np.ndarray, folder: Path,
-           formats: Iterable[str]) -> list[Path]:
-    """Write the named formats into `folder` as result<suffix>; the paths written. Each file is
-    written under a temporary name and renamed when complete, so an export cut short (Ctrl-C,
-    full disk) never leaves a truncated file under the real name."""
+           formats: Iterable[str], ticks: TickTable | None = None) -> list[Path]:
+    """Write the named formats into `folder` as result<suffix>, and the recorded Binary ports
+    `ticks` as each format's `ticks_file` (a note for a format without one); the paths
+    written. Each file is written under a temporary name and renamed when complete, so an
+    export cut short (Ctrl-C, full disk) never leaves a truncated file under the real name."""
     written = []
     for fmt in result_formats(formats).values():
         name = f"result{fmt.suffix}"
-        tmp = folder / f".partial-{name}"  # same suffix: savemat appends .mat otherwise
-        try:
-            extra = fmt.write(tmp, columns, units, values)
-            os.replace(tmp, folder / name)
-        finally:
-            tmp.unlink(missing_ok=True)
-        written += [folder / name, *extra]
+        written += [folder / name, *_replaced(folder / name, lambda tmp, f=fmt: f.write(
+            tmp, columns, units, values))]
+        if not ticks or not ticks.names:
+            continue
+        if not fmt.ticks_file:
+            log.warning("note: %s leaves out the recorded Binary ports (%s); they are in %s "
+                        "(twmr.read_result reads them).", name, ", ".join(ticks.names), TICKS)
+            continue
+        _replaced(folder / fmt.ticks_file, lambda tmp, f=fmt: f.write_ticks(tmp, ticks))
+        written.append(folder / fmt.ticks_file)
     return written
+
+
+def _replaced(path: Path, write: Any) -> list[Path]:
+    """`write(tmp)` of a temporary name beside `path` (the same suffix: savemat appends .mat
+    otherwise), renamed to `path` when it returns; what it returns (other files written)."""
+    tmp = path.with_name(f".partial-{path.name}")
+    try:
+        extra = write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return list(extra or [])
 
 
 class Csv(ResultFormat):
     """One header row of column names, then one row per sample (17 significant digits); the
-    units in `units.json` beside it."""
+    units in `units.json` beside it. Binary ports: `ticks.csv`, a column of hex per port
+    (empty where it did not tick)."""
 
     suffix = ".csv"
+    ticks_file = "ticks.csv"
 
     def write(self, path: Path, columns: list[str], units: list[str],
               values: np.ndarray) -> list[Path]:
@@ -96,6 +128,16 @@ class Csv(ResultFormat):
         unit_file = path.parent / UNITS_FILE
         unit_file.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
         return [unit_file]
+
+    def write_ticks(self, path: Path, ticks: TickTable) -> None:
+        import csv
+
+        with open(path, "w", newline="") as f:
+            out = csv.writer(f, lineterminator="\n")
+            out.writerow(["time", *ticks.names])
+            for i, t in enumerate(ticks.time):
+                row = [ticks.values[n][i] for n in ticks.names]
+                out.writerow([f"{t:.17g}", *("" if v is None else v.hex() for v in row)])
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
         import csv
@@ -123,7 +165,7 @@ def mat_name(column: str) -> str:
 
 class Mat(ResultFormat):
     """One variable per column (identifier-safe names), plus `columns` (the original names),
-    `variables` and `units`."""
+    `variables` and `units`. Binary ports are left out (a note)."""
 
     suffix = ".mat"
 
@@ -148,9 +190,11 @@ class Mat(ResultFormat):
 
 
 class Parquet(ResultFormat):
-    """One float64 column per recorded column, its unit as the field's metadata."""
+    """One float64 column per recorded column, its unit as the field's metadata. Binary ports:
+    `ticks.parquet`, as `ticks.arrows` holds them but one row per time."""
 
     suffix = ".parquet"
+    ticks_file = "ticks.parquet"
 
     def write(self, path: Path, columns: list[str], units: list[str],
               values: np.ndarray) -> list[Path]:
@@ -164,6 +208,14 @@ class Parquet(ResultFormat):
             np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]
         pq.write_table(pa.Table.from_arrays(arrays, schema=pa.schema(fields)), path)
         return []
+
+    def write_ticks(self, path: Path, ticks: TickTable) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        columns = {"time": pa.array(ticks.time.tolist(), pa.float64()),
+                   **{n: pa.array(ticks.values[n], pa.large_binary()) for n in ticks.names}}
+        pq.write_table(pa.table(columns), path)
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
         import pyarrow.parquet as pq

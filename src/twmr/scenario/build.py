@@ -605,7 +605,7 @@ class _Builder:
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record
         everything = [(n, p) for n, c in comps.items() for p, v in c.variables.items()
-                      if v.kind != "parameter" and v.type not in TEXT_TYPES]
+                      if v.kind != "parameter" and v.type != STRING]  # Binary: at its ticks
         if spec.signals is None:
             chosen = [(n, p) for n, c in comps.items() for p, v in c.outputs.items()
                       if v.type not in TEXT_TYPES]
@@ -614,7 +614,15 @@ class _Builder:
             for given in spec.signals:
                 pat = given.value
                 hits = [s for s in everything if fnmatch.fnmatchcase(f"{s[0]}.{s[1]}", pat)]
-                if not hits:
+                text = [f"{n}.{p}" for n, c in comps.items() for p, v in c.variables.items()
+                        if v.type == STRING and fnmatch.fnmatchcase(f"{n}.{p}", pat)]
+                if not hits and text:
+                    self.problems.append(Problem(given.where, f"'{pat}' names String port(s) "
+                                                 f"{', '.join(text)}, which are not recorded "
+                                                 f"(numbers, clocks and Binary ports are).",
+                                                 "leave it out of 'record: signals', or record "
+                                                 "a numeric output that carries it."))
+                elif not hits:
                     known = [f"{n}.{p}" for n, p in everything]
                     self.problems.append(Problem(given.where,
                                                  f"'{pat}' matches no port{suggest(pat, known)}.",
