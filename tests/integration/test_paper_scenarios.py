@@ -72,7 +72,16 @@ def test_asmc_beats_smc_in_each_realisation() -> None:
             assert a[metric] < s[metric], (i, metric, a[metric], s[metric])
 
 
-@pytest.mark.parametrize("path", sorted(SCENARIOS.glob("*.yaml")), ids=lambda p: p.stem)
+#: scenarios whose FMU a user exports first (the command is in the file's comment); the test
+#: named builds and runs each after that export
+EXPORTED_FIRST = {"bench_odrive_lsbus_trajectory1": "tests/integration/test_c_export_can_bench.py"}
+
+
+@pytest.mark.parametrize("path", [
+    pytest.param(p, marks=pytest.mark.skip(
+        reason=f"its FMU is exported first: {EXPORTED_FIRST[p.stem]} exports it and runs it"))
+    if p.stem in EXPORTED_FIRST else p
+    for p in sorted(SCENARIOS.glob("*.yaml"))], ids=lambda p: p.stem)
 def test_every_scenario_builds(path: Path) -> None:
     system = load(path)
     assert system.experiment.n_steps > 0
