@@ -49,6 +49,16 @@ def _fmu(path: Path) -> Harness:
     return Harness("fmu", parameters={"path": str(path)}, step=H)
 
 
+def _started(path: Path) -> tuple[Harness, Harness]:
+    """The node FMU and the ASMC block, both initialised at the inputs of step 0 (no frame in)."""
+    fmu, ctrl = _fmu(path), _ctrl()
+    fmu.set(**_inputs(0), **{RX: b"", RX_CLOCK: False})
+    ctrl.set(**_inputs(0))
+    fmu.initialize()
+    ctrl.initialize()
+    return fmu, ctrl
+
+
 def _transmits(raw: bytes) -> list[CanTransmit]:
     ops = decode(raw)
     assert all(isinstance(op, CanTransmit) for op in ops), ops
@@ -93,11 +103,7 @@ def test_the_odrive_fmu_sends_the_asmc_torque_as_set_input_torque(odrive_fmu: Pa
     sends at the end of the step what the block outputs after `do_step`."""
     nodes, gear, limit = (3, 5), 2.5, 40.0
     rng = np.random.default_rng(26)
-    fmu, ctrl = _fmu(odrive_fmu), _ctrl()
-    fmu.set(**_inputs(0), **{RX: b"", RX_CLOCK: False})
-    ctrl.set(**_inputs(0))
-    fmu.initialize()
-    ctrl.initialize()
+    fmu, ctrl = _started(odrive_fmu)
     want = []
     for n in nodes:
         want += [CanTransmit(*p.encode_clear_errors(n, "0.6.10")),
@@ -170,11 +176,7 @@ def test_the_cia402_fmu_enables_the_drives_then_sends_the_asmc_torque(tmp_path: 
                         can="cia402")
     nodes, gear, rated, limit = (4, 9), 3.0, 5000, 40.0
     rng = np.random.default_rng(402)
-    fmu, ctrl = _fmu(path), _ctrl()
-    fmu.set(**_inputs(0), **{RX: b"", RX_CLOCK: False})
-    ctrl.set(**_inputs(0))
-    fmu.initialize()
-    ctrl.initialize()
+    fmu, ctrl = _started(path)
     sent = _transmits(fmu[TX])
     assert sent[:2] == [CanTransmit(0x000, bytes([0x01, n])) for n in nodes]
     sent, py = sent[2:], ctrl["torque"]
