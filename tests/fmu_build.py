@@ -34,7 +34,7 @@ def build_c_fmu(name: str, out_dir: Path, fmi3: bool = False) -> Path:
     cc = os.environ.get("CC", "cc")
     sources = [str(src / f"{name}.c")]
     if fmi3:  # fmpy binds every FMI 3.0 function at load: the unused ones return fmi3Error
-        sources.append(str(_fmi3_stubs(src / f"{name}.c", headers, work)))
+        sources.append(str(_fmi3_stubs([src / f"{name}.c"], headers, work)))
     subprocess.run([cc, "-shared", "-fPIC", "-O2", f"-I{headers}", *sources,
                     "-o", str(binaries / f"{name}{ext}"), "-lm"], check=True)
     shutil.copy(src / "modelDescription.xml", work / "modelDescription.xml")
@@ -46,13 +46,12 @@ def build_c_fmu(name: str, out_dir: Path, fmi3: bool = False) -> Path:
     return fmu
 
 
-def _fmi3_stubs(sources: Path | list[Path], headers: Path, work: Path) -> Path:
+def _fmi3_stubs(sources: list[Path], headers: Path, work: Path) -> Path:
     """A C file defining every FMI 3.0 function the model sources do not, each returning
     fmi3Error (3); compiled without the FMI headers, so no prototypes clash."""
     declared = re.findall(r"FMI3_Export\s+fmi3\w+TYPE\s+(fmi3\w+)\s*;",
                           (headers / "fmi3Functions.h").read_text())
-    defined = {f for source in ([sources] if isinstance(sources, Path) else sources)
-               for f in re.findall(r"\b(fmi3\w+)\s*\(", source.read_text())}
+    defined = {f for source in sources for f in re.findall(r"\b(fmi3\w+)\s*\(", source.read_text())}
     stubs = work / "fmi3_stubs.c"
     stubs.write_text("".join(f"int {f}(void) {{ return 3; }}\n" for f in declared
                              if f not in defined))

@@ -7,11 +7,10 @@ the sender, an ACK error (Bus Error) for a node alone; malformed operations and 
 refused naming the FMU, the terminal, the time."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
+from tests.can_frames import bits_to_eof, grid_after
 from tests.fmu_build import build_lsbus_fmu
 from twmr.core import CosimError
 from twmr.fmi.lsbus import operations as ops
@@ -27,33 +26,6 @@ H = 1e-4
 def nodes(tmp_path_factory) -> dict[str, str]:
     d = tmp_path_factory.mktemp("lsbus_block")
     return {n: str(build_lsbus_fmu(f"cannode_{n}", d)) for n in ("triggered", "countdown")}
-
-
-def crc15(bits: str) -> int:
-    crc = 0
-    for bit in bits:
-        top = int(bit) ^ (crc >> 14) & 1
-        crc = (crc << 1) & 0x7FFF
-        if top:
-            crc ^= 0x4599
-    return crc
-
-
-def bits_to_eof(ident: int, data: bytes) -> int:
-    """Bits of a classic 11-bit data frame from SOF to the end of EOF: SOF, id, RTR, IDE, r0,
-    DLC, data, CRC-15 with a stuff bit after every 5 equal bits (the stuff bit counts in the
-    next run), then CRC delimiter, ACK slot, ACK delimiter and 7 EOF bits."""
-    body = "0" + f"{ident:011b}" + "000" + f"{len(data):04b}" + \
-        "".join(f"{b:08b}" for b in data)
-    body += f"{crc15(body):015b}"
-    stuffed, last, run = 0, "", 0
-    for bit in body:
-        run = run + 1 if bit == last else 1
-        last = bit
-        if run == 5:
-            stuffed += 1
-            last, run = ("1" if bit == "0" else "0"), 1
-    return len(body) + stuffed + 10
 
 
 def scenario(a: str, b: str | None = None, extra: str = "", bus: str = "{kind: can_bus}",
@@ -73,11 +45,6 @@ connections:
 open: [n1.payload{", n2.payload" if b else ""}]
 experiment: {{start: 0.0, stop: {stop}, step: {H}}}
 """
-
-
-def grid_after(t: float) -> float:
-    """The first communication point at or after t [s]."""
-    return round(math.ceil(round(t / H, 6)) * H, 9)
 
 
 def values(r, signal: str) -> list[float]:

@@ -30,8 +30,8 @@ import numpy as np
 import pytest
 
 import twmr
+from tests.can_frames import bits_to_eof, grid_after
 from tests.fmu_build import build_lsbus_example
-from tests.integration.test_lsbus_canbus_block import bits_to_eof, grid_after
 from twmr.core import CosimError
 from twmr.fmi.lsbus import operations as ops
 from twmr.hw.canbus import read_log
