@@ -76,3 +76,23 @@ def test_a_worker_reruns_its_built_system_with_the_runs_values() -> None:
         for key, value in alone.summary["metrics"].items():
             assert row[key] == value, key
     assert rows[0]["mse_x"] == rows[3]["mse_x"] != rows[1]["mse_x"]
+
+
+def test_a_built_system_run_compiled_keeps_its_plan_and_layout(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Runs with other values reuse the plan and the driver's layout of the first run (only the
+    value vectors are new) and still give a fresh build's rows."""
+    monkeypatch.setenv("TWMR_COMPILED", "on")
+    path = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+    built = twmr.build(path, SHORT)
+    built.run()
+    held = built.system.__dict__
+    plan, layout = held["_held_plan"][2], held["_held_layout"][2]
+    for overrides in (["ctrl.k=20"], ["plant.pose[2]=0.01", "ctrl.eta=0.5"], []):
+        again = built.run(overrides)
+        assert np.array_equal(again.values, fresh(path, overrides)), overrides
+        assert held["_held_plan"][2] is plan and held["_held_layout"][0] is plan
+        now = held["_held_layout"][2]
+        assert now.ops is layout.ops and now.blocks is layout.blocks
+        assert now.S is not layout.S and now.P is not layout.P
+    assert built.rebuilt == 0

@@ -305,7 +305,8 @@ class CompiledStep(Algorithm):
             self._refuse(exc)
             return
         assert self.python.plan is not None
-        self._layout = driver.layout(self._system, self.python.plan, kernels, addresses, kinds)
+        self._layout = driver.held_layout(self._system, self.python.plan, kernels, addresses,
+                                          kinds)
         self._ncols = 1 + len(self._layout.rec) if self._record else 1
         self._driver = driver_loop
         self.driver_compiled = fresh > 0

@@ -25,6 +25,7 @@ same order, as the Python schedule, so the rows are bit-identical.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import sys
 from collections.abc import Sequence
@@ -297,6 +298,58 @@ class Layout:
     #: offset in X and its state's shape
     ports: list[list[tuple[str, int, int | None]]]
     state: list[tuple[int, Shape]]
+
+
+#: the attribute of a `System` holding its last layout: (plan, key, layout)
+_HELD_LAYOUT = "_held_layout"
+
+
+def held_layout(system: System, plan: Plan, kernels: dict[str, Kernel],
+                addresses: dict[str, tuple[int, int, int]], kinds: dict[str, KindSpec]
+                ) -> Layout:
+    """`layout`, kept on `system`: for the same plan object (`plan.held_build`), kinds,
+    adapters and step, the layout made before with the values of now (ports, states,
+    parameters) in new vectors, while each block's state and parameters fill what they filled
+    (an array of another length lays the plan out anew)."""
+    key = (tuple(kinds[n] for n in plan.order),
+           tuple(addresses[kinds[n].key] for n in plan.order), system.experiment.step)
+    held = system.__dict__.get(_HELD_LAYOUT)
+    if held is not None and held[0] is plan and held[1] == key:
+        lay = _refilled(system, plan, kernels, kinds, held[2])
+        if lay is not None:
+            system.__dict__[_HELD_LAYOUT] = (plan, key, lay)
+            return lay
+    lay = layout(system, plan, kernels, addresses, kinds)
+    system.__dict__[_HELD_LAYOUT] = (plan, key, lay)
+    return lay
+
+
+def _refilled(system: System, plan: Plan, kernels: dict[str, Kernel],
+              kinds: dict[str, KindSpec], lay: Layout) -> Layout | None:
+    """`lay` with new vectors S, X, P of the values of now; None when a block's state or
+    parameters no longer fill the places they had."""
+    comps = system.components
+    S: list[float] = []
+    X: list[float] = []
+    P: list[float] = []
+    for b, name in enumerate(plan.order):
+        comp, kern, kind = comps[name], kernels[name], kinds[name]
+        if lay.blocks[b, 3] != len(X) or lay.blocks[b, 4] != len(P):
+            return None
+        d = comp.__dict__
+        for port, _, size in lay.ports[b]:
+            S.extend([float(d[port])] if size is None else [float(v) for v in d[port]])
+        flatten(kern.state, kind.state, X)
+        flatten(kern.params, kind.params, P)
+    if len(X) != lay.X.size or len(P) != lay.P.size:
+        return None
+    slot = {(name, port): o for name, ports in zip(plan.order, lay.ports, strict=True)
+            for port, o, _ in ports}
+    for src, port in plan.snapshot:
+        S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
+    return dataclasses.replace(lay, S=np.array(S, dtype=np.float64),
+                               X=np.array(X, dtype=np.float64),
+                               P=np.array(P, dtype=np.float64))
 
 
 def layout(system: System, plan: Plan, kernels: dict[str, Kernel],

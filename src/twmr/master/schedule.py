@@ -46,7 +46,7 @@ from twmr.core.component import (
 from twmr.core.errors import CosimError
 from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, build, chunks, guard
+from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, chunks, guard, held_build
 from twmr.master.ticks import Tick
 from twmr.scenario.system import System
 
@@ -95,7 +95,7 @@ class FixedStep(Algorithm):
 
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
-        self.plan = build(system, self.method, record, decimation, check_finite)
+        self.plan = held_build(system, self.method, record, decimation, check_finite)
         self._system = system
         self._run = self._finish = None
         self._source = None
