@@ -328,28 +328,37 @@ def _refilled(system: System, plan: Plan, kernels: dict[str, Kernel],
               kinds: dict[str, KindSpec], lay: Layout) -> Layout | None:
     """`lay` with new vectors S, X, P of the values of now; None when a block's state or
     parameters no longer fill the places they had."""
+    S, X, P, places = _vectors(system, plan, kernels, kinds, lay.ports)
+    if places != [(int(xo), int(po)) for xo, po in lay.blocks[:, 3:5]] or \
+            X.size != lay.X.size or P.size != lay.P.size:
+        return None
+    return dataclasses.replace(lay, S=S, X=X, P=P)
+
+
+def _vectors(system: System, plan: Plan, kernels: dict[str, Kernel], kinds: dict[str, KindSpec],
+             ports: list[list[tuple[str, int, int | None]]]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """(S, X, P, each block's offsets in X and P): the values of now of the ports `ports`
+    (per block in plan order, as `Layout.ports`) and the snapshot area after them, of the
+    kernels' states and of their parameters."""
     comps = system.components
     S: list[float] = []
     X: list[float] = []
     P: list[float] = []
-    for b, name in enumerate(plan.order):
-        comp, kern, kind = comps[name], kernels[name], kinds[name]
-        if lay.blocks[b, 3] != len(X) or lay.blocks[b, 4] != len(P):
-            return None
-        d = comp.__dict__
-        for port, _, size in lay.ports[b]:
+    places: list[tuple[int, int]] = []
+    for name, block in zip(plan.order, ports, strict=True):
+        d, kern, kind = comps[name].__dict__, kernels[name], kinds[name]
+        for port, _, size in block:
             S.extend([float(d[port])] if size is None else [float(v) for v in d[port]])
+        places.append((len(X), len(P)))
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
-    if len(X) != lay.X.size or len(P) != lay.P.size:
-        return None
-    slot = {(name, port): o for name, ports in zip(plan.order, lay.ports, strict=True)
-            for port, o, _ in ports}
+    slot = {(name, port): o for name, block in zip(plan.order, ports, strict=True)
+            for port, o, _ in block}
     for src, port in plan.snapshot:
         S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
-    return dataclasses.replace(lay, S=np.array(S, dtype=np.float64),
-                               X=np.array(X, dtype=np.float64),
-                               P=np.array(P, dtype=np.float64))
+    return (np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
+            np.array(P, dtype=np.float64), places)
 
 
 def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
@@ -360,32 +369,28 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
     comps = system.components
     exp = system.experiment
     slot: dict[tuple[str, str], int] = {}
-    S: list[float] = []
-    X: list[float] = []
-    P: list[float] = []
-    blocks: list[tuple[int, ...]] = []
     ports: list[list[tuple[str, int, int | None]]] = []
-    state: list[tuple[int, Shape]] = []
-    for b, name in enumerate(plan.order):
-        comp, kern, kind = comps[name], kernels[name], kinds[name]
-        so = len(S)
+    starts: list[int] = []
+    width = 0
+    for name in plan.order:
+        comp = comps[name]
+        starts.append(width)
         ports.append([])
         for port, var in {**comp.outputs, **comp.inputs}.items():
-            slot[(name, port)] = len(S)
-            ports[-1].append((port, len(S), None if var.size is None else var.width))
-            value = comp.__dict__[port]
-            S.extend([float(value)] if var.size is None else [float(v) for v in value])
-        xo, po = len(X), len(P)
-        flatten(kern.state, kind.state, X)
-        flatten(kern.params, kind.params, P)
-        ev, st, ad = addresses[kind.key]
+            slot[(name, port)] = width
+            ports[-1].append((port, width, None if var.size is None else var.width))
+            width += var.width
+    S, X, P, places = _vectors(system, plan, kernels, kinds, ports)
+    blocks: list[tuple[int, ...]] = []
+    state: list[tuple[int, Shape]] = []
+    for name, so, (xo, po) in zip(plan.order, starts, places, strict=True):
+        ev, st, ad = addresses[kinds[name].key]
         blocks.append((ev, st, so, xo, po, ad))
-        state.append((xo, kind.state))
-        assert b == len(blocks) - 1
+        state.append((xo, kinds[name].state))
     snap: dict[tuple[str, str], int] = {}
     for src, port in plan.snapshot:
-        snap[(src, port)] = len(S)
-        S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
+        snap[(src, port)] = width
+        width += comps[src].variables[port].width
     incoming: dict[tuple[str, str], list[Connection]] = {}
     for conn in system.connections:
         incoming.setdefault((conn.dst, conn.dst_port), []).append(conn)
@@ -433,8 +438,7 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
     def ints(rows: list[Any], cols: int) -> np.ndarray:
         return np.array(rows, dtype=np.int64).reshape(len(rows), cols)
 
-    return Layout(np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
-                  np.array(P, dtype=np.float64), ints(ops, 5),
+    return Layout(S, X, P, ints(ops, 5),
                   np.array(gains, dtype=np.float64).reshape(len(gains), 2), ints(blocks, 6),
                   ints(steps, 3), np.array(H, dtype=np.float64), ints(chk, 3),
                   np.array(rec, dtype=np.int64), ports, state)

@@ -173,15 +173,16 @@ _HELD_PLAN = "_held_plan"
 def held_build(system: System, method: str, record: Sequence[Port], decimation: int,
                check_finite: bool = True) -> Plan:
     """`build`, kept on `system` and handed out again while everything a plan is made of is
-    the same: the components (objects and classes), their variables (objects), the wires, the
-    step multiples, the loop setting and the arguments (a built system run again with other
-    values: `twmr.build`). The variables compared by identity are held with the plan, so no
-    other object can take one's id."""
+    the same: the components (objects and classes), their variables (objects, and what each
+    output depends on), the wires, the step multiples, the loop setting and the arguments (a
+    built system run again with other values: `twmr.build`). The variables compared by
+    identity are held with the plan, so no other object can take one's id."""
     comps = system.components
     variables = [v for c in comps.values() for v in c.variables.values()]
     key = (method, tuple(record), decimation, check_finite, tuple(system.order),
            tuple((n, id(c), type(c)) for n, c in comps.items()),
-           tuple(map(id, variables)), tuple(system.connections),
+           tuple((id(v), getattr(v, "depends_on", None)) for v in variables),
+           tuple(system.connections),
            tuple(sorted(system.step_multiples.items())), system.experiment.loops)
     held = system.__dict__.get(_HELD_PLAN)
     if held is not None and held[0] == key:
