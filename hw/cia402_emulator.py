@@ -206,8 +206,14 @@ class Cia402Emulator:
                     axis.inject_fault(0x8130)
 
     def close(self) -> None:
+        """Stop the drives, after they have handled the frames already on their bus (a real
+        drive gets the host's last SHUTDOWN however soon the host closes)."""
         self._stop.set()
         self._watch.join(timeout=1.0)
         for axis in self.axes.values():
             axis.node.nmt.stop_heartbeat()
-        self.network.disconnect()
+        pending = getattr(self.network.bus, "queue", None)  # python-can's virtual bus
+        deadline = time.monotonic() + 2.0
+        while pending is not None and not pending.empty() and time.monotonic() < deadline:
+            time.sleep(0.001)
+        self.network.disconnect()  # joins the notifier: the frame it holds is handled
