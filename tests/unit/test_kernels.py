@@ -4,8 +4,10 @@ and both loops give identical rows; its private state is held by the component a
 when `auto` switches to the compiled loop; the engine's blocks run without numba in Python."""
 from __future__ import annotations
 
+import copy
 import math
 import os
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +19,7 @@ import pytest
 from tests.helpers import system
 from twmr.blocks import Sine
 from twmr.core import Component, Input, Output, Parameter
+from twmr.core.component import runs_kernel
 from twmr.core.kernel import Kernel, kernel_function
 from twmr.master import Execution
 from twmr.master.algorithm import make_algorithm
@@ -292,3 +295,24 @@ def test_a_parameter_table_is_read_through_slots_only_where_the_source_shows_fie
     assert not isinstance(view.law, tuple) and view.law.lam == params.law.lam
     # functions that read fields this table does not have get it as it is (the same error)
     assert python_params(params, (motor_evaluate.py_func, motor_step.py_func)) is params
+
+
+def test_a_copy_and_a_pickle_of_a_block_run_their_own_calls_and_a_replacement_is_seen() -> None:
+    """The kernel's calls are bound on the instance at first use: a deep copy and a pickle of a
+    block that has run step their own values, and an `evaluate` a user sets on the instance
+    after that is theirs (the kernel is then not called in its place)."""
+    original = RunningMean("m")
+    original.setup(0.0, 1.0)
+    original.do_step(0.0, 0.5)
+    original.u = 4.0
+    for twin in (copy.deepcopy(original), pickle.loads(pickle.dumps(original))):
+        twin.u = 2.0
+        twin.do_step(0.5, 0.5)
+        assert (twin.mean, twin.steps) == (1.0, 2.0)
+        assert (original.mean, original.steps) == (0.0, 1.0)
+        assert runs_kernel(twin)
+        twin.do_step = original.do_step  # type: ignore[method-assign]
+        assert not runs_kernel(twin)
+    assert runs_kernel(original)
+    original.evaluate = lambda t: None  # type: ignore[method-assign]
+    assert not runs_kernel(original)

@@ -23,7 +23,7 @@ import functools
 import numbers
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from types import MappingProxyType
+from types import FunctionType, MappingProxyType
 from typing import Any, ClassVar, NamedTuple
 
 from twmr.core.errors import ComponentError
@@ -99,7 +99,9 @@ class _Calls:
             lines += [f"def {name}({args}):",
                       "    if H is None: load(0.0)" if fn == "ev" else "    if h != H: load(h)",
                       f"    if {fn} is None: return",
-                      f"    x, {ys} = {fn}({args}, d[{_X!r}], {ys}, {us}, p)",
+                      f"    x0 = d[{_X!r}]",
+                      f"    x, {ys} = {fn}({args}, x0, {ys}, {us}, p)",
+                      "    if x is x0: return",
                       f"    d[{_X!r}] = x",
                       "    if report is not None: report(x)"]
         lines += ["def sync(x):",
@@ -108,6 +110,8 @@ class _Calls:
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
         self.functions: dict[str, Callable[..., None]] = {"evaluate": env["evaluate"],
                                                           "step": env["step"]}
+        for function in self.functions.values():
+            function.calls = self  # type: ignore[attr-defined]
         self.bound: PythonKernel | None = None
 
     def make(self, h: float) -> PythonKernel | None:
@@ -141,9 +145,6 @@ class _Calls:
     def reset(self) -> None:
         self.env["H"] = None
 
-    def __deepcopy__(self, memo: dict[int, Any]) -> None:
-        return None  # a copy of the component makes its own
-
 
 def _steps(comp: Component, h: float) -> float:
     """How many steps of `h` [s] the run `comp` was set up for has (0: not set up, or no stop
@@ -152,19 +153,46 @@ def _steps(comp: Component, h: float) -> float:
     return 0.0 if stop is None else (stop - comp.start_time) / h
 
 
+#: (method, the `_KernelMethod` it must be on the class, the `_Calls` function it runs)
+_BOUND = (("evaluate", "kernel_evaluate", "evaluate"), ("do_step", "kernel_do_step", "step"),
+          ("kernel_evaluate", "kernel_evaluate", "evaluate"),
+          ("kernel_do_step", "kernel_do_step", "step"))
+
+
 def _calls(comp: Component) -> _Calls:
-    """The `_Calls` of `comp` (made on first use)."""
-    calls = comp.__dict__.get(_CALLS)
+    """The `_Calls` of `comp`, made on first use, its functions then bound on the instance to
+    each method of its class that is the `_KernelMethod` running them (so a call skips the
+    descriptor and this look-up; a copy or a pickle of the component leaves them out, see
+    `Component.__getstate__`)."""
+    d = comp.__dict__
+    calls = d.get(_CALLS)
     if calls is None:
-        calls = comp.__dict__[_CALLS] = _Calls(comp)
+        calls = d[_CALLS] = _Calls(comp)
+        cls = type(comp)
+        for method, kernel_method, which in _BOUND:
+            if method not in d and getattr(cls, method) is getattr(Component, kernel_method):
+                d[method] = calls.functions[which]
     return calls
+
+
+def _calls_of(fn: Any) -> _Calls | None:
+    """The `_Calls` whose function `fn` is (None: not one)."""
+    return getattr(fn, "calls", None) if isinstance(fn, FunctionType) else None
+
+
+def replaced_on_instance(comp: Component) -> bool:
+    """Whether `evaluate` or `do_step` of `comp` is replaced on the instance (by anything but
+    the functions `_calls` binds there for it)."""
+    d = comp.__dict__
+    return any(m in d and _calls_of(d[m]) is not d.get(_CALLS, False)
+               for m in ("evaluate", "do_step"))
 
 
 def runs_kernel(comp: Component) -> bool:
     """Whether a loop may call the kernel of `comp` instead of its `evaluate`/`do_step`: its
     class defines `kernel` and neither a subclass of that class nor the instance replaces the
     methods the kernel mirrors (those would be definitions of their own)."""
-    if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
+    if replaced_on_instance(comp):
         return False
     owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
     return owner is not None and callable(vars(owner)["kernel"]) and all(
@@ -493,6 +521,12 @@ class Component:
     def why_no_state(self) -> str:
         """Why this block cannot save its state, in a few words (for `twmr check`)."""
         return "its can_get_and_set_state is false, as for hardware in the loop"
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What a copy or a pickle of the component holds: its attributes without its kernel's
+        Python calls (functions reading this instance's values; a copy makes its own)."""
+        return {k: v for k, v in self.__dict__.items()
+                if k != _CALLS and _calls_of(v) is None}
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r}>"

@@ -171,8 +171,8 @@ class Kernel:
     `step(t, h, x, y, u, p) -> (x, y)` (either None; `kernel_function`s or numba functions), its
     parameter table `params` (a NamedTuple of floats, tuples of floats or numpy arrays) and its
     initial private state `state`, and `sync(x)`, called with the state after every chunk of
-    compiled steps (and after every Python call) so the component can report (e.g. log a
-    warning).
+    compiled steps (and after every Python call that returns another state object) so the
+    component can report (e.g. log a warning).
 
     `advance(t, h, x, y, u, p) -> (x, y)`, optional, is `step` without the work `evaluate` redoes
     at the next point: the same state x and the same values of every output that depends on no

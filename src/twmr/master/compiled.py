@@ -55,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from twmr.core.component import replaced_on_instance
 from twmr.core.errors import CosimError, Location, Problem
 from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401 - re-exported
 from twmr.core.port import CLOCK, TEXT_TYPES
@@ -481,7 +482,7 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
         make = getattr(comp, "kernel", None)
         if make is None and fmus:
             make = getattr(comp, "compiled_calls", None)
-        if "evaluate" in comp.__dict__ or "do_step" in comp.__dict__:
+        if replaced_on_instance(comp):
             return None, f"'{name}' has its methods replaced on the instance"
         owner = next((k for k in type(comp).__mro__ if "kernel" in vars(k)), None)
         if owner is not None and any(getattr(type(comp), m) is not getattr(owner, m)
