@@ -5,7 +5,8 @@ Each run goes through `twmr.simulate` into a temporary folder exactly as `twmr r
 stepping wall time the engine reports (`Outcome.wall_time`: set-up, stepping and recording, not
 the scenario build nor the exports, which are reported apart). Reports the median of several runs,
 the real-time factor (simulated / wall time; target >= 100), and the per-call cost of each
-component measured by stepping it alone (the profile that says where the time goes).
+component measured by stepping it alone (the profile that says where the time goes), right
+after `initialize` and after a first step.
 Last line: one JSON object.
 """
 from __future__ import annotations
@@ -34,13 +35,20 @@ class Capture(Observer):
         self.outcome = outcome
 
 
-def per_component_us(n: int = 20000) -> dict[str, dict[str, float]]:
+def per_component_us(n: int = 20000, warm: bool = False) -> dict[str, dict[str, float]]:
+    """Per-call cost [us] of each component's `evaluate` and `do_step`, each called `n` times
+    alone; `warm`: after one `evaluate` and `do_step` of 1 ms, as a run calls them after its
+    first step (a block's kernel is then made for that step: a long run's Python forms, see
+    `twmr.core.kernel`), else right after `initialize` (before any step)."""
     system = load(SCENARIO)
     out = {}
     for name in system.order:
         c = system.components[name]
         c.setup(0.0, 30.0)
         c.initialize()
+        if warm:
+            c.evaluate(0.0)
+            c.do_step(0.0, 1e-3)
         t0 = time.perf_counter()
         for k in range(n):
             c.evaluate(k * 1e-3)
@@ -87,6 +95,7 @@ def main() -> None:
         "exports_and_folder_s_median": round(total - wall, 4),
         "load_s_median": round(statistics.median(builds), 4),
         "components": per_component_us(),
+        "components_after_first_step": per_component_us(warm=True),
     }
     print(json.dumps(figures))
 

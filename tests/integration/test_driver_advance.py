@@ -1,7 +1,8 @@
-"""The compiled driver's lean steps (`Kernel.advance`, `twmr.master.plan.advancing`): under
-Gauss-Seidel the ASMC's and the slip block's steps leave their feedthrough outputs to the next
-point's evaluation, under Jacobi they do not, the rows equal the Python schedule's bit for bit,
-and after every chunk of steps the components hold what the Python schedule leaves them."""
+"""The lean steps (`Kernel.advance`, `twmr.master.plan.advancing`) of the compiled driver and
+of the Python schedule: under Gauss-Seidel the ASMC's and the slip block's steps leave their
+feedthrough outputs to the next point's evaluation, under Jacobi they do not, the rows equal
+those of the Python schedule with whole steps only bit for bit, and after every chunk of steps
+the components hold what that schedule leaves them."""
 from __future__ import annotations
 
 from typing import Any
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from tests.integration.test_compiled import ROOT
-from twmr.master import Execution, execution
+from twmr.master import Execution, execution, schedule
 from twmr.master.algorithm import make_algorithm
 from twmr.master.compiled import CompiledStep
 from twmr.observers.base import Observer
@@ -47,14 +48,21 @@ def run(method: str, mode: str) -> tuple[np.ndarray, list, Any]:
 @pytest.mark.parametrize("method", ["gauss_seidel", "jacobi"])
 def test_lean_steps_give_the_python_schedule_s_rows_and_chunk_ends(
         method: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(execution, "CHUNK_SECONDS", 1e9)  # chunks of 64, 256, ... steps in both
-    python, python_seen, _ = run(method, "off")
+    monkeypatch.setattr(execution, "CHUNK_SECONDS", 1e9)  # chunks of 64, 256, ... steps in all
+    with monkeypatch.context() as whole_steps:
+        whole_steps.setattr(schedule, "advancing", lambda system, plan: frozenset())
+        whole, whole_seen, _ = run(method, "off")
+    python, python_seen, python_alg = run(method, "off")
     compiled, seen, alg = run(method, "on")
     lay, order = alg._layout, alg.python.plan.order
     lean = {order[b] for b, _m, flag in lay.steps if flag}
-    assert lean == ({"ctrl", "slip"} if method == "gauss_seidel" else set())
-    assert np.array_equal(python, compiled)
-    assert [n for n, _ in seen] == [n for n, _ in python_seen] and len(seen) > 2
-    for (n, values), (_, expected) in zip(seen, python_seen, strict=True):
-        for port, v, e in zip(PORTS, values, expected, strict=True):
-            assert np.array_equal(v, e), (n, port, v, e)
+    expected_lean = {"ctrl", "slip"} if method == "gauss_seidel" else set()
+    assert lean == expected_lean
+    ids = {name: i for i, name in enumerate(order)}
+    assert {n for n in order if f"ad{ids[n]}(t, " in python_alg.source} == expected_lean
+    for rows, chunk_ends in ((python, python_seen), (compiled, seen)):
+        assert np.array_equal(rows, whole)
+        assert [n for n, _ in chunk_ends] == [n for n, _ in whole_seen] and len(chunk_ends) > 2
+        for (n, values), (_, expected) in zip(chunk_ends, whole_seen, strict=True):
+            for port, v, e in zip(PORTS, values, expected, strict=True):
+                assert np.array_equal(v, e), (n, port, v, e)

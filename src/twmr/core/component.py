@@ -66,12 +66,14 @@ def _python(fn: Any, long: bool = False) -> Any:
 class PythonKernel(NamedTuple):
     """What a Python loop needs to call a component's kernel itself (`python_kernel`): the
     parameter table as the functions read it (`twmr.core.kernel.python_params`), the functions
-    in their Python form (either None), and `sync(x)`, which hands the private state x back to
-    the component and runs the block's own report."""
+    evaluate, step and advance (`Kernel.advance`) in their Python form (any None), and
+    `sync(x)`, which hands the private state x back to the component and runs the block's own
+    report."""
 
     params: Any
     evaluate: Callable[..., Any] | None
     step: Callable[..., Any] | None
+    advance: Callable[..., Any] | None
     sync: Callable[[Any], None]
 
 
@@ -124,12 +126,12 @@ class _Calls:
         if k is None or k.fmu is not None:
             return None
         comp.__dict__.setdefault(_X, k.state)
-        p = python_params(k.params, (_python(k.evaluate), _python(k.step)))
+        p = python_params(k.params, (_python(k.evaluate), _python(k.step), _python(k.advance)))
         long = h > 0.0 and compiled_pays(_steps(comp, h))
-        ev, st = _python(k.evaluate, long), _python(k.step, long)
+        ev, st, ad = _python(k.evaluate, long), _python(k.step, long), _python(k.advance, long)
         self.env.update(H=h, p=p, ev=ev, st=st,
                         report=getattr(k.sync, "__wrapped__", k.sync))  # the block's own sync
-        self.bound = PythonKernel(p, ev, st, self.env["sync"])
+        self.bound = PythonKernel(p, ev, st, ad, self.env["sync"])
         return self.bound
 
     def load(self, h: float) -> None:

@@ -176,9 +176,10 @@ class Kernel:
 
     `advance(t, h, x, y, u, p) -> (x, y)`, optional, is `step` without the work `evaluate` redoes
     at the next point: the same state x and the same values of every output that depends on no
-    input, the feedthrough outputs left as they were. The compiled driver calls it instead of
-    `step` where the plan evaluates the block at the point after each step before anything
-    reads its feedthrough outputs (tests/property/test_block_forms.py holds it to `step`)."""
+    input, the feedthrough outputs left as they were. The compiled driver and the Python
+    schedule call it instead of `step` where the plan evaluates the block at the point after
+    each step before anything reads its feedthrough outputs, except in the last step of a chunk
+    (tests/property/test_block_forms.py holds it to `step`)."""
 
     params: tuple = ()
     state: tuple = ()

@@ -46,7 +46,18 @@ from twmr.core.component import (
 from twmr.core.errors import CosimError
 from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm, NonFinite
-from twmr.master.plan import METHODS, Plan, Ref, Signal, Solve, Write, chunks, guard, held_build
+from twmr.master.plan import (
+    METHODS,
+    Plan,
+    Ref,
+    Signal,
+    Solve,
+    Write,
+    advancing,
+    chunks,
+    guard,
+    held_build,
+)
 from twmr.master.ticks import Tick
 from twmr.scenario.system import System
 
@@ -69,12 +80,13 @@ class FixedStep(Algorithm):
 
     The step loop is generated as Python source once per system, from its `Plan`: a block that
     runs its kernel (`twmr.core.component.python_kernel`) has its ports, private state and
-    parameters as local variables of the loop, which calls the kernel's functions itself (the
-    state handed back to the component, and the port values written to its ``__dict__``, when
-    the chunk of steps ends); any other block has its inputs written straight into its
-    ``__dict__`` and its `evaluate`/`do_step` called. Unit conversions and element selections
-    are folded into the expressions, and nothing is looked up by name inside the loop. The
-    source is registered with `linecache`, so tracebacks and pdb show it (`twmr check
+    parameters as local variables of the loop, which calls the kernel's functions itself (a
+    step by its `advance` where `twmr.master.plan.advancing` allows it, but the last step of a
+    chunk; the state handed back to the component, and the port values written to its
+    ``__dict__``, when the chunk of steps ends); any other block has its inputs written straight
+    into its ``__dict__`` and its `evaluate`/`do_step` called. Unit conversions and element
+    selections are folded into the expressions, and nothing is looked up by name inside the
+    loop. The source is registered with `linecache`, so tracebacks and pdb show it (`twmr check
     --schedule` prints it; it is generated again, for the kernels the components offer, when
     the run starts)."""
 
@@ -107,7 +119,7 @@ class FixedStep(Algorithm):
         if self._source is None:
             system, plan = self._system, self.plan
             assert system is not None and plan is not None
-            shapes = {n: Shape(True, True) for n, c in system.components.items()
+            shapes = {n: Shape(True, True, True) for n, c in system.components.items()
                       if runs_kernel(c) and self._kernels_wanted()}
             self._source, self._owner, _ = _generate(system, plan, shapes)
         return self._source
@@ -138,7 +150,7 @@ class FixedStep(Algorithm):
         for name, comp in system.components.items() if self._kernels_wanted() else ():
             k = python_kernel(comp, _step_of(system, name))
             if k is not None:
-                shapes[name] = Shape(k.evaluate is not None, k.step is not None)
+                shapes[name] = Shape.of(k)
         self._source, self._owner, env = _generate(system, plan, shapes)
         self._shapes = shapes
         self.filename = f"<twmr schedule {system.source} {id(self):x}>"
@@ -194,6 +206,11 @@ class Shape(NamedTuple):
 
     evaluate: bool
     step: bool
+    advance: bool = False
+
+    @classmethod
+    def of(cls, k: PythonKernel) -> Shape:
+        return cls(k.evaluate is not None, k.step is not None, k.advance is not None)
 
 
 def _step_of(system: System, name: str) -> float:
@@ -221,7 +238,7 @@ def _binder(comp: Component, h: float, shape: Shape) -> Callable[[], PythonKerne
     """`bind()`: the kernel `comp` runs with steps of `h` [s], which must still have `shape`."""
     def bind() -> PythonKernel:
         k = bound_kernel(comp, h)
-        if k is None or Shape(k.evaluate is not None, k.step is not None) != shape:
+        if k is None or Shape.of(k) != shape:
             raise CosimError(
                 f"component '{comp.name}' ({type(comp).__name__}) offers another kernel than "
                 f"when this run's step loop was generated. Fix: keep the parameters that "
@@ -265,12 +282,12 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     _point(w, 3, plan, ids, kern.ref, final=False, evaluate=kern.evaluate)
     _finite_check(w, 3, plan, kern.ref, kern.kernels.__contains__)
     _record(w, 3, plan, kern.ref, final=False)
-    for s in plan.steps:
-        i = ids[s.name]
-        env[f"h{i}"] = s.multiple * system.experiment.step
-        line = kern.step(s.name, s.time) if s.name in kernels else f"st{i}({s.time}, h{i})"
-        if line is not None:
-            w.add(3, line if s.guard is None else f"if {s.guard}: {line}", (s.name, "do_step"))
+    lean = {n for n in advancing(system, plan) if n in kernels and kernels[n].advance}
+    if lean:  # the last step of a call whole, as the compiled driver's chunks end
+        w.add(3, "if n != n1 - 1:")
+        _steps(w, 4, system, plan, ids, kern, env, lean)
+        w.add(3, "else:")
+    _steps(w, 4 if lean else 3, system, plan, ids, kern, env, set())
     kern.epilogue(w, 1)
     w.add(0, "def finish(n, rows):")
     kern.prologue(w, 1)
@@ -284,6 +301,18 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite,
                Tick=Tick)
     return "\n".join(w.lines) + "\n", w.owner, env
+
+
+def _steps(w: _Writer, ind: int, system: System, plan: Plan, ids: dict[str, int],
+           kern: _Kernels, env: dict[str, Any], lean: set[str]) -> None:
+    """The lines of the steps after a point; the blocks in `lean` by their kernels' advance."""
+    for s in plan.steps:
+        i = ids[s.name]
+        env[f"h{i}"] = s.multiple * system.experiment.step
+        line = kern.step(s.name, s.time, s.name in lean) if s.name in kern.kernels else \
+            f"st{i}({s.time}, h{i})"
+        if line is not None:
+            w.add(ind, line if s.guard is None else f"if {s.guard}: {line}", (s.name, "do_step"))
 
 
 class _Kernels:
@@ -314,7 +343,7 @@ class _Kernels:
     def prologue(self, w: _Writer, ind: int) -> None:
         for name in self.kernels:
             i = self.ids[name]
-            w.add(ind, f"p{i}, ev{i}, st{i}, sync{i} = bind{i}()", (name, "its kernel"))
+            w.add(ind, f"p{i}, ev{i}, st{i}, ad{i}, sync{i} = bind{i}()", (name, "its kernel"))
             ports = [(_X, f"x{i}"), *self._ports(name)]
             w.add(ind, ", ".join(v for _, v in ports) + " = " +
                   ", ".join(f"d{i}[{p!r}]" for p, _ in ports))
@@ -347,10 +376,13 @@ class _Kernels:
             return f"ev{self.ids[name]}(t)"
         return self._call(name, "ev", "t") if self.kernels[name].evaluate else None
 
-    def step(self, name: str, time: str) -> str | None:
-        """The line of a step of kernel block `name` from `time` (None: its kernel has none)."""
-        i = self.ids[name]
-        return self._call(name, "st", f"{time}, h{i}") if self.kernels[name].step else None
+    def step(self, name: str, time: str, lean: bool = False) -> str | None:
+        """The line of a step of kernel block `name` from `time` (None: its kernel has none);
+        `lean`: by its `advance` when it has one."""
+        i, shape = self.ids[name], self.kernels[name]
+        if not shape.step:
+            return None
+        return self._call(name, "ad" if lean and shape.advance else "st", f"{time}, h{i}")
 
 
 def _tuple(items: list[str]) -> str:
