@@ -295,6 +295,14 @@ def test_a_parameter_table_is_read_through_slots_only_where_the_source_shows_fie
     assert not isinstance(view.law, tuple) and view.law.lam == params.law.lam
     # functions that read fields this table does not have get it as it is (the same error)
     assert python_params(params, (motor_evaluate.py_func, motor_step.py_func)) is params
+    # a long run's calls (numba loaded, kernel functions in their `python(True)` forms) too
+    import numba  # noqa: F401 - what a run that loaded it leaves
+
+    ctrl.setup(0.0, 30.0)
+    ctrl.initialize()
+    ctrl.do_step(0.0, 1e-3)
+    env = ctrl.__dict__["_kernel_calls"].env
+    assert env["st"] is not asmc_step.py_func and not isinstance(env["p"], tuple)
 
 
 def test_a_copy_and_a_pickle_of_a_block_run_their_own_calls_and_a_replacement_is_seen() -> None:

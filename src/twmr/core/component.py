@@ -126,7 +126,7 @@ class _Calls:
         if k is None or k.fmu is not None:
             return None
         comp.__dict__.setdefault(_X, k.state)
-        p = python_params(k.params, (_python(k.evaluate), _python(k.step), _python(k.advance)))
+        p = python_params(k.params, (k.evaluate, k.step, k.advance))
         long = h > 0.0 and compiled_pays(_steps(comp, h))
         ev, st, ad = _python(k.evaluate, long), _python(k.step, long), _python(k.advance, long)
         self.env.update(H=h, p=p, ev=ev, st=st,

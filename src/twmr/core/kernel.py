@@ -241,16 +241,18 @@ def _shape(table: Any) -> Any:
 
 
 def python_params(params: Any, functions: tuple[Callable[..., Any] | None, ...]) -> Any:
-    """`params` as the Python forms of kernel functions `functions` (evaluate, step: their last
-    argument) are given it: a parameter table (a NamedTuple, nested ones too) as an object with
-    the same fields in slots, whose fields CPython reads several times faster, when the source
-    of each function shows that it only reads fields of the table, by name (``p.k``) or by
-    handing the table or a nested one to another `kernel_function` that does; else `params` as
-    it is. The values are the same objects, so the results are too."""
+    """`params` as the Python forms of a kernel's functions `functions` (evaluate, step,
+    advance: their last argument) are given it: a parameter table (a NamedTuple, nested ones
+    too) as an object with the same fields in slots, whose fields CPython reads several times
+    faster, when the source of each `kernel_function` shows that it only reads fields of the
+    table, by name (``p.k``) or by handing the table or a nested one to another
+    `kernel_function` that does; else (a numba function among them too) `params` as it is. The
+    values are the same objects, so the results are too."""
     if not _is_table(params):
         return params
     for fn in functions:
-        if fn is not None and not _reads_fields(fn, -1, params, set()):
+        py = fn.py_func if isinstance(fn, KernelFunction) else fn
+        if py is not None and not _reads_fields(py, -1, params, set()):
             return params
     return _view(params)
 
