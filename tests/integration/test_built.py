@@ -96,3 +96,32 @@ def test_a_built_system_run_compiled_keeps_its_plan_and_layout(
         assert now.ops is layout.ops and now.blocks is layout.blocks
         assert now.S is not layout.S and now.P is not layout.P
     assert built.rebuilt == 0
+
+
+def test_a_built_system_run_by_its_generated_loop_keeps_the_loop_compiled(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The loop generated for a system (what FMUs run in) is generated, loaded and compiled
+    once: runs with other values call the same machine code and give a fresh build's rows."""
+    from twmr.master import compiled
+
+    monkeypatch.setenv("TWMR_COMPILED", "on")
+    monkeypatch.setattr(compiled.CompiledStep.__init__, "__defaults__",
+                        ("gauss_seidel", "auto", False))  # the loop even where the driver runs
+    path = ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"
+    built = twmr.build(path, SHORT)
+    built.run()
+    loop = built.system.__dict__["_twmr_held_loop"]
+    run, finish = loop.functions()
+    assert loop.typed and "_held_layout" not in built.system.__dict__
+
+    def no_compile(*args: object) -> None:
+        raise AssertionError("the loop was compiled again")
+
+    cases = (["ctrl.k=20"], ["plant.pose[2]=0.01", "ctrl.eta=0.5"], [])
+    expected = [fresh(path, overrides) for overrides in cases]
+    monkeypatch.setattr(run, "compile", no_compile)
+    for overrides, rows in zip(cases, expected, strict=True):
+        again = built.run(overrides)
+        assert np.array_equal(again.values, rows), overrides
+        assert built.system.__dict__["_twmr_held_loop"] is loop
+        assert loop.functions() == (run, finish) and len(run.signatures) == 1

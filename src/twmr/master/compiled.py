@@ -260,9 +260,15 @@ class CompiledStep(Algorithm):
         if kinds is not None:
             self._compile_driver(kinds, kernels, t0)
             return
+        assert self.python.plan is not None
+        try:
+            loop = held_loop(system, self.python.plan, kernels)
+        except Exception as exc:  # noqa: BLE001 - a kernel the loop cannot be generated for
+            self._refuse(exc)
+            return
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
-        carried = self._carried = _carried(system, kernels)
+        carried = self._carried = loop.carried
         self._Y = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
                               for p, v in comps[n].outputs.items()) for n in order)
         self._U = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
@@ -270,9 +276,13 @@ class CompiledStep(Algorithm):
         self._H = tuple(system.multiple(n) * exp.step for n in order)
         self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
         try:
-            assert self.python.plan is not None
-            source, names = _generate(system, self.python.plan, kernels, carried)
-            self._run, self._finish = _load(source, names)
+            source = loop.source
+            self._run, self._finish = loop.functions()
+            if loop.typed:  # compiled for this system's argument types before (else on call)
+                self.compile_seconds = time.perf_counter() - t0
+                self._source = source
+                self.compiled = True
+                return
             # compile (or load from numba's cache) now, for the argument types of this run
             from numba import typeof
 
@@ -288,6 +298,7 @@ class CompiledStep(Algorithm):
                     0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
             finally:
                 sys.setrecursionlimit(limit)
+            loop.typed = True
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self._refuse(exc)
             return
@@ -700,6 +711,44 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel],
     rec(w, 2)
     pack(w)
     return "\n".join(w.lines) + "\n", names
+
+
+#: where `held_loop` keeps a system's loop
+_HELD_LOOP = "_twmr_held_loop"
+
+
+class HeldLoop:
+    """A system's generated loop (`_generate`): its source, kernel functions and port carriage,
+    for the plan and kernel functions it was made for, and `run`/`finish` once loaded; `typed`:
+    compiled for the system's argument types (a later run with other types compiles on call)."""
+
+    def __init__(self, plan: Plan, key: tuple, source: str, names: dict[str, Any],
+                 carried: dict[tuple[str, str], str]):
+        self.plan, self.key, self.source, self.names, self.carried = plan, key, source, names, \
+            carried
+        self.loaded: tuple[Any, Any] | None = None
+        self.typed = False
+
+    def functions(self) -> tuple[Any, Any]:
+        """(run, finish), loaded on first use (`_load`)."""
+        if self.loaded is None:
+            self.loaded = _load(self.source, self.names)
+        return self.loaded
+
+
+def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop:
+    """The loop generated for `system` under `plan` over `kernels`, kept on the system and
+    handed out again (loaded once, compiled once) for the same plan object
+    (`plan.held_build`), kernel functions, FMU calls and port carriage (a built system run
+    again with other values: `twmr.build`)."""
+    carried = _carried(system, kernels)
+    key = (tuple((k.evaluate, k.step, k.advance, k.fmu) for k in (kernels[n] for n in plan.order)),
+           tuple(carried.items()))
+    held = system.__dict__.get(_HELD_LOOP)
+    if held is None or held.plan is not plan or held.key != key:
+        source, names = _generate(system, plan, kernels, carried)
+        held = system.__dict__[_HELD_LOOP] = HeldLoop(plan, key, source, names, carried)
+    return held
 
 
 def _importable(fn: Any) -> bool:
