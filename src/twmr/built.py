@@ -116,6 +116,10 @@ class Built:
                            for name, comp in self.system.components.items()}
         self._fresh = True  # the system has not run yet
         self.rebuilt = 0  # runs that needed a new build
+        #: the stepping time of the system's runs [s]: once what a loop compiled for it would
+        #: have saved of it (`OWN_LOOP_SAVING`) covers compiling that loop, the system runs by
+        #: it (a ski-rental rule, `twmr.master.compiled.own_loop_pays`)
+        self._stepped_s = 0.0
 
     def run(self, values: Mapping[str, Any] | Sequence[str] = (), *, out: Any = None,
             formats: Sequence[str] = (), metrics: Sequence[str] = (),
@@ -127,8 +131,14 @@ class Built:
         spec, system = self.system_for(texts)
         scenario = Scenario(self.scenario.source, spec, self.scenario.base_dir, overrides,
                             _system=system, _spec=spec)
-        return simulate(scenario, out, formats=formats, metrics=metrics, observers=observers,
-                        header=header)
+        result = simulate(scenario, out, formats=formats, metrics=metrics,
+                          observers=observers, header=header)
+        if system is self.system:
+            from twmr.master.compiled import OWN_LOOP_SAVING
+
+            self._stepped_s += float(result.summary.get("wall_time_s") or 0.0)
+            system.own_loop_budget_s = self._stepped_s * OWN_LOOP_SAVING
+        return result
 
     def system_for(self, texts: Sequence[str]) -> tuple[ScenarioSpec, System]:
         """The structure with the override `texts` applied, and a system ready for a run of it:

@@ -125,3 +125,40 @@ def test_a_built_system_run_by_its_generated_loop_keeps_the_loop_compiled(
         assert np.array_equal(again.values, rows), overrides
         assert built.system.__dict__["_twmr_held_loop"] is loop
         assert loop.functions() == (run, finish) and len(run.signatures) == 1
+
+
+def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """The driver runs a system until its budget (`System.own_loop_budget_s`) covers loading
+    the loop generated for it from numba's cache, when the cache holds it, or compiling it;
+    then that loop runs it, with the driver's rows. A built system raises the budget as its
+    runs step."""
+    from twmr.master import compiled
+    from twmr.master.execution import Execution
+    from twmr.observers.store import ResultStore
+    from twmr.scenario import load
+
+    monkeypatch.setenv("TWMR_COMPILED", "on")
+    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)  # no loop cached yet
+    path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"  # whose loop no other test makes
+
+    def run(budget: float) -> tuple[np.ndarray, bool]:
+        system = load(path, SHORT)
+        system.own_loop_budget_s = budget
+        algorithm, store = compiled.CompiledStep("gauss_seidel", "on"), ResultStore()
+        assert Execution(system, [store], algorithm=algorithm).run().status == "completed"
+        return store.data(), algorithm._driver is not None
+
+    rows, by_driver = run(0.0)
+    assert by_driver
+    assert run(compiled.OWN_LOOP_LOAD_S)[1]  # enough to load the loop, which is not cached
+    for budget in (compiled.OWN_LOOP_COMPILE_S, compiled.OWN_LOOP_LOAD_S):  # compiled, cached
+        own, by_driver = run(budget)
+        assert not by_driver and np.array_equal(own, rows), budget
+
+    monkeypatch.setattr(compiled, "OWN_LOOP_SAVING", 1e9)  # the first run repays the compile
+    built = twmr.build(path, SHORT)
+    built.run()
+    assert built.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
+    assert np.array_equal(built.run().values, fresh(path, []))
+    assert built.system.__dict__["_twmr_held_loop"].typed

@@ -11,7 +11,9 @@ loop runs compiled, in one of two forms:
 - the loop generated for this system (below): every port value a local variable, one call per
   block, compiled per scenario. It runs the scenarios the driver does not hold: those with an FMU
   (called through its C functions), or a kernel value the driver's float vectors cannot hold
-  (e.g. a complex number, an integer array, a NamedTuple that is not importable).
+  (e.g. a complex number, an integer array, a NamedTuple that is not importable); and a system
+  whose `own_loop_budget_s` covers loading or compiling it (`own_loop_pays`: a built system run
+  again and again, whose loop steps faster than the driver).
 
 A kernel is two pure numba functions of the component's private state x (a tuple), its outputs y
 (the tuple of its output and state ports, declared order), its inputs u (the tuple of its input
@@ -252,20 +254,33 @@ class CompiledStep(Algorithm):
         t0 = time.perf_counter()
         order = list(system.order)
         comps = system.components
-        exp = system.experiment
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
         kinds = ready[1] if ready is not None else \
             _kinds(system, kernels) if self.use_driver else None
-        if kinds is not None:
+        if kinds is not None and not own_loop_pays(system, self.python.plan, kernels):
             self._compile_driver(kinds, kernels, t0)
             return
+        failure = self._compile_loop(kernels, t0)
+        if failure is not None and kinds is not None:
+            log.debug("the system's own loop did not compile (%s); the driver runs it", failure)
+            self._compile_driver(kinds, kernels, t0)
+        elif failure is not None:
+            self._refuse(failure)
+
+    def _compile_loop(self, kernels: dict[str, Kernel], t0: float) -> Exception | None:
+        """Take (or generate and compile) the loop generated for the system (`held_loop`); the
+        failure, if numba cannot compile it."""
+        system = self._system
         assert self.python.plan is not None
+        order = list(system.order)
+        comps = system.components
+        exp = system.experiment
         try:
             loop = held_loop(system, self.python.plan, kernels)
-        except Exception as exc:  # noqa: BLE001 - a kernel the loop cannot be generated for
-            self._refuse(exc)
-            return
+            self._run, self._finish = loop.functions()
+        except Exception as exc:  # noqa: BLE001 - a kernel the loop cannot be made of
+            return exc
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
         carried = self._carried = loop.carried
@@ -275,14 +290,7 @@ class CompiledStep(Algorithm):
                               for p, v in comps[n].inputs.items()) for n in order)
         self._H = tuple(system.multiple(n) * exp.step for n in order)
         self._ncols = 1 + sum(comps[n].variables[p].width for n, p in self._record)
-        try:
-            source = loop.source
-            self._run, self._finish = loop.functions()
-            if loop.typed:  # compiled for this system's argument types before (else on call)
-                self.compile_seconds = time.perf_counter() - t0
-                self._source = source
-                self.compiled = True
-                return
+        if not loop.typed:  # compiled for this system's argument types before (else on call)
             # compile (or load from numba's cache) now, for the argument types of this run
             from numba import typeof
 
@@ -296,15 +304,15 @@ class CompiledStep(Algorithm):
                     buf, self._decimation)))
                 self._finish.compile(tuple(typeof(a) for a in (
                     0, exp.start, exp.step, self._P, self._X, self._Y, self._U, buf)))
+            except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
+                return exc
             finally:
                 sys.setrecursionlimit(limit)
             loop.typed = True
-        except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
-            self._refuse(exc)
-            return
         self.compile_seconds = time.perf_counter() - t0
-        self._source = source
+        self._source = loop.source
         self.compiled = True
+        return None
 
     def _compile_driver(self, kinds: dict[str, driver.KindSpec], kernels: dict[str, Kernel],
                         t0: float) -> None:
@@ -727,6 +735,7 @@ class HeldLoop:
         self.plan, self.key, self.source, self.names, self.carried = plan, key, source, names, \
             carried
         self.loaded: tuple[Any, Any] | None = None
+        self.cached: bool | None = None
         self.typed = False
 
     def functions(self) -> tuple[Any, Any]:
@@ -734,6 +743,17 @@ class HeldLoop:
         if self.loaded is None:
             self.loaded = _load(self.source, self.names)
         return self.loaded
+
+    def in_cache(self) -> bool:
+        """Whether the loop's machine code is at hand without compiling: loaded by this process
+        or in numba's cache (asked once)."""
+        if self.cached is None:
+            from twmr.master import schedule_cache
+
+            self.cached = self.loaded is not None or (
+                all(_importable(fn) for fn in self.names.values()) and
+                schedule_cache.has_machine_code(self.source, self.names, cache_dir()))
+        return self.cached
 
 
 def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop:
@@ -749,6 +769,28 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
         source, names = _generate(system, plan, kernels, carried)
         held = system.__dict__[_HELD_LOOP] = HeldLoop(plan, key, source, names, carried)
     return held
+
+
+#: what taking a system's own loop costs [s]: loaded from numba's cache, compiled afresh (the
+#: paper scenario's: 0.25 s and 2.7-5 s, `benchmarks/compiled_schedule.py`)
+OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.3, 5.0
+#: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.257
+#: against 0.325 us a step)
+OWN_LOOP_SAVING = 0.2
+
+
+def own_loop_pays(system: System, plan: Plan, kernels: dict[str, Kernel]) -> bool:
+    """Whether a system the driver can run takes the loop generated for it instead: its
+    `own_loop_budget_s` covers compiling that loop, or loading it when numba's cache holds it."""
+    budget = system.own_loop_budget_s
+    if budget >= OWN_LOOP_COMPILE_S:
+        return True
+    if budget < OWN_LOOP_LOAD_S:
+        return False
+    try:
+        return held_loop(system, plan, kernels).in_cache()
+    except Exception:  # noqa: BLE001 - a loop that cannot be made: the driver runs
+        return False
 
 
 def _importable(fn: Any) -> bool:

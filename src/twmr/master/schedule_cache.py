@@ -87,9 +87,13 @@ def _packages(folders: frozenset[Path]) -> str:
 
 def has_machine_code(source: str, names: dict[str, Any], folder: Path,
                      prefix: str = "schedule") -> bool:
-    """Whether `folder` holds the module of `source` and numba's cache of it (index files),
-    i.e. a later `load_module` finds compiled code (unless the cache fails its check)."""
+    """Whether this process compiled the module of `source` (a numba function of it holds
+    machine code) or `folder` holds the module and numba's cache of it (index files), i.e. a
+    later `load_module` finds compiled code (unless the cache fails its check)."""
     stem = f"{prefix}_{_key(source, names)}"
+    module = sys.modules.get(f"twmr_{stem}")
+    if module is not None and any(getattr(v, "signatures", None) for v in vars(module).values()):
+        return True
     return (folder / f"{stem}.py").is_file() and \
         any((folder / "__pycache__").glob(f"{stem}.*.nbi"))
 

@@ -97,6 +97,10 @@ class System:
     record: RecordSpec = field(default_factory=RecordSpec)
     step_multiples: dict[str, int] = field(default_factory=dict)
     source: str = "<scenario>"
+    #: what compiling the loop generated for this system may cost [s] (its steps are faster
+    #: than the driver's; `twmr.master.compiled.own_loop_pays`): raised by `twmr.built.Built`
+    #: as the system's runs step
+    own_loop_budget_s: float = 0.0
 
     @property
     def paced(self) -> bool:
