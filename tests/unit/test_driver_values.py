@@ -2,12 +2,13 @@
 value comes back with its own type and bits, and one it cannot hold is named (no numba here)."""
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import numpy as np
 import pytest
 
-from twmr.master.driver import Unsupported, flatten, rebuild, shape_of
+from twmr.master.driver import Unsupported, flatten, kind_of, rebuild, shape_of
 
 
 class Inner(NamedTuple):
@@ -55,3 +56,34 @@ def test_a_namedtuple_that_is_not_importable_is_refused() -> None:
 
     with pytest.raises(Unsupported, match="Local"):
         shape_of(Local(1.0))
+
+
+@pytest.mark.parametrize(("value", "shape"), [
+    (1.5, "f"), (np.float64(1.5), "f"), (3, "i"), (np.int64(3), "i"), (True, "b"),
+    (np.bool_(False), "b"), (np.int32(3), "i"), ((), ("t", None, ())),
+    ((1.0, (2, True)), ("t", None, ("f", ("t", None, ("i", "b"))))),
+    (Inner(1.0, 2, False), ("t", Inner, ("f", "i", "b"))),
+])
+def test_each_value_has_the_shape_of_its_type(value: object, shape: object) -> None:
+    assert shape_of(value) == shape
+
+
+def test_a_scalar_of_another_float_type_is_refused() -> None:
+    with pytest.raises(Unsupported, match="float32"):
+        shape_of((1.0, np.float32(2.0)))
+
+
+def test_equal_kinds_are_one_object_and_a_changed_value_shape_is_another_kind() -> None:
+    from twmr.blocks.linear import Gain
+    from twmr.core.kernel import Kernel
+
+    comp = Gain("g", k=2.0)
+    kern = comp.kernel(1e-3)
+    assert isinstance(kern, Kernel)
+    first = kind_of(comp, kern)
+    again = kind_of(comp, Gain("g2", k=3.0).kernel(1e-3))
+    assert again is first and again.key is first.key
+    plain = kind_of(comp, dataclasses.replace(kern, params=(2.0,)))  # no NamedTuple
+    ints = kind_of(comp, dataclasses.replace(kern, params=(2,)))
+    assert len({id(first), id(plain), id(ints)}) == 3
+    assert len({first.key, plain.key, ints.key}) == 3

@@ -299,7 +299,7 @@ class CompiledStep(Algorithm):
         """Take (or compile) the adapters of the system's kinds and lay the plan out for the
         driver."""
         try:
-            addresses, fresh = driver.load(list(kinds.values()), cache_dir())
+            addresses, fresh = driver.load(list(kinds.values()), cache_dir)
             from twmr.master import driver_loop
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self._refuse(exc)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,8 +49,22 @@ class Unsupported(Exception):
     """A value the driver cannot hold in its float vectors (its text says which)."""
 
 
+#: the shapes of the scalar types kernel values hold, by exact type (a run of a built system
+#: takes the shapes of its kernels' values anew: this spares the tests below)
+_SCALARS: dict[type, str] = {float: "f", np.float64: "f", int: "i", np.int64: "i", bool: "b",
+                             np.bool_: "b"}
+
+
 def shape_of(value: Any) -> Shape:
     """The shape of a kernel state or parameter value; `Unsupported` for anything else."""
+    scalar = _SCALARS.get(type(value))
+    if scalar is not None:
+        return scalar
+    if isinstance(value, tuple):
+        cls = type(value) if hasattr(value, "_fields") else None
+        if cls is not None and not _importable(cls):
+            raise Unsupported(f"its NamedTuple {cls.__qualname__} is not importable")
+        return ("t", cls, tuple([shape_of(v) for v in value]))
     if isinstance(value, (bool, np.bool_)):
         return "b"
     if isinstance(value, (int, np.integer)):
@@ -59,11 +73,6 @@ def shape_of(value: Any) -> Shape:
         return "f"
     if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim >= 1:
         return ("a", value.ndim)
-    if isinstance(value, tuple):
-        cls = type(value) if hasattr(value, "_fields") else None
-        if cls is not None and not _importable(cls):
-            raise Unsupported(f"its NamedTuple {cls.__qualname__} is not importable")
-        return ("t", cls, tuple(shape_of(v) for v in value))
     raise Unsupported(f"a value of type {type(value).__name__}")
 
 
@@ -114,16 +123,13 @@ class KindSpec:
 
     @functools.cached_property
     def key(self) -> str:
-        """The adapters' source: equal keys, one adapter (rendered once per process: a run of
-        a built system makes its kinds anew)."""
-        key = _KEYS.get(self)
-        if key is None:
-            key = _KEYS[self] = _adapters(self)
-        return key
+        """The adapters' source: equal keys, one adapter (rendered once per process: `kind_of`
+        hands out one object per kind)."""
+        return _adapters(self)
 
 
-#: the keys of the kinds this process has met
-_KEYS: dict[KindSpec, str] = {}
+#: the kinds this process has met, each the one object `kind_of` hands out for kinds equal to it
+_KINDS: dict[KindSpec, KindSpec] = {}
 
 
 def kind_of(comp: Any, kern: Kernel) -> KindSpec:
@@ -132,10 +138,11 @@ def kind_of(comp: Any, kern: Kernel) -> KindSpec:
         if fn is not None and not _importable(fn):
             raise Unsupported(f"its kernel function {getattr(fn, '__qualname__', fn)!r} is "
                               f"not importable by name")
-    return KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
+    kind = KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
                     shape_of(kern.params),
                     tuple(None if v.size is None else v.width for v in comp.outputs.values()),
                     tuple(None if v.size is None else v.width for v in comp.inputs.values()))
+    return _KINDS.setdefault(kind, kind)
 
 
 def _importable(obj: Any) -> bool:
@@ -460,11 +467,13 @@ def _address(fn: Any) -> int:
     return int(cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name))
 
 
-def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, int, int]], int]:
+def load(kinds: Sequence[KindSpec], folder: Callable[[], Any]
+         ) -> tuple[dict[str, tuple[int, int, int]], int]:
     """({key: (evaluate, step, advance) adapter addresses} of `kinds`, how many kinds numba
     compiled or loaded now): those this process holds, the others generated, loaded through
-    the verified cache in `folder` (`twmr.master.schedule_cache`; exec'd without a cache when
-    `folder` cannot be written) and compiled."""
+    the verified cache in the folder `folder()` gives (asked only then;
+    `twmr.master.schedule_cache`; exec'd without a cache when it cannot be written) and
+    compiled."""
     from twmr.master import driver_loop, schedule_cache
 
     fresh = 0
@@ -473,7 +482,7 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
             continue
         source, names = generate(kind)
         try:
-            module = schedule_cache.load_module(source, names, folder, "kind")
+            module = schedule_cache.load_module(source, names, folder(), "kind")
             env: dict[str, Any] = vars(module)
         except OSError:
             env = dict(names)
@@ -484,10 +493,11 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
                                   for n in ("ev", "st", "ad"))
         fresh += 1
     loops: tuple[Any, Any] = (driver_loop.run, driver_loop.finish)
-    for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
-        if not fn.signatures:
-            fn.compile(sig)
-            fresh += 1
+    if not all(fn.signatures for fn in loops):
+        for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
+            if not fn.signatures:
+                fn.compile(sig)
+                fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh
 
 
