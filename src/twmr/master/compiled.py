@@ -463,6 +463,10 @@ def jacobi(compiled: str = "auto") -> Algorithm:
     return fixed_step("jacobi", compiled)
 
 
+#: the kinds of variable that are ports (`Component.inputs` and `Component.outputs`)
+_PORTS = ("input", "output", "state")
+
+
 def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
     from twmr.master.fmu_kernel import NotCompilable
@@ -495,10 +499,12 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
-        for port, var in {**comp.inputs, **comp.outputs}.items():
-            if var.type != "Real" and kern.fmu is None:
-                return None, f"port '{name}.{port}' is {var.type}, not Real"
-        if comp.has_feedthrough and kern.evaluate is None and kern.fmu is None:
+        if kern.fmu is None and any(v.type != "Real" and v.kind in _PORTS
+                                    for v in comp.variables.values()):
+            port, var = next((p, v) for p, v in {**comp.inputs, **comp.outputs}.items()
+                             if v.type != "Real")
+            return None, f"port '{name}.{port}' is {var.type}, not Real"
+        if kern.evaluate is None and kern.fmu is None and comp.has_feedthrough:
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
         kernels[name] = kern
     return kernels, ""

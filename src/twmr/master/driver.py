@@ -493,7 +493,7 @@ def load(kinds: Sequence[KindSpec], folder: Callable[[], Any]
                                   for n in ("ev", "st", "ad"))
         fresh += 1
     loops: tuple[Any, Any] = (driver_loop.run, driver_loop.finish)
-    if not all(fn.signatures for fn in loops):
+    if not all(fn.overloads for fn in loops):  # (`signatures` hashes every type)
         for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
             if not fn.signatures:
                 fn.compile(sig)
