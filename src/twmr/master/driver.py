@@ -85,7 +85,10 @@ def flatten(value: Any, shape: Shape, out: list[float]) -> None:
         out.extend(np.ravel(value).tolist())
     else:
         for v, s in zip(value, shape[2], strict=True):
-            flatten(v, s, out)
+            if s in ("f", "i", "b"):  # (inline: a table of scalars costs no call per element)
+                out.append(float(v))
+            else:
+                flatten(v, s, out)
 
 
 def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
@@ -336,7 +339,7 @@ def _refilled(system: System, plan: Plan, kernels: dict[str, Kernel],
     """`lay` with new vectors S, X, P of the values of now; None when a block's state or
     parameters no longer fill the places they had."""
     S, X, P, places = _vectors(system, plan, kernels, kinds, lay.ports)
-    if places != [(int(xo), int(po)) for xo, po in lay.blocks[:, 3:5]] or \
+    if places != list(map(tuple, lay.blocks[:, 3:5].tolist())) or \
             X.size != lay.X.size or P.size != lay.P.size:
         return None
     return dataclasses.replace(lay, S=S, X=X, P=P)
@@ -356,12 +359,15 @@ def _vectors(system: System, plan: Plan, kernels: dict[str, Kernel], kinds: dict
     for name, block in zip(plan.order, ports, strict=True):
         d, kern, kind = comps[name].__dict__, kernels[name], kinds[name]
         for port, _, size in block:
-            S.extend([float(d[port])] if size is None else [float(v) for v in d[port]])
+            if size is None:
+                S.append(float(d[port]))
+            else:
+                S.extend([float(v) for v in d[port]])
         places.append((len(X), len(P)))
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
     slot = {(name, port): o for name, block in zip(plan.order, ports, strict=True)
-            for port, o, _ in block}
+            for port, o, _ in block} if plan.snapshot else {}
     for src, port in plan.snapshot:
         S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
     return (np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
