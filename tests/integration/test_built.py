@@ -5,6 +5,7 @@ to the scenario's own values, after a run that failed, and when the values chang
 (the experiment), which builds anew."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +71,11 @@ def test_a_worker_reruns_its_built_system_with_the_runs_values() -> None:
     kept = built_for(task(9, 1.0))
     assert kept.rebuilt == 0
     assert built_for(task(10, 1.3)) is kept  # one built system for the scenario
+    edited = dataclasses.replace(task(11, 1.0), content=content + "\n# edited\n")
+    other = built_for(edited)
+    assert other is not kept and other.scenario.content == edited.content
+    assert built_for(dataclasses.replace(task(12, 1.0), built_with=[])) not in (kept, other)
+    assert built_for(task(13, 1.0)) is kept
     for row in rows:
         alone = twmr.simulate(twmr.load(path, [*SHORT, f"plant.scale={row['plant.scale']}"]),
                               metrics=["tracking"])
