@@ -72,6 +72,10 @@ log = logging.getLogger("twmr.run")
 SSA_RECURSION = 50_000
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
+#: the most values (rows x columns) a run's recorded rows are written into one buffer for (a
+#: longer run's chunks have buffers of their own: an observer that writes them to disk frees
+#: them)
+JOINED = 1 << 20
 #: why a system that records Binary ports keeps the Python schedule
 TICKS = "its recorded Binary ports are taken by the Python schedule"
 
@@ -187,6 +191,9 @@ class CompiledStep(Algorithm):
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
         self._source, self._kinds_run = None, []
+        #: the run's recorded rows (`_buffer`), made at its first compiled chunk
+        self._rows: np.ndarray | None = None
+        self._taken = 0
         self._system, self._record, self._decimation = system, record, decimation
         self._check = check_finite
 
@@ -403,19 +410,32 @@ class CompiledStep(Algorithm):
             return self.python.advance(n0, n1, rows)
         d = self._decimation
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
-        buf = np.empty((count, self._ncols))
+        if self._rows is None and self._record:  # the first compiled chunk
+            left = len(range(-(-n0 // d) * d, self._system.experiment.n_steps, d)) + 1
+            self._rows = np.empty((left if left * self._ncols <= JOINED else 0, self._ncols))
+        buf = self._buffer(count)
         if self._driver is not None:
             self._run_driver(self._driver, n0, n1, buf, rows)
         else:
             self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
 
+    def _buffer(self, count: int) -> np.ndarray:
+        """Room for the next `count` recorded rows: the rows of the run's one buffer after those
+        handed out (consecutive views, which `ResultStore.data` joins without a copy), or a
+        buffer of their own."""
+        start, whole = self._taken, self._rows
+        if whole is None or start + count > len(whole):  # (None: no row recorded)
+            return np.empty((count, self._ncols))
+        self._taken = start + count
+        return whole[start:start + count]
+
     def finish(self, n: int, rows: list[Any]) -> None:
         if not self.compiled:
             self.python.finish(n, rows)
             return
         exp = self._system.experiment
-        buf = np.empty((1, self._ncols))
+        buf = self._buffer(1)
         if self._driver is not None:
             lay = self._layout
             self._sync_driver(rows, buf, *self._driver.finish(
