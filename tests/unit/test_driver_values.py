@@ -87,3 +87,19 @@ def test_equal_kinds_are_one_object_and_a_changed_value_shape_is_another_kind() 
     ints = kind_of(comp, dataclasses.replace(kern, params=(2,)))
     assert len({id(first), id(plain), id(ints)}) == 3
     assert len({first.key, plain.key, ints.key}) == 3
+
+
+def test_a_value_comes_back_the_same_from_the_vector_and_from_its_list() -> None:
+    value = Table(Inner(-0.0, 3, True), np.array([0.1, np.nan, 1e300]),
+                  np.arange(6.0).reshape(3, 2) / 7.0, (np.float64(2.5), 7))
+    shape = shape_of(value)
+    flat: list[float] = []
+    flatten(value, shape, flat)
+    vec = np.array(flat)
+    (a, end_a), (b, end_b) = rebuild(vec, 0, shape), rebuild(vec.tolist(), 0, shape)
+    assert end_a == end_b == len(flat) and type(a) is type(b) is Table
+    assert a.inner == b.inner and np.signbit(b.inner.gain) and type(b.inner.code) is int
+    for x, y in ((a.breakpoints, b.breakpoints), (a.matrix, b.matrix)):
+        assert x.shape == y.shape and x.dtype == y.dtype == np.float64
+        assert x.tobytes() == y.tobytes()
+    assert a.pair == b.pair == (2.5, 7) and type(b.pair[0]) is float

@@ -353,14 +353,14 @@ class CompiledStep(Algorithm):
     def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
         """As `_sync`, from the driver's vectors."""
         lay = self._layout
-        values = lay.S.tolist()
+        values, states = lay.S.tolist(), lay.X.tolist()
         for comp, kern, ports, (xo, shape) in zip(self._comps, self._kernels, lay.ports,
                                                   lay.state, strict=True):
             d = comp.__dict__
             for port, o, size in ports:
                 d[port] = values[o] if size is None else tuple(values[o:o + size])
             if kern.sync is not None:
-                kern.sync(driver.rebuild(lay.X, xo, shape)[0])
+                kern.sync(driver.rebuild(states, xo, shape)[0])
         if k and self._record:
             rows.append(buf[:k])
         if bad >= 0:

@@ -91,8 +91,9 @@ def flatten(value: Any, shape: Shape, out: list[float]) -> None:
                 flatten(v, s, out)
 
 
-def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
-    """(the Python value of `shape` stored in `vec` from `o`, the offset after it)."""
+def rebuild(vec: np.ndarray | list[float], o: int, shape: Shape) -> tuple[Any, int]:
+    """(the Python value of `shape` stored in `vec` from `o`, the offset after it); `vec` a
+    vector or its elements as a list (`tolist()`: read without making numpy scalars)."""
     if shape == "f":
         return float(vec[o]), o + 1
     if shape == "i":
@@ -103,11 +104,15 @@ def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
         dims = tuple(int(d) for d in vec[o:o + shape[1]])
         o += shape[1]
         n = int(np.prod(dims))
-        return vec[o:o + n].reshape(dims).copy(), o + n
+        return np.array(vec[o:o + n], dtype=np.float64).reshape(dims), o + n
     items = []
     for s in shape[2]:
-        v, o = rebuild(vec, o, s)
-        items.append(v)
+        if s == "f":  # (inline: a table of floats costs no call per element)
+            items.append(float(vec[o]))
+            o += 1
+        else:
+            v, o = rebuild(vec, o, s)
+            items.append(v)
     return (shape[1](*items) if shape[1] is not None else tuple(items)), o
 
 
