@@ -103,3 +103,19 @@ def test_a_value_comes_back_the_same_from_the_vector_and_from_its_list() -> None
         assert x.shape == y.shape and x.dtype == y.dtype == np.float64
         assert x.tobytes() == y.tobytes()
     assert a.pair == b.pair == (2.5, 7) and type(b.pair[0]) is float
+
+
+def test_a_kind_has_the_widths_of_its_outputs_states_and_inputs_in_declared_order() -> None:
+    from twmr.blocks.linear import Gain
+    from twmr.core.port import Input, Output, State
+
+    class Wide(Gain):
+        v = Input(size=3)
+        w = State(size=2)
+        z = Output(0.0)
+
+    comp = Wide("w", k=2.0)
+    kind = kind_of(comp, comp.kernel(1e-3))
+    widths = {n: None if v.size is None else v.width for n, v in comp.variables.items()}
+    assert kind.outputs == tuple(widths[n] for n in comp.outputs) == (None, 2, None)
+    assert kind.inputs == tuple(widths[n] for n in comp.inputs) == (None, 3)

@@ -146,10 +146,15 @@ def kind_of(comp: Any, kern: Kernel) -> KindSpec:
         if fn is not None and not _importable(fn):
             raise Unsupported(f"its kernel function {getattr(fn, '__qualname__', fn)!r} is "
                               f"not importable by name")
+    outputs: list[int | None] = []  # `comp.outputs` and `comp.inputs`, in one pass
+    inputs: list[int | None] = []
+    for v in comp.variables.values():
+        if v.kind in ("output", "state"):
+            outputs.append(None if v.size is None else v.width)
+        elif v.kind == "input":
+            inputs.append(None if v.size is None else v.width)
     kind = KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
-                    shape_of(kern.params),
-                    tuple(None if v.size is None else v.width for v in comp.outputs.values()),
-                    tuple(None if v.size is None else v.width for v in comp.inputs.values()))
+                    shape_of(kern.params), tuple(outputs), tuple(inputs))
     return _KINDS.setdefault(kind, kind)
 
 
