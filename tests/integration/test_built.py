@@ -102,3 +102,16 @@ def test_a_built_system_run_compiled_keeps_its_plan_and_layout(
         assert now.ops is layout.ops and now.blocks is layout.blocks
         assert now.S is not layout.S and now.P is not layout.P
     assert built.rebuilt == 0
+
+
+@pytest.mark.parametrize("override", ["plant.scale=1.2", "ctrl.step_multiple=2",
+                                      "experiment.stop=1.5", "experiment.step=0.002"])
+def test_the_shape_taken_from_the_built_structure_is_the_shape_taken_anew(override: str) -> None:
+    from twmr.built import _shape
+    from twmr.scenario.build import scenario_spec
+
+    built = twmr.build(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", SHORT)
+    spec = scenario_spec(built.spec, overrides=[override])
+    shape = _shape(spec, built.system, built._flat, built._shape)
+    assert shape == _shape(spec, built.system)
+    assert (shape == built._shape) is override.startswith("plant.")
