@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -26,6 +27,8 @@ from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.yamlread import FAST
 
 _FORM = "write component.parameter=value or experiment.stop=value."
+#: a decimal integer or a decimal fraction without exponent: YAML reads it as Python does
+_DECIMAL = re.compile(r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?")
 
 
 def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
@@ -42,6 +45,8 @@ def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
 def _parse(text: str, key: str, value: str, loc: Location, problems: list[Problem]
            ) -> tuple[bool, Any]:
     """(read, the value) of the text after '='."""
+    if _DECIMAL.fullmatch(value):  # what YAML reads as this int or float (a sweep's values)
+        return True, float(value) if "." in value else int(value)
     with contextlib.suppress(yaml.YAMLError):  # libyaml first; PyYAML words a problem
         return True, yaml.load(value, Loader=FAST)  # noqa: S506 - a safe loader
     try:
