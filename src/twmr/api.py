@@ -279,6 +279,8 @@ def _check_metrics(fns: dict[str, Callable[..., Any]], system: System) -> None:
     """Refuse, before running, a metric set whose `needs(columns)` names what is missing."""
     from twmr.master.execution import columns_of
 
+    if not fns:
+        return
     columns = columns_of(system, system.record.signals)[0]
     for name, fn in fns.items():
         missing = getattr(fn, "needs", lambda c: "")(columns)

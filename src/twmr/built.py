@@ -68,12 +68,19 @@ def _restore(comp: Component, saved: tuple[dict[str, Any], dict[str, Any]],
     d.update(kept)
 
 
-def _shape(spec: ScenarioSpec, system: System) -> Any:
+def _shape(spec: ScenarioSpec, system: System, base: ScenarioSpec | None = None,
+           known: Any = None) -> Any:
     """Everything of a flat structure but the parameter and initial values of its blocks (the
-    values that build the blocks themselves excepted)."""
+    values that build the blocks themselves excepted). `known`: the shape of structure `base`,
+    whose blocks and sections `spec` shares (the same objects: an override replaces what it
+    changes) are taken from it."""
     e, r = spec.experiment, spec.record
+    held = {} if base is None else dict(zip(base.components, known[0], strict=True))
     blocks = []
     for name, c in spec.components.items():
+        if base is not None and base.components.get(name) is c:
+            blocks.append(held[name])
+            continue
         comp = system.components.get(name)
         made = () if comp is None else tuple(
             (k, repr(c.parameters[k].value)) for k in comp.construction_parameters
@@ -82,9 +89,10 @@ def _shape(spec: ScenarioSpec, system: System) -> Any:
             (k, repr(c.parameters[k].value)) for k in sorted(comp.sizing_parameters)
             if k in c.parameters)
         blocks.append((name, c.kind.value, c.step_multiple.value, made, sizing))
-    experiment = tuple(None if g is None else repr(g.value) for g in (
-        e.start, e.stop, e.step, e.algorithm, e.realtime, e.rtol, e.atol, e.min_step,
-        e.max_step))
+    experiment = known[3] if base is not None and base.experiment is e else tuple(
+        None if g is None else repr(g.value) for g in (
+            e.start, e.stop, e.step, e.algorithm, e.realtime, e.rtol, e.atol, e.min_step,
+            e.max_step))
     return (tuple(blocks), tuple(g.value for g in spec.connections),
             tuple(g.value for g in spec.open), experiment,
             None if r.signals is None else tuple(g.value for g in r.signals),
@@ -151,7 +159,8 @@ class Built:
             self._fresh = False
             return spec, self.system
         flat = self._flat if not texts else flatten(spec).spec if self._nested else spec
-        if self._saved is None or _shape(flat, self.system) != self._shape:
+        if self._saved is None or \
+                _shape(flat, self.system, self._flat, self._shape) != self._shape:
             self.rebuilt += 1
             return spec, build_system(spec)
         self._fresh = False

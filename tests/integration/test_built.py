@@ -5,6 +5,7 @@ to the scenario's own values, after a run that failed, and when the values chang
 (the experiment), which builds anew."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +71,11 @@ def test_a_worker_reruns_its_built_system_with_the_runs_values() -> None:
     kept = built_for(task(9, 1.0))
     assert kept.rebuilt == 0
     assert built_for(task(10, 1.3)) is kept  # one built system for the scenario
+    edited = dataclasses.replace(task(11, 1.0), content=content + "\n# edited\n")
+    other = built_for(edited)
+    assert other is not kept and other.scenario.content == edited.content
+    assert built_for(dataclasses.replace(task(12, 1.0), built_with=[])) not in (kept, other)
+    assert built_for(task(13, 1.0)) is kept
     for row in rows:
         alone = twmr.simulate(twmr.load(path, [*SHORT, f"plant.scale={row['plant.scale']}"]),
                               metrics=["tracking"])
@@ -162,3 +168,16 @@ def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
     assert built.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
     assert np.array_equal(built.run().values, fresh(path, []))
     assert built.system.__dict__["_twmr_held_loop"].typed
+
+
+@pytest.mark.parametrize("override", ["plant.scale=1.2", "ctrl.step_multiple=2",
+                                      "experiment.stop=1.5", "experiment.step=0.002"])
+def test_the_shape_taken_from_the_built_structure_is_the_shape_taken_anew(override: str) -> None:
+    from twmr.built import _shape
+    from twmr.scenario.build import scenario_spec
+
+    built = twmr.build(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", SHORT)
+    spec = scenario_spec(built.spec, overrides=[override])
+    shape = _shape(spec, built.system, built._flat, built._shape)
+    assert shape == _shape(spec, built.system)
+    assert (shape == built._shape) is override.startswith("plant.")

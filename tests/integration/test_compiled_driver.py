@@ -142,3 +142,23 @@ def test_a_block_whose_parameters_the_driver_cannot_hold_runs_the_generated_loop
     compiled, extra = run(build(), "on")
     assert extra["algorithm.compiled"] is True and extra["algorithm.driver"] is False
     assert np.array_equal(python, compiled)
+
+
+@pytest.mark.parametrize("joined", [True, False])
+def test_a_runs_chunks_are_recorded_into_one_buffer_the_result_shares(
+        monkeypatch: pytest.MonkeyPatch, joined: bool) -> None:
+    """The compiled chunks write consecutive rows of one buffer, which the in-memory store hands
+    out without a copy; above `JOINED` values each chunk has its own and they are joined by a
+    copy: the same rows as the Python schedule either way."""
+    from twmr.master import compiled
+
+    if not joined:
+        monkeypatch.setattr(compiled, "JOINED", 100)
+    overrides = ["experiment.stop=2.0"]  # (recorded every 10th step)
+    python, _ = run(load(PAPER, overrides), "off")
+    store = ResultStore()
+    Execution(load(PAPER, overrides), [store], algorithm=make_algorithm("gauss_seidel", "on")
+              ).run()
+    assert len(store.blocks) > 3 and np.array_equal(store.data(), python)
+    bases = {id(b.base) for b in store.blocks}
+    assert (len(bases) == 1 and store.data().base is store.blocks[0].base) is joined

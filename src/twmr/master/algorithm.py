@@ -35,8 +35,8 @@ class Algorithm(ABC):
     @abstractmethod
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
         """Advance from base step n0 towards n1, appending recorded rows (t, values...) to
-        `rows` (as tuples, or as 2-D float arrays of rows); return the step reached (n1 for a
-        fixed-step algorithm)."""
+        `rows` (as tuples, or as 2-D float arrays of rows, which the observers then hold:
+        never changed after); return the step reached (n1 for a fixed-step algorithm)."""
 
     @abstractmethod
     def finish(self, n: int, rows: list[Any]) -> None:

@@ -75,6 +75,10 @@ log = logging.getLogger("twmr.run")
 SSA_RECURSION = 50_000
 #: why a system with algebraic loops to solve keeps the Python schedule
 LOOPS = "its algebraic loops are iterated by the Python schedule"
+#: the most values (rows x columns) a run's recorded rows are written into one buffer for (a
+#: longer run's chunks have buffers of their own: an observer that writes them to disk frees
+#: them)
+JOINED = 1 << 20
 #: why a system that records Binary ports keeps the Python schedule
 TICKS = "its recorded Binary ports are taken by the Python schedule"
 
@@ -190,6 +194,9 @@ class CompiledStep(Algorithm):
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
         self._source, self._kinds_run = None, []
+        #: the run's recorded rows (`_buffer`), made at its first compiled chunk
+        self._rows: np.ndarray | None = None
+        self._taken = 0
         self._system, self._record, self._decimation = system, record, decimation
         self._check = check_finite
 
@@ -319,7 +326,7 @@ class CompiledStep(Algorithm):
         """Take (or compile) the adapters of the system's kinds and lay the plan out for the
         driver."""
         try:
-            addresses, fresh = driver.load(list(kinds.values()), cache_dir())
+            addresses, fresh = driver.load(list(kinds.values()), cache_dir)
             from twmr.master import driver_loop
         except Exception as exc:  # noqa: BLE001 - a kernel numba cannot compile
             self._refuse(exc)
@@ -366,14 +373,14 @@ class CompiledStep(Algorithm):
     def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
         """As `_sync`, from the driver's vectors."""
         lay = self._layout
-        values = lay.S.tolist()
+        values, states = lay.S.tolist(), lay.X.tolist()
         for comp, kern, ports, (xo, shape) in zip(self._comps, self._kernels, lay.ports,
                                                   lay.state, strict=True):
             d = comp.__dict__
             for port, o, size in ports:
                 d[port] = values[o] if size is None else tuple(values[o:o + size])
             if kern.sync is not None:
-                kern.sync(driver.rebuild(lay.X, xo, shape)[0])
+                kern.sync(driver.rebuild(states, xo, shape)[0])
         if k and self._record:
             rows.append(buf[:k])
         if bad >= 0:
@@ -423,19 +430,32 @@ class CompiledStep(Algorithm):
             return self.python.advance(n0, n1, rows)
         d = self._decimation
         count = len(range(-(-n0 // d) * d, n1, d)) if self._record else 0
-        buf = np.empty((count, self._ncols))
+        if self._rows is None and self._record:  # the first compiled chunk
+            left = len(range(-(-n0 // d) * d, self._system.experiment.n_steps, d)) + 1
+            self._rows = np.empty((left if left * self._ncols <= JOINED else 0, self._ncols))
+        buf = self._buffer(count)
         if self._driver is not None:
             self._run_driver(self._driver, n0, n1, buf, rows)
         else:
             self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
 
+    def _buffer(self, count: int) -> np.ndarray:
+        """Room for the next `count` recorded rows: the rows of the run's one buffer after those
+        handed out (consecutive views, which `ResultStore.data` joins without a copy), or a
+        buffer of their own."""
+        start, whole = self._taken, self._rows
+        if whole is None or start + count > len(whole):  # (None: no row recorded)
+            return np.empty((count, self._ncols))
+        self._taken = start + count
+        return whole[start:start + count]
+
     def finish(self, n: int, rows: list[Any]) -> None:
         if not self.compiled:
             self.python.finish(n, rows)
             return
         exp = self._system.experiment
-        buf = np.empty((1, self._ncols))
+        buf = self._buffer(1)
         if self._driver is not None:
             lay = self._layout
             self._sync_driver(rows, buf, *self._driver.finish(
@@ -483,6 +503,10 @@ def jacobi(compiled: str = "auto") -> Algorithm:
     return fixed_step("jacobi", compiled)
 
 
+#: the kinds of variable that are ports (`Component.inputs` and `Component.outputs`)
+_PORTS = ("input", "output", "state")
+
+
 def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
     from twmr.master.fmu_kernel import NotCompilable
@@ -515,10 +539,12 @@ def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
-        for port, var in {**comp.inputs, **comp.outputs}.items():
-            if var.type != "Real" and kern.fmu is None:
-                return None, f"port '{name}.{port}' is {var.type}, not Real"
-        if comp.has_feedthrough and kern.evaluate is None and kern.fmu is None:
+        if kern.fmu is None and any(v.type != "Real" and v.kind in _PORTS
+                                    for v in comp.variables.values()):
+            port, var = next((p, v) for p, v in {**comp.inputs, **comp.outputs}.items()
+                             if v.type != "Real")
+            return None, f"port '{name}.{port}' is {var.type}, not Real"
+        if kern.evaluate is None and kern.fmu is None and comp.has_feedthrough:
             return None, f"'{name}' has feedthrough but its kernel no evaluate"
         kernels[name] = kern
     return kernels, ""

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,8 +49,22 @@ class Unsupported(Exception):
     """A value the driver cannot hold in its float vectors (its text says which)."""
 
 
+#: the shapes of the scalar types kernel values hold, by exact type (a run of a built system
+#: takes the shapes of its kernels' values anew: this spares the tests below)
+_SCALARS: dict[type, str] = {float: "f", np.float64: "f", int: "i", np.int64: "i", bool: "b",
+                             np.bool_: "b"}
+
+
 def shape_of(value: Any) -> Shape:
     """The shape of a kernel state or parameter value; `Unsupported` for anything else."""
+    scalar = _SCALARS.get(type(value))
+    if scalar is not None:
+        return scalar
+    if isinstance(value, tuple):
+        cls = type(value) if hasattr(value, "_fields") else None
+        if cls is not None and not _importable(cls):
+            raise Unsupported(f"its NamedTuple {cls.__qualname__} is not importable")
+        return ("t", cls, tuple([shape_of(v) for v in value]))
     if isinstance(value, (bool, np.bool_)):
         return "b"
     if isinstance(value, (int, np.integer)):
@@ -59,11 +73,6 @@ def shape_of(value: Any) -> Shape:
         return "f"
     if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim >= 1:
         return ("a", value.ndim)
-    if isinstance(value, tuple):
-        cls = type(value) if hasattr(value, "_fields") else None
-        if cls is not None and not _importable(cls):
-            raise Unsupported(f"its NamedTuple {cls.__qualname__} is not importable")
-        return ("t", cls, tuple(shape_of(v) for v in value))
     raise Unsupported(f"a value of type {type(value).__name__}")
 
 
@@ -76,11 +85,15 @@ def flatten(value: Any, shape: Shape, out: list[float]) -> None:
         out.extend(np.ravel(value).tolist())
     else:
         for v, s in zip(value, shape[2], strict=True):
-            flatten(v, s, out)
+            if s in ("f", "i", "b"):  # (inline: a table of scalars costs no call per element)
+                out.append(float(v))
+            else:
+                flatten(v, s, out)
 
 
-def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
-    """(the Python value of `shape` stored in `vec` from `o`, the offset after it)."""
+def rebuild(vec: np.ndarray | list[float], o: int, shape: Shape) -> tuple[Any, int]:
+    """(the Python value of `shape` stored in `vec` from `o`, the offset after it); `vec` a
+    vector or its elements as a list (`tolist()`: read without making numpy scalars)."""
     if shape == "f":
         return float(vec[o]), o + 1
     if shape == "i":
@@ -91,11 +104,15 @@ def rebuild(vec: np.ndarray, o: int, shape: Shape) -> tuple[Any, int]:
         dims = tuple(int(d) for d in vec[o:o + shape[1]])
         o += shape[1]
         n = int(np.prod(dims))
-        return vec[o:o + n].reshape(dims).copy(), o + n
+        return np.array(vec[o:o + n], dtype=np.float64).reshape(dims), o + n
     items = []
     for s in shape[2]:
-        v, o = rebuild(vec, o, s)
-        items.append(v)
+        if s == "f":  # (inline: a table of floats costs no call per element)
+            items.append(float(vec[o]))
+            o += 1
+        else:
+            v, o = rebuild(vec, o, s)
+            items.append(v)
     return (shape[1](*items) if shape[1] is not None else tuple(items)), o
 
 
@@ -114,16 +131,13 @@ class KindSpec:
 
     @functools.cached_property
     def key(self) -> str:
-        """The adapters' source: equal keys, one adapter (rendered once per process: a run of
-        a built system makes its kinds anew)."""
-        key = _KEYS.get(self)
-        if key is None:
-            key = _KEYS[self] = _adapters(self)
-        return key
+        """The adapters' source: equal keys, one adapter (rendered once per process: `kind_of`
+        hands out one object per kind)."""
+        return _adapters(self)
 
 
-#: the keys of the kinds this process has met
-_KEYS: dict[KindSpec, str] = {}
+#: the kinds this process has met, each the one object `kind_of` hands out for kinds equal to it
+_KINDS: dict[KindSpec, KindSpec] = {}
 
 
 def kind_of(comp: Any, kern: Kernel) -> KindSpec:
@@ -132,10 +146,16 @@ def kind_of(comp: Any, kern: Kernel) -> KindSpec:
         if fn is not None and not _importable(fn):
             raise Unsupported(f"its kernel function {getattr(fn, '__qualname__', fn)!r} is "
                               f"not importable by name")
-    return KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
-                    shape_of(kern.params),
-                    tuple(None if v.size is None else v.width for v in comp.outputs.values()),
-                    tuple(None if v.size is None else v.width for v in comp.inputs.values()))
+    outputs: list[int | None] = []  # `comp.outputs` and `comp.inputs`, in one pass
+    inputs: list[int | None] = []
+    for v in comp.variables.values():
+        if v.kind in ("output", "state"):
+            outputs.append(None if v.size is None else v.width)
+        elif v.kind == "input":
+            inputs.append(None if v.size is None else v.width)
+    kind = KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
+                    shape_of(kern.params), tuple(outputs), tuple(inputs))
+    return _KINDS.setdefault(kind, kind)
 
 
 def _importable(obj: Any) -> bool:
@@ -329,7 +349,7 @@ def _refilled(system: System, plan: Plan, kernels: dict[str, Kernel],
     """`lay` with new vectors S, X, P of the values of now; None when a block's state or
     parameters no longer fill the places they had."""
     S, X, P, places = _vectors(system, plan, kernels, kinds, lay.ports)
-    if places != [(int(xo), int(po)) for xo, po in lay.blocks[:, 3:5]] or \
+    if places != list(map(tuple, lay.blocks[:, 3:5].tolist())) or \
             X.size != lay.X.size or P.size != lay.P.size:
         return None
     return dataclasses.replace(lay, S=S, X=X, P=P)
@@ -349,12 +369,15 @@ def _vectors(system: System, plan: Plan, kernels: dict[str, Kernel], kinds: dict
     for name, block in zip(plan.order, ports, strict=True):
         d, kern, kind = comps[name].__dict__, kernels[name], kinds[name]
         for port, _, size in block:
-            S.extend([float(d[port])] if size is None else [float(v) for v in d[port]])
+            if size is None:
+                S.append(float(d[port]))
+            else:
+                S.extend([float(v) for v in d[port]])
         places.append((len(X), len(P)))
         flatten(kern.state, kind.state, X)
         flatten(kern.params, kind.params, P)
     slot = {(name, port): o for name, block in zip(plan.order, ports, strict=True)
-            for port, o, _ in block}
+            for port, o, _ in block} if plan.snapshot else {}
     for src, port in plan.snapshot:
         S.extend(S[slot[(src, port)]:slot[(src, port)] + comps[src].variables[port].width])
     return (np.array(S, dtype=np.float64), np.array(X, dtype=np.float64),
@@ -460,11 +483,13 @@ def _address(fn: Any) -> int:
     return int(cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name))
 
 
-def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, int, int]], int]:
+def load(kinds: Sequence[KindSpec], folder: Callable[[], Any]
+         ) -> tuple[dict[str, tuple[int, int, int]], int]:
     """({key: (evaluate, step, advance) adapter addresses} of `kinds`, how many kinds numba
     compiled or loaded now): those this process holds, the others generated, loaded through
-    the verified cache in `folder` (`twmr.master.schedule_cache`; exec'd without a cache when
-    `folder` cannot be written) and compiled."""
+    the verified cache in the folder `folder()` gives (asked only then;
+    `twmr.master.schedule_cache`; exec'd without a cache when it cannot be written) and
+    compiled."""
     from twmr.master import driver_loop, schedule_cache
 
     fresh = 0
@@ -473,7 +498,7 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
             continue
         source, names = generate(kind)
         try:
-            module = schedule_cache.load_module(source, names, folder, "kind")
+            module = schedule_cache.load_module(source, names, folder(), "kind")
             env: dict[str, Any] = vars(module)
         except OSError:
             env = dict(names)
@@ -484,10 +509,11 @@ def load(kinds: Sequence[KindSpec], folder: Any) -> tuple[dict[str, tuple[int, i
                                   for n in ("ev", "st", "ad"))
         fresh += 1
     loops: tuple[Any, Any] = (driver_loop.run, driver_loop.finish)
-    for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
-        if not fn.signatures:
-            fn.compile(sig)
-            fresh += 1
+    if not all(fn.overloads for fn in loops):  # (`signatures` hashes every type)
+        for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
+            if not fn.signatures:
+                fn.compile(sig)
+                fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh
 
 

@@ -345,7 +345,7 @@ class Execution:
         if not rows:
             block = np.zeros((0, len(self.columns)))
         elif isinstance(rows[0], np.ndarray):  # blocks of rows (the compiled loop)
-            block = np.concatenate(rows)
+            block = rows[0] if len(rows) == 1 else np.concatenate(rows)
         else:
             block = np.array(rows, dtype=float)
         self._rows.clear()

@@ -104,11 +104,38 @@ class ResultStore(Observer):
         """The rows kept in memory as one (rows x columns) float64 array."""
         if not self.blocks:
             return np.zeros((0, len(self.columns)))
-        return np.concatenate(self.blocks) if len(self.blocks) > 1 else self.blocks[0]
+        if len(self.blocks) == 1:
+            return self.blocks[0]
+        joined = _joined(self.blocks)
+        return joined if joined is not None else np.concatenate(self.blocks)
 
     def tick_table(self) -> TickTable:
         """The ticks kept in memory, by time."""
         return TickTable.of(self.binary, self.events)
+
+
+def _joined(blocks: list[np.ndarray]) -> np.ndarray | None:
+    """The rows of `blocks` as one array without a copy, when they are consecutive rows of one
+    C-contiguous 2-D array (`CompiledStep` records a run into one buffer), else None."""
+    blocks = [b for b in blocks if len(b)]
+    if not blocks:
+        return None
+    first = blocks[0]
+    base = first.base
+    if not isinstance(base, np.ndarray) or base.ndim != 2 or not base.flags.c_contiguous or \
+            base.dtype != first.dtype or base.shape[1:] != first.shape[1:]:
+        return None
+    at = first.__array_interface__["data"][0]
+    row = base.strides[0]
+    start, extra = divmod(at - base.__array_interface__["data"][0], row)
+    for b in blocks:
+        if b.base is not base or not b.flags.c_contiguous or b.shape[1:] != base.shape[1:] or \
+                b.__array_interface__["data"][0] != at:
+            return None
+        at += len(b) * row
+    n = sum(len(b) for b in blocks)
+    return base[start:start + n] if not extra and start >= 0 and start + n <= len(base) \
+        else None
 
 
 def read_store(path: str | Path) -> tuple[list[str], list[str], np.ndarray, bool]:

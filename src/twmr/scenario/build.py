@@ -317,8 +317,8 @@ class _Builder:
                                              f"two names, which is set only as '{base}'.",
                                              f"set '{base}' only (and drop '{key}')."))
                 continue
-            names = [n for n, v in comp.variables.items() if v.kind in allowed]
             if var is None:
+                names = [n for n, v in comp.variables.items() if v.kind in allowed]
                 what = "parameter" if section == "parameters" else "state or input"
                 self.problems.append(Problem(loc, f"component '{name}' ({type(comp).__name__}) "
                                              f"has no {what} '{key}'{suggest(str(key), names)}.",

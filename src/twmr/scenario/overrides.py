@@ -12,18 +12,23 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import re
 from collections.abc import Sequence
 from typing import Any
 
 import yaml
 
+from twmr.core.component import Component
 from twmr.core.errors import Location, Problem, ScenarioError
+from twmr.core.port import Variable
 from twmr.registry import lookup, suggest
 from twmr.scenario.loaders import schema, schema_problems, unknown_key
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.yamlread import FAST
 
 _FORM = "write component.parameter=value or experiment.stop=value."
+#: a decimal integer or a decimal fraction without exponent: YAML reads it as Python does
+_DECIMAL = re.compile(r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?")
 
 
 def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
@@ -40,6 +45,8 @@ def apply_overrides(spec: ScenarioSpec, texts: Sequence[str]) -> ScenarioSpec:
 def _parse(text: str, key: str, value: str, loc: Location, problems: list[Problem]
            ) -> tuple[bool, Any]:
     """(read, the value) of the text after '='."""
+    if _DECIMAL.fullmatch(value):  # what YAML reads as this int or float (a sweep's values)
+        return True, float(value) if "." in value else int(value)
     with contextlib.suppress(yaml.YAMLError):  # libyaml first; PyYAML words a problem
         return True, yaml.load(value, Loader=FAST)  # noqa: S506 - a safe loader
     try:
@@ -160,10 +167,26 @@ def _set_value(spec: ScenarioSpec, comp: ComponentSpec, name: str,
     """`comp` with `name` set under 'initial' (an input or state of its kind) or 'parameters'."""
     section = "parameters"
     try:
-        var = lookup(comp.kind.value, spec.base_dir).declared().get(name.partition("[")[0])
+        var = _declared(lookup(comp.kind.value, spec.base_dir), name.partition("[")[0])
         if var is not None and var.kind in ("state", "input"):
             section = "initial"
     except Exception:  # noqa: BLE001 - a kind that does not load is reported by the builder
         pass
     changes: dict[str, Any] = {section: {**getattr(comp, section), name: value}}
     return dataclasses.replace(comp, **changes)
+
+
+#: the function of `Component.declared`
+_DECLARED = vars(Component)["declared"].__func__
+
+
+def _declared(cls: type[Component], name: str) -> Variable | None:
+    """`cls.declared().get(name)`, without collecting the others (the most derived class that
+    declares `name` a variable has it)."""
+    if getattr(cls.declared, "__func__", None) is not _DECLARED:
+        return cls.declared().get(name)  # a class of its own making
+    for klass in cls.__mro__:
+        var = vars(klass).get(name)
+        if isinstance(var, Variable):
+            return var
+    return None

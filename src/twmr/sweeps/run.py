@@ -10,8 +10,6 @@ scenario again. `execute_batch` runs several tasks in one call (one Dask task fo
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -20,7 +18,7 @@ from typing import Any
 
 #: scenarios a worker keeps built (the least recently run one is dropped first)
 KEEP_BUILT = 4
-_built: OrderedDict[str, Any] = OrderedDict()
+_built: OrderedDict[tuple[str, str, str, tuple[str, ...]], Any] = OrderedDict()
 
 
 @dataclass
@@ -81,8 +79,7 @@ def built_for(task: RunTask) -> Any:
     from twmr.api import Scenario
     from twmr.built import Built
 
-    key = hashlib.sha256(json.dumps([task.source, task.content, task.base_dir,
-                                     task.built_with]).encode()).hexdigest()
+    key = (task.source, task.content, task.base_dir, tuple(task.built_with))
     built = _built.get(key)
     if built is None:
         scenario = Scenario(task.source, task.content, Path(task.base_dir),
