@@ -126,7 +126,7 @@ class Built:
         self.rebuilt = 0  # runs that needed a new build
         #: the stepping time of the system's runs [s]: once what a loop compiled for it would
         #: have saved of it (`OWN_LOOP_SAVING`) covers compiling that loop, the system runs by
-        #: it (a ski-rental rule, `twmr.master.compiled.own_loop_pays`)
+        #: it (a ski-rental rule, `twmr.master.compiled.own_loop`)
         self._stepped_s = 0.0
 
     def run(self, values: Mapping[str, Any] | Sequence[str] = (), *, out: Any = None,

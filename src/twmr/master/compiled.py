@@ -12,7 +12,7 @@ loop runs compiled, in one of two forms:
   block, compiled per scenario. It runs the scenarios the driver does not hold: those with an FMU
   (called through its C functions), or a kernel value the driver's float vectors cannot hold
   (e.g. a complex number, an integer array, a NamedTuple that is not importable); and a system
-  whose `own_loop_budget_s` covers loading or compiling it (`own_loop_pays`: a built system run
+  whose `own_loop_budget_s` covers loading or compiling it (`own_loop`: a built system run
   again and again, whose loop steps faster than the driver).
 
 A kernel is two pure numba functions of the component's private state x (a tuple), its outputs y
@@ -225,16 +225,21 @@ class CompiledStep(Algorithm):
     def _ready(self, cached: bool
                ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:
         """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
-        already (held by this process, or, if `cached`, in numba's cache), so the whole run can
-        be compiled from its first step; else None."""
-        assert self.python.plan is not None
-        if self.python.plan.ticks:
+        already (held by this process, or, if `cached`, in numba's cache), or the system's own
+        loop that it takes (`own_loop`) is, so the whole run can be compiled from its first
+        step; else None."""
+        plan = self.python.plan
+        assert plan is not None
+        if plan.ticks:
             return None
         kernels, _ = _kernels(self._system, self._record, False)
         kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
             else None
         if kernels is None or kinds is None:
             return None
+        loop = own_loop(self._system, plan, kernels)
+        if loop is not None and (loop.typed or (cached and loop.in_cache())):
+            return kernels, kinds
         found = list(kinds.values())
         return (kernels, kinds) if driver.held(found) or (
             cached and driver.cached(found, cache_dir())) else None
@@ -265,7 +270,7 @@ class CompiledStep(Algorithm):
         self._comps = [comps[n] for n in order]
         kinds = ready[1] if ready is not None else \
             _kinds(system, kernels) if self.use_driver else None
-        if kinds is not None and not own_loop_pays(system, self.python.plan, kernels):
+        if kinds is not None and own_loop(system, self.python.plan, kernels) is None:
             self._compile_driver(kinds, kernels, t0)
             return
         failure = self._compile_loop(kernels, t0)
@@ -785,13 +790,13 @@ class HeldLoop:
 def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop:
     """The loop generated for `system` under `plan` over `kernels`, kept on the system and
     handed out again (loaded once, compiled once) for the same plan object
-    (`plan.held_build`), kernel functions, FMU calls and port carriage (a built system run
-    again with other values: `twmr.build`)."""
-    carried = _carried(system, kernels)
-    key = (tuple((k.evaluate, k.step, k.advance, k.fmu) for k in (kernels[n] for n in plan.order)),
-           tuple(carried.items()))
+    (`plan.held_build`: the same variables and wires), kernel functions and FMU calls (what
+    the port carriage, `_carried`, depends on besides), as for a built system run again with
+    other values (`twmr.build`)."""
+    key = tuple((k.evaluate, k.step, k.advance, k.fmu) for k in (kernels[n] for n in plan.order))
     held = system.__dict__.get(_HELD_LOOP)
     if held is None or held.plan is not plan or held.key != key:
+        carried = _carried(system, kernels)
         source, names = _generate(system, plan, kernels, carried)
         held = system.__dict__[_HELD_LOOP] = HeldLoop(plan, key, source, names, carried)
     return held
@@ -805,18 +810,18 @@ OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.3, 5.0
 OWN_LOOP_SAVING = 0.2
 
 
-def own_loop_pays(system: System, plan: Plan, kernels: dict[str, Kernel]) -> bool:
-    """Whether a system the driver can run takes the loop generated for it instead: its
-    `own_loop_budget_s` covers compiling that loop, or loading it when numba's cache holds it."""
+def own_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop | None:
+    """The loop generated for a system the driver can run, when the system takes it instead:
+    its `own_loop_budget_s` covers compiling that loop, or loading it when numba's cache (or
+    this process) holds it; else None (a loop that cannot be made too)."""
     budget = system.own_loop_budget_s
-    if budget >= OWN_LOOP_COMPILE_S:
-        return True
     if budget < OWN_LOOP_LOAD_S:
-        return False
+        return None
     try:
-        return held_loop(system, plan, kernels).in_cache()
+        loop = held_loop(system, plan, kernels)
     except Exception:  # noqa: BLE001 - a loop that cannot be made: the driver runs
-        return False
+        return None
+    return loop if budget >= OWN_LOOP_COMPILE_S or loop.in_cache() else None
 
 
 def _importable(fn: Any) -> bool:
