@@ -13,6 +13,7 @@ import pytest
 
 import twmr
 from twmr.core.errors import ScenarioError
+from twmr.observers.base import Observer, Outcome
 from twmr.sweeps.run import RunTask, built_for, execute
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -168,6 +169,15 @@ def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
     assert built.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
     assert np.array_equal(built.run().values, fresh(path, []))
     assert built.system.__dict__["_twmr_held_loop"].typed
+
+    class Extra(Observer):
+        def finished(self, outcome: Outcome) -> None:
+            self.extra = outcome.extra
+
+    monkeypatch.setenv("TWMR_COMPILED", "auto")  # compiled from the first step by that loop
+    seen = Extra()
+    assert np.array_equal(built.run(observers=[seen]).values, fresh(path, []))
+    assert seen.extra["algorithm.compiled"] is True and seen.extra["algorithm.driver"] is False
 
 
 @pytest.mark.parametrize("override", ["plant.scale=1.2", "ctrl.step_multiple=2",

@@ -223,29 +223,30 @@ class CompiledStep(Algorithm):
             self.python.start()
 
     def _ready(self, cached: bool
-               ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None:
+               ) -> tuple[dict[str, Kernel], dict[str, driver.KindSpec] | None] | None:
         """Mode 'auto': the kernels and kinds of the system when every kind of it is compiled
         already (held by this process, or, if `cached`, in numba's cache), or the system's own
         loop that it takes (`own_loop`) is, so the whole run can be compiled from its first
-        step; else None."""
+        step (kinds None: the loop runs, they are made only if it fails); else None."""
         plan = self.python.plan
         assert plan is not None
         if plan.ticks:
             return None
         kernels, _ = _kernels(self._system, self._record, False)
-        kinds = _kinds(self._system, kernels) if kernels is not None and self.use_driver \
-            else None
-        if kernels is None or kinds is None:
+        if kernels is None or not self.use_driver:
             return None
         loop = own_loop(self._system, plan, kernels)
         if loop is not None and (loop.typed or (cached and loop.in_cache())):
-            return kernels, kinds
+            return kernels, None
+        kinds = _kinds(self._system, kernels)
+        if kinds is None:
+            return None
         found = list(kinds.values())
         return (kernels, kinds) if driver.held(found) or (
             cached and driver.cached(found, cache_dir())) else None
 
-    def _compile(self, ready: tuple[dict[str, Kernel], dict[str, driver.KindSpec]] | None = None
-                 ) -> None:
+    def _compile(self, ready: tuple[dict[str, Kernel], dict[str, driver.KindSpec] | None]
+                 | None = None) -> None:
         """Collect the kernels from the components as they are now (initialized, maybe stepped
         by the Python schedule; `ready`: those and their kinds just collected) and compile the
         loop; on failure keep the Python schedule (mode 'auto') or raise `CompileError` (mode
@@ -274,6 +275,8 @@ class CompiledStep(Algorithm):
             self._compile_driver(kinds, kernels, t0)
             return
         failure = self._compile_loop(kernels, t0)
+        if failure is not None and kinds is None and self.use_driver:  # `_ready`'s own loop
+            kinds = _kinds(system, kernels)
         if failure is not None and kinds is not None:
             log.debug("the system's own loop did not compile (%s); the driver runs it", failure)
             self._compile_driver(kinds, kernels, t0)
