@@ -12,8 +12,9 @@ The paper's trajectory-1 scenario (ASMC, 1 ms step, 16 columns recorded every 10
     steps, the NaN/Inf check at every step, the rows handed to the store); compilation happens
     before it;
 (b) a hand-written numba loop over the same kernels (`hand_loop` below: the six blocks' kernel
-    functions called in the Gauss-Seidel order, the rows written to a preallocated array every
-    10 steps, no NaN/Inf check), one call for the whole run; its rows must equal (a)'s exactly;
+    functions called in the Gauss-Seidel order, the controller stepped by its `advance`, the rows
+    written to a preallocated array every 10 steps, no NaN/Inf check), one call for the whole
+    run; its rows must equal (a)'s exactly;
 (c) the master with the Python schedule (`compiled='off'`, 3 s and 30 s).
 Each is run `--repeats` times interleaved (300 s: 3 times); medians are compared.
 
@@ -61,7 +62,7 @@ import numpy as np
 import yaml
 from numba import njit
 
-from twmr.components.asmc import asmc_evaluate, asmc_step
+from twmr.components.asmc import asmc_advance, asmc_evaluate
 from twmr.components.motor import motor_evaluate, motor_step
 from twmr.components.plant import plant_step
 from twmr.components.slip import slip_evaluate
@@ -102,7 +103,8 @@ def hand_loop(n_steps: int, h: float, dec: int, pt: tuple, pc: tuple, pm: tuple,
               ps: tuple, ref: tuple, ctrl: tuple, xc: tuple, motor: tuple, xm: tuple,
               plant: tuple, slip: tuple, buf: np.ndarray) -> int:
     """The paper loop written by hand over the blocks' kernels (Gauss-Seidel order: controller,
-    motor, slip evaluated, then every block stepped); rows into `buf`; returns rows written."""
+    motor, slip evaluated, then every block stepped, the controller by its `advance`: its
+    torque is evaluated again at the next point); rows into `buf`; returns rows written."""
     pos, vel, acc = ref
     pose, ws, com = plant
     k = 0
@@ -124,7 +126,7 @@ def hand_loop(n_steps: int, h: float, dec: int, pt: tuple, pc: tuple, pm: tuple,
         if n == n_steps:  # the final point: no step
             break
         _, (pos, vel, acc) = trajectory_step(t, h, (), (pos, vel, acc), (), pt)
-        xc, ctrl = asmc_step(t, h, xc, ctrl, (pose, ws, pos, vel, acc), pc)
+        xc, ctrl = asmc_advance(t, h, xc, ctrl, (pose, ws, pos, vel, acc), pc)
         xm, motor = motor_step(t, h, xm, motor, (ctrl[0], ws), pm)
         _, (pose, ws, com) = plant_step(t, h, (), (pose, ws, com),
                                         (motor[0], slip[0], slip[1], slip[2], slip[3]), pp)
