@@ -806,10 +806,10 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
 
 
 #: what taking a system's own loop costs [s]: loaded from numba's cache, compiled afresh (the
-#: paper scenario's: 0.25 s and 2.7-5 s, `benchmarks/compiled_schedule.py`)
+#: paper scenario's: 0.25-0.32 s and 3.9-4.6 s, `benchmarks/compiled_schedule.py`)
 OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.3, 5.0
-#: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.257
-#: against 0.325 us a step)
+#: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.255
+#: against 0.321 us a step, `benchmarks/compiled_schedule.py`)
 OWN_LOOP_SAVING = 0.2
 
 
