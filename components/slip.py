@@ -89,7 +89,8 @@ class SlipDisturbance(Component):
     def initialize(self) -> None:
         if self.profile not in NAMES:
             raise ValueError(f"unknown profile '{self.profile}'; use one of {', '.join(NAMES)}")
-        self._rng = np.random.default_rng(self.seed)
+        #: the `random` profile's noise generator (made for that profile alone)
+        self._rng = np.random.default_rng(self.seed) if self.profile == "random" else None
         self._noise: tuple[float, ...] = (0.0,) * 5
         self._dnoise: tuple[float, ...] = (0.0,) * 5
         self.model = tuple(self.params())
@@ -127,6 +128,7 @@ class SlipDisturbance(Component):
         wc = 2.0 * math.pi * self.bandwidth  # x' = wc (w - x), w white with unit variance
         a = math.exp(-wc * h)
         gain = math.sqrt(1.0 - a * a)  # keeps the stationary variance at 1
+        assert self._rng is not None  # made by initialize for the random profile
         white = self._rng.standard_normal(5)
         new = tuple(a * self._noise[i] + gain * float(white[i]) for i in range(5))
         self._dnoise = tuple((new[i] - self._noise[i]) / h for i in range(5))
