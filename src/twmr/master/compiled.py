@@ -194,6 +194,7 @@ class CompiledStep(Algorithm):
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
         self._source, self._kinds_run = None, []
+        self.compiled, self._driver = False, None  # chosen again by this run's `start`
         #: the run's recorded rows (`_buffer`), made at its first compiled chunk
         self._rows: np.ndarray | None = None
         self._taken = 0
