@@ -300,6 +300,7 @@ class CompiledStep(Algorithm):
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
         carried = self._carried = loop.carried
+        self._writes = loop.writes(system)
         self._Y = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
                               for p, v in comps[n].outputs.items()) for n in order)
         self._U = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
@@ -406,16 +407,16 @@ class CompiledStep(Algorithm):
               status: int = 0) -> None:
         """Port values back into the components, their `sync`, the rows to `rows`; a NaN/Inf
         found at step `bad` raises `NonFinite` (the components then hold the values seen)."""
-        kinds = self._carried
-        for name, comp, kern, x, y, u in zip(self._system.order, self._comps, self._kernels,
-                                             self._X, self._Y, self._U, strict=True):
+        for comp, kern, x, y, u, writes in zip(self._comps, self._kernels, self._X, self._Y,
+                                               self._U, self._writes, strict=True):
             d = comp.__dict__
-            for port, value in (*zip(comp.outputs, y, strict=False),
-                                *zip(comp.inputs, u, strict=False)):
-                kind = kinds[name, port]
-                if kind != "x":
-                    d[port] = bool(value) if kind == "b" and not isinstance(value, tuple) \
-                        else value
+            for (names, some), values in zip(writes, (y, u), strict=True):
+                if some is None:
+                    d.update(zip(names, values, strict=False))
+                    continue
+                for port, j, flag in some:
+                    value = values[j]
+                    d[port] = bool(value) if flag and not isinstance(value, tuple) else value
             if kern.sync is not None:
                 kern.sync(x)
         if k and self._record:
@@ -772,12 +773,32 @@ class HeldLoop:
         self.loaded: tuple[Any, Any] | None = None
         self.cached: bool | None = None
         self.typed = False
+        self._writes: list[tuple[Any, ...]] | None = None
 
     def functions(self) -> tuple[Any, Any]:
         """(run, finish), loaded on first use (`_load`)."""
         if self.loaded is None:
             self.loaded = _load(self.source, self.names)
         return self.loaded
+
+    def writes(self, system: System) -> list[tuple[Any, ...]]:
+        """Per component of the system's order, how `CompiledStep._sync` writes the loop's port
+        values back, for its outputs and for its inputs: (names, None) when it writes every one
+        as the loop holds it, else (names, ((port, index, as a bool), ...)) of those it writes
+        (made once)."""
+        if self._writes is None:
+            self._writes = []
+            for name in system.order:
+                comp, row = system.components[name], []
+                for ports in (comp.outputs, comp.inputs):
+                    kinds = [self.carried[name, p] for p in ports]
+                    some = None if all(k not in ("x", "b") for k in kinds) else tuple(
+                        (p, j, k == "b") for j, (p, k) in enumerate(zip(ports, kinds,
+                                                                          strict=True))
+                        if k != "x")
+                    row.append((tuple(ports), some))
+                self._writes.append(tuple(row))
+        return self._writes
 
     def in_cache(self) -> bool:
         """Whether the loop's machine code is at hand without compiling: loaded by this process
@@ -806,9 +827,10 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
     return held
 
 
-#: what taking a system's own loop costs [s]: loaded from numba's cache, compiled afresh (the
-#: paper scenario's: 0.25-0.32 s and 3.9-4.6 s, `benchmarks/compiled_schedule.py`)
-OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.3, 5.0
+#: what taking a system's own loop costs [s] in a process that has run the system (its kernels
+#: loaded): loaded from numba's cache, compiled afresh (the paper scenario's: 0.02-0.03 s and
+#: 3.9-4.6 s, `benchmarks/compiled_schedule.py`: `own_loop_load_s`, `compile_s_cold`)
+OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.03, 5.0
 #: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.255
 #: against 0.321 us a step, `benchmarks/compiled_schedule.py`)
 OWN_LOOP_SAVING = 0.2
