@@ -22,6 +22,8 @@ Compile time (`algorithm.compile_s`: kernels collected, the loop or driver found
 compiled or loaded from numba's cache):
 - cold: a fresh process with empty numba and schedule caches, then a second fresh process with
   those caches (cached), for the driver and for the loop;
+- own_loop_load_s: a built system that ran once by the driver takes its own loop, in a fresh
+  process with those caches: what `twmr.master.compiled.OWN_LOOP_LOAD_S` stands for;
 - rewired, warm kinds: the paper scenario with a unit gain and offset on the reference and the
   wheel speeds wired element by element (tests/integration/test_compiled.py `rewired`), after the
   plain scenario has run: in the same process, and in a fresh process whose caches the plain
@@ -326,6 +328,7 @@ def main() -> None:
         "per_step": steps,
         "compile_s_cold": {h: round(c["cold"], 3) for h, c in compile_s.items()},
         "compile_s_cached": {h: round(c["cached"], 4) for h, c in compile_s.items()},
+        "own_loop_load_s": round(compile_s["loop"]["own_loop_load"], 4),
         "compile_s_rewired_warm_kinds_fresh_process":
             {h: round(c["rewired_fresh_process"], 4) for h, c in compile_s.items()},
         "compile_s_rewired_warm_kinds_same_process":
