@@ -230,3 +230,29 @@ def test_a_run_that_kills_its_worker_fails_alone_not_its_batch(tmp_path) -> None
     assert table.loc[3.0, "status"] == "failed"
     assert "worker process running it died" in table.loc[3.0, "error"]
     assert (table.drop(index=3.0)["status"] == "ok").all(), table[["status", "error"]]
+
+
+@pytest.mark.parametrize("configured", [None, "131072"])
+def test_a_sweeps_workers_start_without_dasks_malloc_trim_default(monkeypatch, configured) -> None:
+    """Dask's default MALLOC_TRIM_THRESHOLD_ is left out of a sweep's worker processes (it
+    makes glibc map every run's row buffers afresh); a value the user configured is kept."""
+    import os
+
+    import dask
+    import dask.distributed  # noqa: F401 - its configuration is loaded with it
+
+    from twmr.sweeps.engine import SPAWN_ENVIRON, dask_client
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    environ = dict(dask.config.get(SPAWN_ENVIRON))
+    assert environ.get("MALLOC_TRIM_THRESHOLD_") == 65536  # Dask's default, as the code knows it
+    if configured is not None:
+        environ["MALLOC_TRIM_THRESHOLD_"] = configured
+    with dask.config.set({SPAWN_ENVIRON: environ}):
+        client, cluster = dask_client(1, None)
+    try:
+        seen = client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_"))
+    finally:
+        client.close()
+        cluster.close()
+    assert list(seen.values()) == [configured]

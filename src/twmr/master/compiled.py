@@ -299,8 +299,8 @@ class CompiledStep(Algorithm):
             return exc
         self._P = tuple(k.params for k in self._kernels)
         self._X = tuple(k.state for k in self._kernels)
-        carried = self._carried = loop.carried
-        self._writes = loop.writes(system)
+        carried = loop.carried
+        self._writes = loop.writes
         self._Y = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
                               for p, v in comps[n].outputs.items()) for n in order)
         self._U = tuple(tuple(_port_value(v, comps[n].__dict__[p], carried[n, p])
@@ -757,6 +757,23 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel],
     return "\n".join(w.lines) + "\n", names
 
 
+def _writes(system: System, carried: dict[tuple[str, str], str]) -> list[tuple[Any, ...]]:
+    """Per component of the system's order, how `CompiledStep._sync` writes the loop's port
+    values back, for its outputs and for its inputs: (names, None) when it writes every one as
+    the loop holds it, else (names, ((port, index, as a bool), ...)) of those it writes."""
+    out = []
+    for name in system.order:
+        comp, row = system.components[name], []
+        for ports in (comp.outputs, comp.inputs):
+            kinds = [carried[name, p] for p in ports]
+            some = None if all(k not in ("x", "b") for k in kinds) else tuple(
+                (p, j, k == "b") for j, (p, k) in enumerate(zip(ports, kinds, strict=True))
+                if k != "x")
+            row.append((tuple(ports), some))
+        out.append(tuple(row))
+    return out
+
+
 #: where `held_loop` keeps a system's loop
 _HELD_LOOP = "_twmr_held_loop"
 
@@ -766,39 +783,20 @@ class HeldLoop:
     for the plan and kernel functions it was made for, and `run`/`finish` once loaded; `typed`:
     compiled for the system's argument types (a later run with other types compiles on call)."""
 
-    def __init__(self, plan: Plan, key: tuple, source: str, names: dict[str, Any],
-                 carried: dict[tuple[str, str], str]):
+    def __init__(self, system: System, plan: Plan, key: tuple, source: str,
+                 names: dict[str, Any], carried: dict[tuple[str, str], str]):
         self.plan, self.key, self.source, self.names, self.carried = plan, key, source, names, \
             carried
         self.loaded: tuple[Any, Any] | None = None
         self.cached: bool | None = None
         self.typed = False
-        self._writes: list[tuple[Any, ...]] | None = None
+        self.writes = _writes(system, carried)
 
     def functions(self) -> tuple[Any, Any]:
         """(run, finish), loaded on first use (`_load`)."""
         if self.loaded is None:
             self.loaded = _load(self.source, self.names)
         return self.loaded
-
-    def writes(self, system: System) -> list[tuple[Any, ...]]:
-        """Per component of the system's order, how `CompiledStep._sync` writes the loop's port
-        values back, for its outputs and for its inputs: (names, None) when it writes every one
-        as the loop holds it, else (names, ((port, index, as a bool), ...)) of those it writes
-        (made once)."""
-        if self._writes is None:
-            self._writes = []
-            for name in system.order:
-                comp, row = system.components[name], []
-                for ports in (comp.outputs, comp.inputs):
-                    kinds = [self.carried[name, p] for p in ports]
-                    some = None if all(k not in ("x", "b") for k in kinds) else tuple(
-                        (p, j, k == "b") for j, (p, k) in enumerate(zip(ports, kinds,
-                                                                          strict=True))
-                        if k != "x")
-                    row.append((tuple(ports), some))
-                self._writes.append(tuple(row))
-        return self._writes
 
     def in_cache(self) -> bool:
         """Whether the loop's machine code is at hand without compiling: loaded by this process
@@ -823,7 +821,8 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
     if held is None or held.plan is not plan or held.key != key:
         carried = _carried(system, kernels)
         source, names = _generate(system, plan, kernels, carried)
-        held = system.__dict__[_HELD_LOOP] = HeldLoop(plan, key, source, names, carried)
+        held = system.__dict__[_HELD_LOOP] = HeldLoop(system, plan, key, source, names,
+                                                            carried)
     return held
 
 
