@@ -239,7 +239,7 @@ def test_a_sweeps_workers_start_without_dasks_malloc_trim_default(monkeypatch, c
     import os
 
     import dask
-    import dask.distributed  # noqa: F401 - its configuration is loaded with it
+    import dask.distributed  # (its configuration is loaded with it)
 
     from twmr.sweeps.engine import SPAWN_ENVIRON, dask_client
 
