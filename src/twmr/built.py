@@ -124,10 +124,19 @@ class Built:
                            for name, comp in self.system.components.items()}
         self._fresh = True  # the system has not run yet
         self.rebuilt = 0  # runs that needed a new build
-        #: the stepping time of the system's runs [s]: once what a loop compiled for it would
-        #: have saved of it (`OWN_LOOP_SAVING`) covers compiling that loop, the system runs by
-        #: it (a ski-rental rule, `twmr.master.compiled.own_loop`)
+        #: the stepping time of the system's runs [s] and their count: once what a loop
+        #: compiled for it would save (`OWN_LOOP_SAVING`) of these runs, and of the runs still
+        #: expected (`expect`) at their mean, covers compiling that loop, the system runs by it
+        #: (a ski-rental rule, `twmr.master.compiled.own_loop`)
         self._stepped_s = 0.0
+        self._runs = 0
+        self._expected = 0
+
+    def expect(self, runs: int) -> None:
+        """Say that about `runs` runs of the built system are to come in all (those run so far
+        included; a sweep's share of one worker), so the system takes the loop compiled for it
+        as soon as those runs repay it, not only once the runs made have."""
+        self._expected = max(self._expected, runs)
 
     def run(self, values: Mapping[str, Any] | Sequence[str] = (), *, out: Any = None,
             formats: Sequence[str] = (), metrics: Sequence[str] = (),
@@ -145,7 +154,9 @@ class Built:
             from twmr.master.compiled import OWN_LOOP_SAVING
 
             self._stepped_s += float(result.summary.get("wall_time_s") or 0.0)
-            system.own_loop_budget_s = self._stepped_s * OWN_LOOP_SAVING
+            self._runs += 1
+            to_come = max(0, self._expected - self._runs) * self._stepped_s / self._runs
+            system.own_loop_budget_s = (self._stepped_s + to_come) * OWN_LOOP_SAVING
         return result
 
     def system_for(self, texts: Sequence[str]) -> tuple[ScenarioSpec, System]:

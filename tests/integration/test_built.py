@@ -180,6 +180,75 @@ def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
     assert seen.extra["algorithm.compiled"] is True and seen.extra["algorithm.driver"] is False
 
 
+def test_a_built_system_expecting_runs_takes_its_loop_when_they_repay_it() -> None:
+    """`Built.expect`: the runs still to come count in the budget, at the mean stepping time of
+    those made, so a sweep worker's system takes its loop after its first run when its share
+    of the sweep repays compiling it, and not when it does not."""
+    from twmr.master import compiled
+
+    path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
+    few, many = twmr.build(path, SHORT), twmr.build(path, SHORT)
+    few.expect(2)
+    for built in (few, many):
+        built.run()
+    per_run = many._stepped_s
+    many.expect(int(compiled.OWN_LOOP_COMPILE_S / (per_run * compiled.OWN_LOOP_SAVING)) + 2)
+    many.run()
+    assert few.system.own_loop_budget_s < compiled.OWN_LOOP_COMPILE_S
+    assert many.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
+    task = RunTask("r", 0, {}, [], str(path), path.read_text(), str(path.parent), share=7,
+                   built_with=SHORT)
+    assert built_for(task)._expected == 7  # a sweep tells its workers their share
+
+
+def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """A system whose budget covers compiling its loop runs by the driver while another
+    process holds the lock on compiling that loop, and one that did not find the loop in
+    numba's cache asks again after `RECHECK_S`: once another process has compiled it, the
+    system takes it, with the driver's rows."""
+    from twmr.master import compiled, schedule_cache
+    from twmr.master.execution import Execution
+    from twmr.observers.store import ResultStore
+    from twmr.scenario import load
+
+    class Extra(Observer):
+        def finished(self, outcome: Outcome) -> None:
+            self.extra = outcome.extra
+
+    def by_driver() -> tuple[bool, np.ndarray]:
+        seen = Extra()
+        result = built.run(observers=[seen])
+        return seen.extra["algorithm.driver"], result.values
+
+    monkeypatch.setenv("TWMR_COMPILED", "on")
+    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)  # no loop cached yet
+    monkeypatch.setattr(compiled, "OWN_LOOP_SAVING", 1e9)  # every budget covers compiling
+    monkeypatch.setattr(compiled, "RECHECK_S", 1e9)
+    path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
+    built = twmr.build(path, SHORT)
+    built.run()
+    held = compiled.OWN_LOOP_COMPILE_S
+    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", 1e12)  # asks the cache only
+    assert by_driver()[0]
+    loop = built.system.__dict__["_twmr_held_loop"]
+    other = schedule_cache.claim(loop.source, loop.names, tmp_path)  # another process compiles
+    assert other is not None
+    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", held)
+    assert by_driver()[0]
+    other.close()
+    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", 1e12)
+    # that process puts the loop in the cache
+    algorithm = compiled.CompiledStep("gauss_seidel", "on", use_driver=False)
+    assert Execution(load(path, SHORT), [ResultStore()], algorithm=algorithm).run().status == \
+        "completed"
+    rows = by_driver()
+    assert rows[0]  # the answer "not in the cache" held until RECHECK_S
+    monkeypatch.setattr(compiled, "RECHECK_S", 0.0)
+    own = by_driver()
+    assert not own[0] and np.array_equal(own[1], rows[1])
+
+
 @pytest.mark.parametrize("override", ["plant.scale=1.2", "ctrl.step_multiple=2",
                                       "experiment.stop=1.5", "experiment.step=0.002"])
 def test_the_shape_taken_from_the_built_structure_is_the_shape_taken_anew(override: str) -> None:

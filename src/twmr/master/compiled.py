@@ -287,13 +287,24 @@ class CompiledStep(Algorithm):
     def _compile_loop(self, kernels: dict[str, Kernel], t0: float) -> Exception | None:
         """Take (or generate and compile) the loop generated for the system (`held_loop`); the
         failure, if numba cannot compile it."""
-        system = self._system
         assert self.python.plan is not None
+        try:
+            loop = held_loop(self._system, self.python.plan, kernels)
+        except Exception as exc:  # noqa: BLE001 - a kernel the loop cannot be made of
+            return exc
+        try:
+            return self._take_loop(loop, t0)
+        finally:
+            loop.release()
+
+    def _take_loop(self, loop: HeldLoop, t0: float) -> Exception | None:
+        """Load `loop` (compiled now, or from numba's cache, for this run's argument types);
+        the failure, if numba cannot compile it."""
+        system = self._system
         order = list(system.order)
         comps = system.components
         exp = system.experiment
         try:
-            loop = held_loop(system, self.python.plan, kernels)
             self._run, self._finish = loop.functions()
         except Exception as exc:  # noqa: BLE001 - a kernel the loop cannot be made of
             return exc
@@ -789,6 +800,8 @@ class HeldLoop:
             carried
         self.loaded: tuple[Any, Any] | None = None
         self.cached: bool | None = None
+        self._asked = 0.0  # when `cached` was asked [s, time.monotonic]
+        self._claim: Any = None  # the lock on compiling the loop (`claim`)
         self.typed = False
         self.writes = _writes(system, carried)
 
@@ -800,14 +813,39 @@ class HeldLoop:
 
     def in_cache(self) -> bool:
         """Whether the loop's machine code is at hand without compiling: loaded by this process
-        or in numba's cache (asked once)."""
-        if self.cached is None:
+        or in numba's cache (a 'no' is asked again after `RECHECK_S`: another process may
+        have compiled it since)."""
+        if self.cached is None or (not self.cached and
+                                   time.monotonic() - self._asked >= RECHECK_S):
             from twmr.master import schedule_cache
 
+            self._asked = time.monotonic()
             self.cached = self.loaded is not None or (
-                all(_importable(fn) for fn in self.names.values()) and
+                self._shared() and
                 schedule_cache.has_machine_code(self.source, self.names, cache_dir()))
         return self.cached
+
+    def claim(self) -> bool:
+        """Take the lock on compiling the loop (`schedule_cache.claim`, held until `release`):
+        False while another process holds it, i.e. compiles the loop into the cache folder,
+        where this process finds it later (`in_cache`). A loop compiled per process
+        (a kernel not importable) needs no lock."""
+        if self._claim is None:
+            from twmr.master import schedule_cache
+
+            self._claim = schedule_cache.claim(self.source, self.names, cache_dir()) \
+                if self._shared() else True
+        return self._claim is not None
+
+    def release(self) -> None:
+        """Let go of the lock on compiling the loop (`claim`), if held."""
+        if self._claim is not None and self._claim is not True:
+            self._claim.close()
+        self._claim = None
+
+    def _shared(self) -> bool:
+        """Whether the loop is compiled into the cache folder, for every process."""
+        return all(_importable(fn) for fn in self.names.values())
 
 
 def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop:
@@ -827,9 +865,13 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
 
 
 #: what taking a system's own loop costs [s] in a process that has run the system (its kernels
-#: loaded): loaded from numba's cache, compiled afresh (the paper scenario's: 0.02-0.03 s and
-#: 3.9-4.6 s, `benchmarks/compiled_schedule.py`: `own_loop_load_s`, `compile_s_cold`)
-OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.03, 5.0
+#: loaded and in numba's cache): loaded from numba's cache, compiled afresh (the paper
+#: scenario's: 0.02-0.03 s and 2.2-2.5 s, `benchmarks/compiled_schedule.py`: `own_loop_load_s`,
+#: `own_loop_compile_s`)
+OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.03, 2.5
+#: how long a process runs the driver before asking numba's cache again for a loop it did not
+#: find there [s]
+RECHECK_S = 1.0
 #: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.255
 #: against 0.321 us a step, `benchmarks/compiled_schedule.py`)
 OWN_LOOP_SAVING = 0.2
@@ -837,8 +879,10 @@ OWN_LOOP_SAVING = 0.2
 
 def own_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop | None:
     """The loop generated for a system the driver can run, when the system takes it instead:
-    its `own_loop_budget_s` covers compiling that loop, or loading it when numba's cache (or
-    this process) holds it; else None (a loop that cannot be made too)."""
+    its `own_loop_budget_s` covers loading it when numba's cache (or this process) holds it,
+    or compiling it, unless another process is compiling it (`HeldLoop.claim`: the driver
+    runs until that process has put it in the cache); else None (a loop that cannot be made
+    too)."""
     budget = system.own_loop_budget_s
     if budget < OWN_LOOP_LOAD_S:
         return None
@@ -846,7 +890,9 @@ def own_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop
         loop = held_loop(system, plan, kernels)
     except Exception:  # noqa: BLE001 - a loop that cannot be made: the driver runs
         return None
-    return loop if budget >= OWN_LOOP_COMPILE_S or loop.in_cache() else None
+    if loop.in_cache():
+        return loop
+    return loop if budget >= OWN_LOOP_COMPILE_S and loop.claim() else None
 
 
 def _importable(fn: Any) -> bool:

@@ -98,6 +98,25 @@ def has_machine_code(source: str, names: dict[str, Any], folder: Path,
         any((folder / "__pycache__").glob(f"{stem}.*.nbi"))
 
 
+def claim(source: str, names: dict[str, Any], folder: Path, prefix: str = "schedule"
+          ) -> Any:
+    """An open file holding the lock on compiling the module of `source` in `folder` (closing
+    it, or the process ending, lets it go), or None when another process holds it (it is
+    compiling that module: it will be in `folder` soon) or the folder cannot be written."""
+    lock = folder / f".{prefix}_{_key(source, names)}.compiling"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        f = open(lock, "a")  # noqa: SIM115 - held by the caller until it has compiled
+    except OSError:
+        return None
+    try:
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        f.close()
+        return None
+    return f
+
+
 def _digest(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 

@@ -278,7 +278,10 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
         journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
         from dask.distributed import as_completed
 
-        batches = batched(tasks, sum(client.nthreads().values()) or 1)
+        slots = sum(client.nthreads().values()) or 1
+        for task in tasks:
+            task.share = -(-len(tasks) // slots)
+        batches = batched(tasks, slots)
         futures = client.map(execute_batch, batches, pure=False,
                              key=[f"runs-{b[0].run_id}-{len(b)}" for b in batches])
         by_key = {f.key: b for f, b in zip(futures, batches, strict=True)}

@@ -37,6 +37,8 @@ class RunTask:
     #: overrides the worker's built system includes (the same for every run of a sweep);
     #: the run's are `built_with` + `overrides`
     built_with: list[str] = field(default_factory=list)
+    #: the runs of the sweep a worker is expected to make (`twmr.built.Built.expect`)
+    share: int = 0
 
 
 def execute(task: RunTask) -> dict[str, Any]:
@@ -89,4 +91,5 @@ def built_for(task: RunTask) -> Any:
         while len(_built) > KEEP_BUILT:
             _built.popitem(last=False)
     _built.move_to_end(key)
+    built.expect(task.share)
     return built
