@@ -48,7 +48,8 @@ workers):
   (machine busy time minus this process and its reaped workers), `steal_cpu` the largest share
   the hypervisor stole; above 5 % a warning says the figures are not to be trusted.
 - the floor: `hand_step_ms`, the median stepping time of one run of the hand-written numba loop
-  of the same model (`compiled_schedule.hand_run`, 5 calls in this process), gives the most
+  of the same model (`compiled_schedule.hand_run`, 5 calls in this process before the sweeps
+  and 5 after them; `hand_step_ms_range` their least and most), gives the most
   runs per minute W workers could do, `floor_runs_per_min_W` = W x 60 / `hand_step_ms`;
   `floor_fraction_W` = `runs_per_min_W` / it (start-up included) and `floor_fraction_steady_W`
   the same with the steady rate. Target on 2 workers: >= 0.7.
@@ -59,15 +60,24 @@ workers):
   ASMC's torque is NaN at t = 17.7 s): counted in the runs per minute (it stops early), left out
   of the per-run medians. More than a tenth failed aborts the benchmark.
 
-    python benchmarks/sweep_throughput.py [--runs 40]   # 1 worker: RUNS, 2 workers: 2 x RUNS
+- `--cache fresh`: the compiled loops' cache (`TWMR_CACHE_DIR`) an empty folder, as on a
+  machine that has not run the scenario yet: each kind's adapters are compiled by the first run,
+  and a worker compiles the scenario's own loop only when its share of the sweep repays that
+  (`twmr.built.Built.expect`); `loop_cache` says which cache the figures had.
+
+    python benchmarks/sweep_throughput.py [--runs 40] [--cache user|fresh]
+    # 1 worker: RUNS, 2 workers: 2 x RUNS
 
 Prints a table, then one JSON object on the last line.
 """
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import json
+import os
+import shutil
 import statistics
 import sys
 import tempfile
@@ -196,13 +206,13 @@ def serial_built(runs: int) -> float:
     return (runs - 1) / sum(times[1:]) * 60.0
 
 
-def hand_step_ms() -> float:
-    """Median stepping time of the hand-written numba loop of the paper model [ms]."""
+def hand_steps_ms(calls: int = 5) -> list[float]:
+    """Stepping times of `calls` runs of the hand-written numba loop of the paper model [ms]."""
     sys.path.insert(0, str(HERE))
     from compiled_schedule import hand_run
 
     hand_run()  # compiled or loaded from numba's cache
-    return med_ms([hand_run()[1] for _ in range(5)])
+    return [hand_run()[1] * 1e3 for _ in range(calls)]
 
 
 def med_ms(values: list[float]) -> float:
@@ -213,9 +223,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=40,
                         help="runs of the 1-worker sweep and of the serial loop (2 workers: 2x)")
-    runs = parser.parse_args().runs
+    parser.add_argument("--cache", choices=("user", "fresh"), default="user",
+                        help="the compiled loops' cache: the user's (TWMR_CACHE_DIR, default "
+                             "~/.cache/twmr/schedules), or an empty folder, as on a machine "
+                             "that has not run the scenario yet")
+    args = parser.parse_args()
+    runs = args.runs
     if runs < 4:
         parser.error("--runs: give at least 4")
+    if args.cache == "fresh":  # the workers inherit it
+        fresh = tempfile.mkdtemp(prefix="twmr-sweep-cache-")
+        atexit.register(shutil.rmtree, fresh, ignore_errors=True)
+        os.environ["TWMR_CACHE_DIR"] = fresh
 
     t0 = time.perf_counter()
     import dask.distributed  # noqa: F401 - paid here, not by whichever sweep comes first
@@ -225,12 +244,14 @@ def main() -> None:
     with meters["serial"]:
         base = serial(runs)
     built_rpm = serial_built(runs)
-    hand_ms = hand_step_ms()
+    hand = hand_steps_ms()
     sweeps = {}
     for workers in (1, 2):
         print(f"sweep: {runs * workers} runs on {workers} worker(s) ...", flush=True)
         with meters[workers]:
             sweeps[workers] = run_sweep(workers, runs * workers)
+    hand += hand_steps_ms()  # before and after the sweeps: the machine's pace across them
+    hand_ms = statistics.median(hand)
     st = {w: steady(s) for w, s in sweeps.items()}
 
     def overhead(rows: list[dict[str, Any]]) -> float:
@@ -289,6 +310,8 @@ def main() -> None:
     }
     fig["serial_built_runs_per_min_steady"] = round(built_rpm, 1)
     fig["hand_step_ms"] = round(hand_ms, 2)
+    fig["hand_step_ms_range"] = [round(min(hand), 2), round(max(hand), 2)]
+    fig["loop_cache"] = args.cache
     for w in (1, 2):
         floor = w * 60e3 / hand_ms
         fig[f"floor_runs_per_min_{w}"] = round(floor, 1)

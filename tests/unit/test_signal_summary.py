@@ -38,3 +38,12 @@ def test_a_chunk_with_nan_or_inf_leaves_them_out_of_the_rms() -> None:
     assert math.isclose(got["a"]["rms"], math.sqrt((1 + 4 + 16 + 1 + 0.25) / 5))
     assert got["b"]["max"] == np.inf and got["b"]["min"] == 0.0
     assert math.isclose(got["b"]["rms"], math.sqrt(4 / 5))
+
+
+def test_finite_values_whose_squares_overflow_count_in_every_figure() -> None:
+    """Every value finite, one column's squares beyond the float range: its RMS is Inf, each
+    row still counts, and the other column's figures are those of finite rows."""
+    rows = np.column_stack([np.arange(4) * 0.1, [1e200, -2e200, 3.0, 4.0], [1.0, 2.0, 3.0, 4.0]])
+    got = summary_of([rows[:2], rows[2:]])
+    assert got["a"]["min"] == -2e200 and got["a"]["max"] == 1e200 and got["a"]["rms"] == math.inf
+    assert math.isclose(got["b"]["rms"], math.sqrt(30 / 4), rel_tol=1e-15)

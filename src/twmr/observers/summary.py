@@ -39,12 +39,14 @@ class SignalSummary(Observer):
         if self._first is None:
             self._first = block[0].copy()
         self._last = block[-1].copy()
-        if np.isfinite(block).all():  # the figures below, several times faster: by column
-            columns = np.ascontiguousarray(block.T)
+        columns = np.ascontiguousarray(block.T)  # the figures below, several times faster
+        with np.errstate(over="ignore", invalid="ignore"):
+            squares = np.einsum("ij,ij->i", columns, columns)
+        # finite sums: so is every value (a NaN or Inf makes its column's sum one)
+        if np.isfinite(squares).all() or np.isfinite(block).all():
             self._min = np.fmin(self._min, columns.min(axis=1))
             self._max = np.fmax(self._max, columns.max(axis=1))
-            with np.errstate(over="ignore"):
-                self._squares += np.einsum("ij,ij->i", columns, columns)
+            self._squares += squares
             self._count += len(block)
             return
         with np.errstate(invalid="ignore"):

@@ -344,7 +344,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
 
 
 #: the most runs in one Dask task (a batch costs one scheduling; its rows come when it ends)
-MAX_BATCH = 8
+MAX_BATCH = 16
 
 
 def batched(tasks: list[RunTask], workers: int) -> list[list[RunTask]]:
