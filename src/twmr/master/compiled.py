@@ -872,8 +872,8 @@ OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.03, 2.5
 #: how long a process runs the driver before asking numba's cache again for a loop it did not
 #: find there [s]
 RECHECK_S = 1.0
-#: the part of the driver's stepping time a system's own loop saves (the paper scenario's: 0.255
-#: against 0.321 us a step, `benchmarks/compiled_schedule.py`)
+#: the part of the driver's stepping time a system's own loop saves, at least (the paper
+#: scenario's: 0.270 against 0.352 us a step, `benchmarks/compiled_schedule.py`)
 OWN_LOOP_SAVING = 0.2
 
 
