@@ -866,7 +866,7 @@ def held_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoo
 
 #: what taking a system's own loop costs [s] in a process that has run the system (its kernels
 #: loaded and in numba's cache): loaded from numba's cache, compiled afresh (the paper
-#: scenario's: 0.02-0.03 s and 2.2-2.5 s, `benchmarks/compiled_schedule.py`: `own_loop_load_s`,
+#: scenario's: 0.02-0.03 s and 2.1-2.5 s, `benchmarks/compiled_schedule.py`: `own_loop_load_s`,
 #: `own_loop_compile_s`)
 OWN_LOOP_LOAD_S, OWN_LOOP_COMPILE_S = 0.03, 2.5
 #: how long a process runs the driver before asking numba's cache again for a loop it did not

@@ -279,8 +279,9 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
         from dask.distributed import as_completed
 
         slots = sum(client.nthreads().values()) or 1
+        share = -(-len(tasks) // slots)  # a worker's runs
         for task in tasks:
-            task.share = -(-len(tasks) // slots)
+            task.share = share
         batches = batched(tasks, slots)
         futures = client.map(execute_batch, batches, pure=False,
                              key=[f"runs-{b[0].run_id}-{len(b)}" for b in batches])
