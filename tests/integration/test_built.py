@@ -225,7 +225,12 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
     monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)  # no loop cached yet
     monkeypatch.setattr(compiled, "OWN_LOOP_SAVING", 1e9)  # every budget covers compiling
     monkeypatch.setattr(compiled, "RECHECK_S", 1e9)
-    path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
+    # a loop of its own (its recorded signals), which no other test's process has compiled
+    given = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
+    text = given.read_text(encoding="utf-8")
+    assert ", ctrl.error]" in text
+    path = tmp_path / "own_loop.yaml"
+    path.write_text(text.replace(", ctrl.error]", "]"), encoding="utf-8")
     built = twmr.build(path, SHORT)
     built.run()
     held = compiled.OWN_LOOP_COMPILE_S
