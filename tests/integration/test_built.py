@@ -191,8 +191,8 @@ def test_a_built_system_expecting_runs_takes_its_loop_when_they_repay_it() -> No
     few.expect(2)
     for built in (few, many):
         built.run()
-    per_run = many._stepped_s
-    many.expect(int(compiled.OWN_LOOP_COMPILE_S / (per_run * compiled.OWN_LOOP_SAVING)) + 2)
+    per_run = many._stepped_s  # a later run may step several times faster on a busy machine
+    many.expect(100 * int(compiled.OWN_LOOP_COMPILE_S / (per_run * compiled.OWN_LOOP_SAVING)))
     many.run()
     assert few.system.own_loop_budget_s < compiled.OWN_LOOP_COMPILE_S
     assert many.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
