@@ -206,7 +206,7 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
     """A system whose budget covers compiling its loop runs by the driver while another
     process holds the lock on compiling that loop, and one that did not find the loop in
     numba's cache asks again after `RECHECK_S`: once another process has compiled it, the
-    system takes it, with the driver's rows."""
+    system takes it, with the driver's rows. A lock a run took is let go by the next run."""
     from twmr.master import compiled, schedule_cache
     from twmr.master.execution import Execution
     from twmr.observers.store import ResultStore
@@ -252,6 +252,12 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
     monkeypatch.setattr(compiled, "RECHECK_S", 0.0)
     own = by_driver()
     assert not own[0] and np.array_equal(own[1], rows[1])
+    assert loop.claim()  # as a run that took the lock and then did not compile
+    built.system.own_loop_budget_s = 0.0
+    assert by_driver()[0]  # the next run lets it go, whichever way it runs
+    other = schedule_cache.claim(loop.source, loop.names, tmp_path)
+    assert other is not None
+    other.close()
 
 
 @pytest.mark.parametrize("override", ["plant.scale=1.2", "ctrl.step_multiple=2",

@@ -193,6 +193,9 @@ class CompiledStep(Algorithm):
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         self.python.prepare(system, record, decimation, check_finite)
+        held = system.__dict__.get(_HELD_LOOP)
+        if held is not None:  # a lock on compiling it that a run took and did not compile under
+            held.release()
         self._source, self._kinds_run = None, []
         self.compiled, self._driver = False, None  # chosen again by this run's `start`
         #: the run's recorded rows (`_buffer`), made at its first compiled chunk
