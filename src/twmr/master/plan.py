@@ -320,8 +320,8 @@ def _value_expr(conn: Connection, src_expr: str, src_size: int | None,
     """Expression giving the destination input's new value from `src_expr` (the source port
     value), with element selection, unit gain/offset and tuple/scalar shape applied."""
     scaled = conn.gain != 1.0 or conn.offset != 0.0
-    if not scaled and conn.src_index is None:
-        return src_expr  # whole port: share the tuple / scalar, no copy
+    if not scaled and conn.src_index is None and (src_size is None) == (dst_size is None):
+        return src_expr  # whole port of one shape: share the tuple / scalar, no copy
     if conn.src_index is not None:
         idx: list[int | None] = list(conn.src_index)
     else:

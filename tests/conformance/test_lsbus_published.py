@@ -1,0 +1,120 @@
+"""FMU Manipulation Toolbox's FMI-LS-BUS CAN trio (a bus-simulation FMU and two node FMUs, FMI
+3.0 with clocks; each node's `Rx_Data` is a Binary array of one element) wired as that tool's
+own container wires them (`bus+nodes.json`: step 0.1 s), and node to node
+(`nodes-only.json`): every operation a node or the bus sends, at its time, equal to the tool's
+reference datalog. On our `can_bus` block, each node gets its Confirm and the other's frame."""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+import twmr
+from tests.conformance.corpus import corpus
+from twmr.observers.ticks import read_ticks
+
+pytestmark = pytest.mark.timeout(240)
+
+NODE_TX = ["n1.CanChannel.Tx_Data", "n2.CanChannel.Tx_Data"]
+#: the reference datalog's column -> our port
+COLUMN = {"node1.CanChannel.Tx_Data": "n1.CanChannel.Tx_Data",
+          "node2.CanChannel.Tx_Data": "n2.CanChannel.Tx_Data",
+          "bus.Node1.Tx_Data": "bus.Node1.Tx_Data", "bus.Node2.Tx_Data": "bus.Node2.Tx_Data"}
+Event = tuple[float, str, str]
+
+
+def reference(path: Path) -> list[Event]:
+    """(time, port, data hex) of every operation in a datalog of the tool: a node's Tx_Data at
+    the rows where its Tx_Clock ticks, a bus terminal's Tx_Data where it changes (the datalog
+    has no column of the bus's clocks)."""
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    events: set[Event] = set()
+    last: dict[str, str] = {}
+    for row in rows:
+        t = float(row["time"])
+        for column, port in COLUMN.items():
+            data = row.get(column)
+            if not data:
+                continue
+            if column.startswith("node"):
+                clock = column.replace("Tx_Data", "Tx_Clock")
+                if row[clock] == "1":
+                    events.add((round(t, 6), port, data.lower()))
+            elif data != last.get(column):
+                events.add((round(t, 6), port, data.lower()))
+            last[column] = data
+    return sorted(events)
+
+
+def ours(folder: Path) -> list[Event]:
+    names, events, complete = read_ticks(folder / "ticks.arrows")
+    assert complete
+    return sorted({(round(t, 6), names[k], bytes(d).hex()) for t, k, d in events})
+
+
+def run(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "trio.yaml"
+    path.write_text(text)
+    twmr.simulate(twmr.load(str(path)), out=str(tmp_path / "out"))
+    return tmp_path / "out"
+
+
+def test_bus_and_nodes_send_what_the_reference_datalog_shows(tmp_path: Path) -> None:
+    folder = corpus("lsbus")
+    out = run(tmp_path, f"""
+components:
+  bus: {{kind: fmu, parameters: {{path: {folder / 'bus.fmu'}}}}}
+  n1: {{kind: fmu, parameters: {{path: {folder / 'node1.fmu'}}}}}
+  n2: {{kind: fmu, parameters: {{path: {folder / 'node2.fmu'}}}}}
+connections:
+  - n1.CanChannel -> bus.Node1
+  - n2.CanChannel -> bus.Node2
+open: [bus.BusErrorProbability]
+record: {{signals: [{', '.join(COLUMN.values())}]}}
+experiment: {{start: 0.0, stop: 10.0, step: 0.1}}
+""")
+    expected, got = reference(folder / "REF-bus+nodes-datalog.csv"), ours(out)
+    assert len(expected) > 190  # Configurations, then frames and confirms every 0.3 s
+    assert got == expected
+    # the bus confirms node 1's frame 0.48 ms after the tick, and node 2's 0.96 ms after it
+    confirms = [(t, p) for t, p, d in got if p.startswith("bus.") and d.startswith("20")]
+    assert confirms[:2] == [(0.30048, "bus.Node1.Tx_Data"), (0.30096, "bus.Node2.Tx_Data")]
+
+
+def test_nodes_wired_to_each_other_send_what_the_reference_datalog_shows(tmp_path: Path
+                                                                        ) -> None:
+    folder = corpus("lsbus")
+    out = run(tmp_path, f"""
+components:
+  n1: {{kind: fmu, parameters: {{path: {folder / 'node1.fmu'}}}}}
+  n2: {{kind: fmu, parameters: {{path: {folder / 'node2.fmu'}}}}}
+connections:
+  - n1.CanChannel -> n2.CanChannel
+record: {{signals: [{', '.join(NODE_TX)}]}}
+experiment: {{start: 0.0, stop: 10.0, step: 0.1}}
+""")
+    assert ours(out) == reference(folder / "REF-nodes-only-datalog.csv")
+
+
+def test_the_nodes_on_our_can_bus_block_each_get_a_confirm_and_the_others_frame(
+        tmp_path: Path) -> None:
+    folder = corpus("lsbus")
+    out = run(tmp_path, f"""
+components:
+  bus: {{kind: can_bus}}
+  n1: {{kind: fmu, parameters: {{path: {folder / 'node1.fmu'}}}}}
+  n2: {{kind: fmu, parameters: {{path: {folder / 'node2.fmu'}}}}}
+connections:
+  - n1.CanChannel -> bus.n1
+  - n2.CanChannel -> bus.n2
+record: {{signals: [bus.n1.Tx_Data, bus.n2.Tx_Data]}}
+experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
+""")
+    frame, confirm = "1000000014000000010000000000040001020304", "200000000c00000001000000"
+    got = ours(out)
+    assert [t for t, _, _ in got] == [0.4, 0.4, 0.7, 0.7, 1.0, 1.0]
+    for _, _, data in got:
+        assert sorted([data[:len(frame)], data[len(frame):]] if data.startswith("1")
+                      else [data[:len(confirm)], data[len(confirm):]]) == sorted([confirm, frame])
