@@ -182,9 +182,7 @@ class EventMode:
             need, terminate, _, _, defined, next_time = c._call("fmi3UpdateDiscreteStates",
                                                                 f.updateDiscreteStates)
             if terminate:
-                raise FmuError(c.name, t, f"FMU '{c.path.name}' asked to terminate the "
-                               f"simulation (fmi3UpdateDiscreteStates terminateSimulation).",
-                               c.log.tail())
+                raise c._terminated(t, "(fmi3UpdateDiscreteStates terminateSimulation)")
             if not need:
                 break
         else:

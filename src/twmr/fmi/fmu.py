@@ -322,11 +322,7 @@ class FmuComponent(Component):
             from fmpy.fmi3 import FMU3Model, FMU3Slave
 
             fmu = self._load(FMU3Model if self.me else FMU3Slave, args)
-            events = {"eventModeUsed": True, "earlyReturnAllowed": True} if self.event_mode \
-                else {}
-            self._call(what, lambda: fmu.instantiate(loggingOn=True,
-                                                    logMessage=self.log.fmi3_logger(),
-                                                    **events))
+            self._instantiate3(fmu, what)
         else:
             from fmpy.fmi2 import FMU2Model, FMU2Slave
 
@@ -340,6 +336,29 @@ class FmuComponent(Component):
         if not self.fmi3:
             self._call("fmi2SetupExperiment", fmu.setupExperiment,
                        self.rtol if self.me else None, start)
+
+    def _instantiate3(self, fmu: Any, what: str) -> None:
+        """Instantiate an FMI 3.0 FMU, in event mode where its description offers it. An FMU
+        without clocks whose binary refuses the event mode its XML declares (the Reference
+        FMUs' Roberts) is instantiated again without it, as fmpy does: it then handles its
+        own events inside doStep, and the run says so once."""
+        def instantiate(event_mode: bool) -> None:
+            events = {"eventModeUsed": True, "earlyReturnAllowed": True} if event_mode else {}
+            fmu.instantiate(loggingOn=True, logMessage=self.log.fmi3_logger(), **events)
+
+        if not self.event_mode:
+            self._call(what, lambda: instantiate(False))
+            return
+        try:
+            instantiate(True)
+        except Exception as exc:  # noqa: BLE001 - fmpy raises Exception for a NULL instance
+            if any(p.clock or p.clocked_by for p in self.ports):
+                raise self._error(what, exc) from exc
+            self._call(what, lambda: instantiate(False))
+            self.event_mode = False
+            log.warning("note: component '%s': FMU '%s' declares hasEventMode but refused to "
+                        "be instantiated in event mode; it runs without it and handles its own "
+                        "events inside each step (as fmpy runs it).", self.name, self.path.name)
 
     def _load(self, cls: Any, args: dict[str, Any]) -> Any:
         """fmpy's FMU object (its shared library loaded); the working directory kept, which

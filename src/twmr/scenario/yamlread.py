@@ -5,6 +5,7 @@ indices) to 1-based line numbers, so every later problem can name file:line.
 """
 from __future__ import annotations
 
+import re
 import stat
 from pathlib import Path
 from typing import Any
@@ -76,9 +77,15 @@ def _convert(node: yaml.Node, path: Path_, lines: Lines, loader: yaml.SafeLoader
     if isinstance(node, yaml.SequenceNode):
         return [_convert(item, (*path, i), lines, loader) for i, item in enumerate(node.value)]
     value = loader.construct_object(node, deep=True)
+    if isinstance(value, str) and not node.style and _FLOAT_1_2.fullmatch(value):
+        value = float(value)
     if isinstance(value, (int, float)) and not node.style and node.value != str(value):
         lines.texts[path] = node.value
     return value
+
+
+#: a YAML 1.2 float that YAML 1.1 reads as text: an exponent without a dot ('1e-5', '2E3')
+_FLOAT_1_2 = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)[eE][-+]?[0-9]+")
 
 
 #: the largest scenario file read [bytes]
