@@ -249,14 +249,28 @@ def test_refusing_stays_the_default_with_the_old_message() -> None:
         assert "break the loop with a `delay` component" in text and "loops: solve" in text
 
 
-def test_loop_solver_needs_loops_solve_and_jacobi_is_refused() -> None:
+def test_loop_solver_needs_loops_solve() -> None:
     with pytest.raises(ScenarioError, match="'loop_solver' applies to 'loops: solve' only"):
         loads(native(0.5, ", loop_solver: {method: newton}"), source="native.yaml")
-    with pytest.raises(ScenarioError, match="the algorithm is jacobi"):
-        loads(native(0.5, ", loops: solve, algorithm: jacobi"), source="native.yaml")
     with pytest.raises(ScenarioError, match="loop_solver/method"):
         loads(native(0.5, ", loops: solve, loop_solver: {method: kinsol}"),
               source="native.yaml")
+
+
+@pytest.mark.parametrize("experiment", [", algorithm: jacobi", ", loops: solve, algorithm: jacobi"])
+def test_jacobi_runs_a_feedthrough_loop_one_step_late(experiment: str,
+                                                      caplog: pytest.LogCaptureFixture) -> None:
+    """Under Jacobi (libcosim's and Ecos' fixed-step master) every input is the output of the
+    point before, so the loop s = 1.5 + k y, y = k s closes a step later: no refusal, nothing
+    to solve (said once when 'loops: solve' asks)."""
+    with caplog.at_level("WARNING", logger="twmr"):
+        r = simulate(loads(native(0.5, experiment), source="native.yaml"))
+    assert ("needs no solving" in caplog.text) == ("loops: solve" in experiment)
+    s_prev, k_prev, want = 0.0, 0.0, []
+    for _ in range(len(r)):  # the outputs after initialize are those of inputs at 0
+        s_prev, k_prev = 1.5 + k_prev, 0.5 * s_prev
+        want.append((s_prev, k_prev))
+    np.testing.assert_allclose(np.column_stack([r["s.y"], r["k.y"]]), want, rtol=0, atol=1e-15)
 
 
 def test_compiled_loop_refuses_loops_solve_and_auto_keeps_python() -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import fnmatch
 import itertools
+import logging
 import math
 import re
 import sys
@@ -45,6 +46,8 @@ from twmr.scenario.loaders import load_structure, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
+
+log = logging.getLogger("twmr")
 
 __all__ = ["MAX_STEPS", "build_system", "load", "loads", "reconfigure", "scenario_spec", "schema"]
 
@@ -155,6 +158,10 @@ class _Builder:
             loops = self.solvable_loops(comps, conns, experiment.algorithm)
             self.fail_if_problems(AlgebraicLoopError)
         exec_order, cycle = order(comps, conns, loops)
+        if cycle and experiment.algorithm == "jacobi":
+            # every input from the snapshot of the outputs after the step before: a
+            # feedthrough cycle closes one step later, as libcosim and Ecos run it
+            exec_order, cycle = list(comps), []
         if cycle:
             loc = self.cycle_location(cycle, conns)
             raise AlgebraicLoopError(Problem(
@@ -193,12 +200,12 @@ class _Builder:
         where = self.spec.experiment.loops
         at = where.where if where is not None else self.spec.at("experiment")
         if loops and algorithm == "jacobi":
-            self.problems.append(Problem(at, f"'loops: solve' iterates a loop at each "
-                                         f"communication point in the Gauss-Seidel order, but "
-                                         f"the algorithm is jacobi (every input from one "
-                                         f"snapshot); the loop through "
-                                         f"{', '.join(loops[0].components)} is not solved.",
-                                         "use algorithm gauss_seidel or adaptive."))
+            log.warning("note: %s: under jacobi every input is taken from the outputs of the "
+                        "step before, so the loop through %s closes one step later and needs "
+                        "no solving; 'loops: solve' has nothing to do (use gauss_seidel or "
+                        "adaptive to solve it at each point).", at,
+                        ", ".join(loops[0].components))
+            return []
         for lp in loops:
             multiples = {n: int(self.spec.components[n].step_multiple.value)
                          for n in lp.components}

@@ -23,7 +23,8 @@ from twmr.scenario.structure import ComponentSpec, Given
 log = logging.getLogger("twmr")
 
 MAP_KIND = "twmr.fmi.ssp.transform:SspMap"
-_CONNECTOR = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")
+_CONNECTOR = re.compile(r"^([A-Za-z_][\w.]*?)(?:\[(\d+)\])?$")
+_BRACKETED = re.compile(r"^\[([^\[\]]+)\]$")
 _TYPES = {"Real": "Real", "Integer": "Integer", "Boolean": "Boolean", "String": "String",
           "Enumeration": "Integer", "Binary": "Binary"}
 
@@ -361,8 +362,10 @@ class Flattener:
 
 
 def _convert(src: str, dst: str, defined: dict[str, Unit]) -> tuple[float, float]:
-    """(gain, offset) from unit `src` to `dst`, units defined by the SSP or FMU or Modelica's;
-    UnitError when either is unknown or they measure different quantities."""
+    """(gain, offset) from unit `src` to `dst`, units defined by the SSP or FMU or Modelica's
+    (a unit written in brackets, '[m]', as tools print them, is the unit inside); UnitError when
+    either is unknown or they measure different quantities."""
+    src, dst = _BRACKETED.sub(r"\1", src), _BRACKETED.sub(r"\1", dst)
     a, b = known_unit(src, defined), known_unit(dst, defined)
     if a is None or b is None:
         raise UnitError(f"the unit '{src if a is None else dst}' is neither defined "

@@ -5,14 +5,19 @@ named by its path (`sub.comp`); a component whose source is another .ssd is read
 system. Connections, transformations and units are resolved by `twmr.fmi.ssp.flatten`. Parameter
 bindings (.ssv files or inline, with .ssm mappings and prefixes) set the FMUs' parameters and
 start values, a system level over the levels below it as the standard says. The
-`DefaultExperiment` gives start and stop; the step comes from an annotation's `stepSize` (as
-OMSimulator writes it) or `step`, else 1 ms when it divides the run, else 1/1000 of the run.
+`DefaultExperiment` gives start and stop; base step, algorithm, pacing, step multiples and the
+recording come from our annotation (`twmr export`), else the base step from libcosim's
+`osp:FixedStepAlgorithm` (run as libcosim runs it: Jacobi), else from an annotation's `stepSize`
+(as OMSimulator writes it) or `step`, else 1 ms when it divides the run, else 1/1000 of the run.
+A connector names an FMU variable as the FMU does: dotted Modelica names (`consumerFeed.p`) and
+one element of an array variable (`p_Crane.f[1]`) alike.
 
 What SSP allows and twmr does not run is refused naming the element and line: components that are
 not FMUs (or nested .ssp packages), signal dictionaries, connections into parameters from outputs,
-Binary parameters, connector names that are not identifiers (optionally with one `[i]`)."""
+Binary parameters."""
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import re
@@ -35,6 +40,7 @@ FMU_TYPE = "application/x-fmu-sharedlibrary"
 SSD_TYPE = "application/x-ssp-definition"
 #: the step when no annotation gives one [s] (used when it divides the run)
 DEFAULT_STEP = 1e-3
+TWMR, OSP = NS["twmr"], NS["osp"]
 _NAME = re.compile(r"^[A-Za-z_]\w*$")
 
 
@@ -71,6 +77,8 @@ class _Reader:
         self.enums: dict[str, dict[str, int]] = {}
         self.reading: list[Path] = []
         self.refused: set[Path_] = set()  # elements refused (their connections are not checked)
+        #: bound parameters that name nothing of their system: (where, name, system)
+        self.unmatched: list[tuple[Location, str, str]] = []
 
     def fail_if_problems(self) -> None:
         if self.problems:
@@ -117,15 +125,21 @@ class _Reader:
                                         "give the system structure (.ssd) file."))
         self.reading.append(ssd.resolve())
         self.description(root, source, (), ssd.parent)
+        self.report_unmatched()
         self.fail_if_problems()
         comps, conns, opened = Flattener(self.fmus, self.edges, self.system_values, self.units,
                                          self.enums).flatten()
         experiment = self.experiment(root, source)
+        record = self.recording(root, source)
+        for name, multiple in self.step_multiples(root).items():
+            if name in comps:
+                comps[name] = dataclasses.replace(comps[name], step_multiple=Given(
+                    multiple, comps[name].where))
         self.fail_if_problems()
         top = at(source, root)
         return ScenarioSpec(source=source, base_dir=self.root, components=comps,
                             connections=tuple(conns), open=tuple(opened), experiment=experiment,
-                            record=RecordingSpec(None, Given(1, top), top),
+                            record=record,
                             description=root.get("description") or root.get("name") or "",
                             sections={"components": top, "connections": top})
 
@@ -324,9 +338,20 @@ class _Reader:
         if any(target.startswith(".".join(p[len(path):]) + ".") for p in self.refused
                if p[:len(path)] == path):
             return
+        self.unmatched.append((value.where, target, ".".join(path) or "(top)"))
+
+    def report_unmatched(self) -> None:
+        """One warning for the bound parameters that name nothing (the SSP standard ignores
+        them): the first three, and how many there are."""
+        if not self.unmatched:
+            return
+        where, name, system = self.unmatched[0]
+        more = len(self.unmatched) - 1
+        others = ", ".join(f"'{n}' (line {w.line})" for w, n, _ in self.unmatched[1:3])
         log.warning("warning: %s: the parameter '%s' names no component or connector of the "
-                    "system '%s'; it is ignored (as the SSP standard says).", value.where,
-                    target, ".".join(path) or "(top)")
+                    "system '%s'%s; %s ignored (as the SSP standard says).", where, name,
+                    system, f", nor do {more} more ({others}{', ...' if more > 2 else ''})"
+                    if more else "", "they are" if more else "it is")
 
     def set_value(self, fmu: Fmu, name: str, value: Value, defined: dict[str, Unit],
                   entry: Entry | None) -> None:
@@ -335,6 +360,10 @@ class _Reader:
 
     # -- the experiment ------------------------------------------------------------------------
     def experiment(self, root: Any, source: str) -> ExperimentSpec:
+        """Start and stop from ssd:DefaultExperiment; the base step, algorithm and pacing from
+        our annotation (`twmr export` writes it), else libcosim's fixed-step one (base step,
+        and libcosim's algorithm: every FMU steps from the outputs of the step before, i.e.
+        Jacobi), else a `stepSize`/`step` attribute of any annotation (OMSimulator's)."""
         de = root.find("ssd:DefaultExperiment", NS)
         where = at(source, de if de is not None else root, "ssd:DefaultExperiment")
         start = float(de.get("startTime", 0.0)) if de is not None else 0.0
@@ -344,22 +373,60 @@ class _Reader:
                         "ssd:DefaultExperiment stopTime, or --set experiment.stop=...", where)
         stop = float(stop_text) if stop_text is not None else start + 1.0
         step: Any = None
-        algorithm = "gauss_seidel"
+        algorithm = Given("gauss_seidel", where)
+        realtime: Given[bool | None] = Given(None, where)
+        ours = _experiment_note(root)
+        osp = root.find(f".//{{{OSP}}}FixedStepAlgorithm") if de is not None else None
+        if ours is not None:
+            step = Given(float(ours.get("step")), at(source, ours, "twmr Experiment step"))
+            if ours.get("algorithm"):
+                algorithm = Given(ours.get("algorithm"), at(source, ours, "twmr Experiment"))
+            if ours.get("realtime") in ("true", "false"):
+                realtime = Given(ours.get("realtime") == "true", at(source, ours, "realtime"))
+        elif osp is not None and osp.get("baseStepSize") is not None:
+            step = Given(float(osp.get("baseStepSize")),
+                         at(source, osp, "osp:FixedStepAlgorithm baseStepSize"))
+            algorithm = Given("jacobi", at(source, osp, "osp:FixedStepAlgorithm"))
         for note in root.iter(f"{{{NS['ssc']}}}Annotation"):
             for e in note.iter():
                 for key in ("stepSize", "step"):
                     if step is None and e.get(key) is not None:
                         step = Given(float(e.get(key)), at(source, e, f"{tag(e)} {key}"))
-                if e.get("algorithm") in ("jacobi", "gauss_seidel"):
-                    algorithm = e.get("algorithm")
+                if ours is None and e.get("algorithm") in ("jacobi", "gauss_seidel"):
+                    algorithm = Given(e.get("algorithm"), at(source, e, tag(e)))
         if step is None:
             duration = stop - start
             n = duration / DEFAULT_STEP
             value = DEFAULT_STEP if duration > 0 and math.isclose(n, round(n), rel_tol=1e-9) \
                 else duration / 1000
             step = Given(value, Location(source, where.line, "default step"))
-        return ExperimentSpec(Given(start, where), Given(stop, where), step,
-                              Given(algorithm, where), Given(None, where), where)
+        return ExperimentSpec(Given(start, where), Given(stop, where), step, algorithm,
+                              realtime, where)
+
+    def recording(self, root: Any, source: str) -> RecordingSpec:
+        """What `twmr export` recorded (our annotation's Record), else every output."""
+        top = at(source, root)
+        note = _experiment_note(root)
+        record = note.find(f"{{{TWMR}}}Record") if note is not None else None
+        if record is None:
+            return RecordingSpec(None, Given(1, top), top)
+        where = at(source, record, "twmr Record")
+        signals = tuple(Given(f"{s.get('element')}.{s.get('port')}", at(source, s, "Signal"))
+                        for s in record.findall(f"{{{TWMR}}}Signal"))
+        decimation = int(record.get("decimation", "1"))
+        return RecordingSpec(signals or None, Given(decimation, where), where)
+
+    def step_multiples(self, root: Any) -> dict[str, int]:
+        """Each element's step multiple from our annotation (1 where none is given)."""
+        note = _experiment_note(root)
+        return {} if note is None else {e.get("element", ""): int(e.get("value", "1"))
+                                        for e in note.findall(f"{{{TWMR}}}StepMultiple")}
 
     def refuse(self, where: Location, what: str, fix: str) -> None:
         self.problems.append(Problem(where, f"{what}.", fix))
+
+
+def _experiment_note(root: Any) -> Any:
+    """Our annotation's Experiment element under ssd:DefaultExperiment (None: not written)."""
+    return root.find(f"ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation/{{{TWMR}}}Experiment",
+                     NS)

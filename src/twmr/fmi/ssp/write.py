@@ -24,15 +24,15 @@ from typing import Any
 from twmr.core.errors import CosimError, UnitError
 from twmr.core.units import BASES, parse_unit
 from twmr.fmi.ssp.blocks import BlockFmu, block_fmus
+from twmr.fmi.ssp.xmlsafe import NS
 from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import Connection, System
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 SSV = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
-OSP = "http://opensimulationplatform.com/SSP/OSPAnnotations"
-#: our annotation: base step, algorithm, recording
-TWMR = "https://twmr-cosim.org/SSP/Annotations"
+OSP = NS["osp"]
+TWMR = NS["twmr"]
 TWMR_TYPE = "org.twmr-cosim"
 NAMESPACES = {"ssd": SSD, "ssc": SSC, "ssv": SSV, "osp": OSP, "twmr": TWMR}
 for _prefix, _uri in NAMESPACES.items():

@@ -17,7 +17,10 @@ NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
       "ssm": "http://ssp-standard.org/SSP1/SystemStructureParameterMapping",
-      "ssb": "http://ssp-standard.org/SSP1/SystemStructureSignalDictionary"}
+      "ssb": "http://ssp-standard.org/SSP1/SystemStructureSignalDictionary",
+      # libcosim's annotations, and ours (base step, algorithm, recording; `twmr export`)
+      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+      "twmr": "https://twmr-cosim.org/SSP/Annotations"}
 _PREFIX = {uri: prefix for prefix, uri in NS.items()}
 
 
