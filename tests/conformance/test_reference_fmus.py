@@ -87,3 +87,36 @@ def test_scheduled_execution_fmu_is_refused_at_check() -> None:
     with pytest.raises(ScenarioError, match="offers only scheduled execution"):
         twmr.load({"components": {"m": {"kind": "fmu", "parameters": {"path": str(path)}}},
                    "experiment": {"start": 0, "stop": 1, "step": 0.01}})
+
+
+def _adaptive(name: str) -> dict[str, object]:
+    return {"components": {"ball": {"kind": "fmu", "parameters": {
+        "path": str(corpus("reference-fmus", name)), "interface": "co_simulation"}}},
+        "experiment": {"start": 0, "stop": 1.0, "step": 1e-3, "algorithm": "adaptive",
+                       "max_step": 0.1}}
+
+
+def test_adaptive_says_at_check_that_fmi2_cs_events_are_unseen(
+        caplog: pytest.LogCaptureFixture) -> None:
+    from twmr.master.algorithm import algorithm_for
+
+    with caplog.at_level("WARNING", logger="twmr"):
+        algorithm_for(twmr.load(_adaptive("BouncingBall_fmi2.fmu")).system)
+    assert "component 'ball': it runs as FMI 2.0 co-simulation" in caplog.text
+    assert "within the step that holds it (up to max_step = 0.1 s)" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="twmr"):  # no state events: nothing to say
+        algorithm_for(twmr.load({**_adaptive("Dahlquist_fmi2.fmu")}).system)
+    assert "co-simulation" not in caplog.text
+
+
+def test_adaptive_locates_an_fmi3_bounce_by_early_return(caplog: pytest.LogCaptureFixture
+                                                         ) -> None:
+    with caplog.at_level("WARNING", logger="twmr"):
+        rows = twmr.simulate(_adaptive("BouncingBall_fmi3.fmu")).to_pandas()
+    assert "co-simulation" not in caplog.text
+    bounce = (2 * 1.0 / 9.81) ** 0.5  # h(0) = 1 m, g = 9.81 m/s2: 0.4515 s
+    after = rows[rows["ball.v"] > 0]["time"].iloc[0]  # the first row moving up
+    # the grid point at or after the FMU's own bounce (its fixed internal step puts that a
+    # hair after the exact one), not somewhere within a max_step of 0.1 s
+    assert bounce <= after <= bounce + 2e-3

@@ -458,6 +458,12 @@ class Component:
         """Handle a state event held at the end of the last step, at t [s] (`hold_events`):
         the outputs from before it to after it. Nothing when none is held."""
 
+    def events_unseen(self) -> str | None:
+        """Why events inside this component's steps are hidden from a master that locates them
+        (None: they are not: it has none, or announces them through `state_event`,
+        `early_event`, `next_event` or a non-Real output that changes)."""
+        return None
+
     def early_event(self) -> float | None:
         """The time [s] of an event the last `do_step` met inside its step that could not be
         known before it (an FMU's early return), or None; `algorithm: adaptive` retakes the

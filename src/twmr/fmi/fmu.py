@@ -458,6 +458,20 @@ class FmuComponent(Component):
     def early_event(self) -> float | None:
         return self._events.early if self._events is not None else None
 
+    def events_unseen(self) -> str | None:
+        if self.me or (self.md.modelExchange is not None and
+                       not self.md.numberOfEventIndicators):
+            return None  # its model-exchange interface says it has no state events
+        cs = self.md.coSimulation
+        if self.fmi3 and self.event_mode and cs.mightReturnEarlyFromDoStep:
+            return None
+        if any(p.kind == "output" and p.fmi_type not in ("Real", "Float64", "Float32")
+               for p in self.ports):
+            return None  # a counter or mode output that changes at its events
+        how = "FMI 2.0 co-simulation" if not self.fmi3 else \
+            "FMI 3.0 co-simulation without event mode and early return"
+        return f"it runs as {how}: its events happen inside doStep, unreported"
+
     def next_event(self, t: float) -> float | None:
         if self._events is None:
             return None

@@ -121,6 +121,16 @@ class Adaptive(Algorithm):
                            "set 'realtime: false', or use gauss_seidel.")
         return None
 
+    def notes(self, system: System) -> list[str]:
+        exp = system.experiment
+        longest = exp.max_step or exp.stop - exp.start
+        return [f"component '{name}': {why}, so the adaptive master cannot locate them: an "
+                f"event is placed only within the step that holds it (up to max_step = "
+                f"{longest:g} s). Fix: run it as model exchange (interface: model_exchange; "
+                f"events located to the tolerance), or bound the step with max_step."
+                for name, comp in system.components.items()
+                if (why := comp.events_unseen()) is not None]
+
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
         exp = system.experiment

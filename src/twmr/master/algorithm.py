@@ -8,12 +8,15 @@ states what it needs through the capability flags.
 """
 from __future__ import annotations
 
+import logging
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 from twmr.core.errors import CosimError, Location, Problem, ScenarioError
 from twmr.registry import ALGORITHMS, plugin, plugins
 from twmr.scenario.system import System
+
+log = logging.getLogger("twmr")
 
 
 class Algorithm(ABC):
@@ -61,6 +64,11 @@ class Algorithm(ABC):
         """Counts per block and per algebraic loop after `steps_done` base steps (`finished`:
         the final point was reached), as `twmr.master.stats.document` (empty: not kept)."""
         return {}
+
+    def notes(self, system: System) -> list[str]:
+        """What the user should know before running `system` under this algorithm (said at
+        `twmr check` and at the start of a run)."""
+        return []
 
     def locate(self, exc: BaseException) -> tuple[str, str, float]:
         """(instance, call, time [s]) where `exc` was raised inside `advance`, as far as known."""
@@ -117,6 +125,8 @@ def admit(system: System, algorithm: Algorithm, name: str = "") -> None:
         problem = algorithm.refuse(system)
         if problem is not None:
             raise ScenarioError(problem)
+        for note in algorithm.notes(system):
+            log.warning("note: %s", note)
         return
     label = f"'{name}'" if name else type(algorithm).__name__
     why = "; ".join(f"'{n}' ({type(c).__name__}) cannot save and restore its state: "
