@@ -4,7 +4,6 @@ libcosimpy) and by our master on the scenario it came from, sampled on the same 
 SSP export)."""
 from __future__ import annotations
 
-import copy
 import tempfile
 import zipfile
 from pathlib import Path
@@ -36,28 +35,6 @@ def short(path: Path, stop: float = 2.0) -> dict[str, Any]:
 
 def system(data: dict[str, Any]) -> System:
     return loads(yaml.safe_dump(data, sort_keys=False), source="scenario.yaml")
-
-
-def started_from_sources(data: dict[str, Any]) -> dict[str, Any]:
-    """`data` with every wired input starting at its source's start value (unit conversion
-    applied): what an FMI importer hands each input in initialization mode."""
-    built = system(data)
-    out = copy.deepcopy(data)
-    for c in built.connections:
-        src = built.components[c.src].get(c.src_port)
-        values = list(src) if isinstance(src, tuple) else [src]
-        picked = values if c.src_index is None else [values[i] for i in c.src_index]
-        conv = [x * c.gain + c.offset for x in picked]
-        now = built.components[c.dst].get(c.dst_port)
-        initial = out["components"][c.dst].setdefault("initial", {})
-        if not isinstance(now, tuple):
-            initial[c.dst_port] = conv[0]
-            continue
-        current = list(initial.get(c.dst_port, now))
-        for k, j in enumerate(range(len(now)) if c.dst_index is None else c.dst_index):
-            current[j] = conv[k]
-        initial[c.dst_port] = current
-    return out
 
 
 def ours(data: dict[str, Any]) -> np.ndarray:
@@ -141,20 +118,17 @@ def measure(stop: float = 2.0) -> dict[str, dict[str, float]]:
             scenario = Path(tmp) / path.name
             scenario.write_text(yaml.safe_dump(data, sort_keys=False))
             ssp = export_ssp(scenario, Path(tmp) / f"{path.stem}.ssp")
-            mine = ours(started_from_sources(data))
+            mine = ours(data)
             cols = [c for c in mine.dtype.names if c != "time"]
             step, n = data["experiment"]["step"], len(mine) - 1
             e = ecos(ssp, cols, step, n, path.stem)
             lc = libcosim(ssp, cols, step, n)
             kind = kinds(system(data), cols)
-            plain = ours(data)
         out[path.stem] = {
             "ecos": max(worst(e[:, j], mine[c], mine[c]) for j, c in enumerate(cols)),
             "libcosim": max(worst(lc[:, j], mine[c][:-1] if kind[c] == "input" else mine[c][1:],
                                   mine[c]) for j, c in enumerate(cols)
                             if kind[c] != "feedthrough"),
-            "ecos_without_aligned_start": max(worst(e[:, j], plain[c], plain[c])
-                                              for j, c in enumerate(cols)),
             "columns": len(cols), "steps": n}
     return out
 

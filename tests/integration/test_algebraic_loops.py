@@ -267,9 +267,12 @@ def test_jacobi_runs_a_feedthrough_loop_one_step_late(experiment: str,
         r = simulate(loads(native(0.5, experiment), source="native.yaml"))
     assert ("needs no solving" in caplog.text) == ("loops: solve" in experiment)
     s_prev, k_prev, want = 0.0, 0.0, []
-    for _ in range(len(r)):  # the outputs after initialize are those of inputs at 0
+    # the outputs after initialize are those of inputs at 0; libcosim's start passes them on
+    # once less than there are components (2) before the first point
+    for n in range(len(r) + 2):
         s_prev, k_prev = 1.5 + k_prev, 0.5 * s_prev
-        want.append((s_prev, k_prev))
+        if n >= 2:
+            want.append((s_prev, k_prev))
     np.testing.assert_allclose(np.column_stack([r["s.y"], r["k.y"]]), want, rtol=0, atol=1e-15)
 
 

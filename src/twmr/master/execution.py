@@ -30,6 +30,7 @@ from twmr.core.errors import ComponentError, CosimError, FmuTerminated
 from twmr.core.port import BINARY
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
+from twmr.master.jacobi_start import propagate_start_values
 from twmr.master.ticks import Event, Tick, TickEvents, binary_signals
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.scenario.system import System
@@ -268,6 +269,8 @@ class Execution:
             self._lifecycle("prepare", lambda c: c.prepare(context))
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize(), self._hardware_last())
+            if exp.algorithm == "jacobi":
+                propagate_start_values(self.system)
             self.algorithm.start()
             if paced:
                 gc.freeze()  # what set-up created too; no collection once drives run

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include "instance.h"
 
@@ -82,6 +83,20 @@ int inst_get(Instance *s, size_t index, size_t n, double *values) {
         kernel_eval(&s->c.m);
         s->c.dirty = 0;
         flush_warning(s);
+    }
+    if (s->c.phase == PH_INITIALIZATION) {
+        /* a calculated output in initialization mode: computed from the inputs and parameters
+         * set so far, as exiting would compute it (on a copy: nothing is committed) */
+        Model *probe = (Model *)malloc(sizeof *probe);
+        if (!probe) {
+            inst_log(s, ST_ERROR, "logStatusError", "out of memory");
+            return ST_ERROR;
+        }
+        memcpy(probe, &s->c.m, sizeof *probe);
+        kernel_init(probe);
+        memcpy(values, probe->v + index, n * sizeof *values);
+        free(probe);
+        return ST_OK;
     }
     memcpy(values, s->c.m.v + index, n * sizeof *values);
     return ST_OK;
