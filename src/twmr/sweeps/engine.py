@@ -32,7 +32,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from twmr.sweeps.folder import IDENTITY, JOURNAL, SweepFolder, append_row, write_table
+from twmr.sweeps.folder import (
+    IDENTITY,
+    JOURNAL,
+    SweepFolder,
+    append_row,
+    open_journal,
+    write_table,
+)
 from twmr.sweeps.run import RunTask, execute_batch
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
 
@@ -275,7 +282,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
             from tqdm import tqdm
 
             bar = tqdm(total=len(tasks), unit="run", dynamic_ncols=True, desc="sweep")
-        journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
+        journal = open_journal(folder / JOURNAL)
         from dask.distributed import as_completed
 
         slots = sum(client.nthreads().values()) or 1

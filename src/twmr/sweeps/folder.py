@@ -238,6 +238,16 @@ def release_lock(lock: IO[str]) -> None:
     lock.close()
 
 
+def open_journal(path: Path) -> IO[str]:
+    """The journal at `path` opened to append, a last line cut short by a kill removed first:
+    an append never lands on a fragment, so every resume reads every finished row."""
+    with contextlib.suppress(FileNotFoundError), open(path, "r+b") as f:
+        data = f.read()
+        if data and not data.endswith(b"\n"):
+            f.truncate(data.rfind(b"\n") + 1)
+    return open(path, "a", encoding="utf-8")  # noqa: SIM115 - closed by the caller
+
+
 def append_row(journal: IO[str], row: dict[str, Any]) -> None:
     """A finished run's row into the journal, flushed (a killed sweep keeps it)."""
     journal.write(json.dumps(row, default=_plain) + "\n")

@@ -42,7 +42,7 @@ from twmr.sweeps.engine import (
     overrides_of,
     vector_bases,
 )
-from twmr.sweeps.folder import append_row, release_lock, take_lock
+from twmr.sweeps.folder import append_row, open_journal, release_lock, take_lock
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepSpec, Vary, run_id
 from twmr.tune.objective import (
@@ -209,7 +209,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
         if left > 0 or (base_scenario is not None and not outcome.baseline):
             if workers != 1 or scheduler:
                 client, cluster = dask_client(workers, scheduler)
-            journal = open(folder / JOURNAL, "a", encoding="utf-8")  # noqa: SIM115 - closed below
+            journal = open_journal(folder / JOURNAL)
         if base_scenario is not None and not outcome.baseline:
             outcome.baseline = _run_baseline(spec, base_scenario, base_content, table, client)
             for r in outcome.baseline:
