@@ -128,10 +128,17 @@ class Expression:
         self.text = text
         try:
             self._tree = ast.parse(text.strip(), mode="eval").body
-        except SyntaxError:
+        except (SyntaxError, RecursionError, MemoryError):
             raise TuneError(f"{where} {text!r}: cannot read it. Fix: {EXPR_HINT}.") from None
         self.names: list[str] = []
         self._check(self._tree, where)
+        called = {id(n.func) for n in ast.walk(self._tree) if isinstance(n, ast.Call)}
+        for node in ast.walk(self._tree):  # a part of numbers alone must be a finite number
+            if isinstance(node, ast.BinOp | ast.Call) and not any(
+                    isinstance(n, ast.Name) and id(n) not in called for n in ast.walk(node)) \
+                    and not math.isfinite(self.value({}, node)):
+                raise TuneError(f"{where} {text!r}: '{ast.unparse(node)}' is not a finite "
+                                f"number. Fix: {EXPR_HINT}.")
 
     def _check(self, node: ast.AST, where: str) -> None:
         if isinstance(node, ast.Name):
@@ -157,10 +164,11 @@ class Expression:
             raise TuneError(f"{where} {self.text!r}: '{ast.unparse(node)}' is not allowed in "
                             f"it. Fix: {EXPR_HINT}.")
 
-    def value(self, figures: Mapping[str, Any]) -> float:
-        """The expression on one run's figures (nan where it is undefined, e.g. log of 0)."""
+    def value(self, figures: Mapping[str, Any], node: ast.AST | None = None) -> float:
+        """The expression (or its part `node`) on one run's figures (nan where it is
+        undefined, e.g. log of 0)."""
         try:
-            return float(self._eval(self._tree, figures))
+            return float(self._eval(self._tree if node is None else node, figures))
         except (ArithmeticError, ValueError, TypeError):
             return math.nan
 
@@ -168,7 +176,8 @@ class Expression:
         if isinstance(node, ast.Name):
             return float(env[node.id])
         if isinstance(node, ast.Constant):
-            return node.value
+            # in floats: 9 ** 9 ** 9 overflows at once instead of computing a huge integer
+            return float(node.value)
         if isinstance(node, ast.BinOp):
             return _BINARY[type(node.op)](self._eval(node.left, env),
                                           self._eval(node.right, env))
