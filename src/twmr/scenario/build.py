@@ -395,7 +395,12 @@ class _Builder:
                                          f"({start}).", "make stop > start."))
         else:
             n = (stop - start) / step
-            if n > MAX_STEPS:
+            if round(n) < 1:
+                self.problems.append(Problem(e.step.where, f"the step ({step:g} s) is longer "
+                                             f"than the run ({stop - start:g} s): no step "
+                                             f"would be taken.", "give a step that divides "
+                                             "the duration, e.g. (stop - start) / 1000."))
+            elif n > MAX_STEPS:
                 self.problems.append(Problem(e.stop.where, f"(stop - start) / step = {n:.3g} "
                                              f"steps, more than the limit of {MAX_STEPS:.0e}.",
                                              "shorten the run or take a larger step (see "
@@ -431,6 +436,13 @@ class _Builder:
                                          "refused.", "set 'loops: solve', or remove "
                                          "'loop_solver'."))
             return {"loops": loops}
+        for key, value in given.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                self.problems.append(Problem(e.loop_solver.where, f"loop_solver '{key}' is "
+                                             f"{value}; it must be a finite number.",
+                                             f"give {key} as a number, or leave it out for "
+                                             f"the default."))
+                return {"loops": loops}
         return {"loops": loops, "loop_solver": LoopSolver(**given)}
 
     def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
@@ -441,6 +453,12 @@ class _Builder:
                  if (g := getattr(e, k)) is not None and g.value is not None}
         if not given:
             return {}
+        for key, g in given.items():
+            if isinstance(g.value, float) and not math.isfinite(g.value):
+                self.problems.append(Problem(g.where, f"'{key}' is {g.value}; it must be a "
+                                             f"finite number.", f"give {key} as a positive "
+                                             f"number, or leave it out for the default."))
+                return {}
         if e.algorithm.value != "adaptive":
             key, g = next(iter(given.items()))
             self.problems.append(Problem(g.where, f"'{key}' applies to algorithm: adaptive only, "
