@@ -114,6 +114,8 @@ def test_live_page_streams_a_paced_run(browser, tmp_path):
             lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
         end = browser.execute_script("return twmrLive.end;")
         assert end["status"] == "completed", end
+        status = browser.execute_script("return document.getElementById('status').textContent;")
+        assert "paper_trajectory1" in status and "completed" in status, status
         browser.save_screenshot(str(tmp_path / "live_end.png"))
         columns = browser.execute_script("return twmrLive.columns;")
         page = np.array(browser.execute_script("return twmrLive.data;"), dtype=float).T

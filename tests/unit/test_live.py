@@ -140,10 +140,24 @@ def test_foreign_pages_and_hosts_are_refused(view):
     with pytest.raises(InvalidStatus, match="403"):
         connect(f"ws://127.0.0.1:{view.port}/ws",
                 additional_headers={"Origin": "http://evil.example"})
-    request = urllib.request.Request(f"http://127.0.0.1:{view.port}/",
-                                     headers={"Host": f"evil.example:{view.port}"})
-    with pytest.raises(urllib.error.HTTPError, match="403"):
-        urllib.request.urlopen(request, timeout=10)
+    for host in (f"evil.example:{view.port}", f"127.evil.example:{view.port}",
+                 f"127.0.0.1.evil.example:{view.port}", f"localhost:{view.port + 1}",
+                 "127.0.0.1"):
+        request = urllib.request.Request(f"http://127.0.0.1:{view.port}/",
+                                         headers={"Host": host})
+        with pytest.raises(urllib.error.HTTPError, match="403"):
+            urllib.request.urlopen(request, timeout=10)
+    for host in (f"localhost:{view.port}", f"127.0.0.2:{view.port}"):
+        request = urllib.request.Request(f"http://127.0.0.1:{view.port}/",
+                                         headers={"Host": host})
+        with urllib.request.urlopen(request, timeout=10) as page:
+            assert page.status == 200
+
+
+def test_the_page_writes_data_as_text_never_as_html():
+    html = (resources.files("twmr.observers") / "live_static" / "live.html").read_text()
+    assert "innerHTML" not in html and "outerHTML" not in html
+    assert "insertAdjacentHTML" not in html and "document.write" not in html
 
 
 def test_the_page_and_the_vendored_plots_are_served(view):

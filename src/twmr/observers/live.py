@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import ipaddress
 import json
 import logging
 import math
@@ -203,11 +204,19 @@ class LiveView(Observer):
                                             ("Connection", "close")]), body)
 
     def _host_allowed(self, host: str) -> bool:
-        """On a loopback address only loopback names (no DNS rebinding); elsewhere any."""
+        """On a loopback address only a loopback name or address with this server's port
+        (no DNS rebinding: '127.evil.example' is not 127.x.x.x); elsewhere any."""
         if not (self.host.startswith("127.") or self.host in ("::1", "localhost")):
             return True
-        name = host.rpartition(":")[0] if not host.endswith("]") else host
-        return name in _LOOPBACK_NAMES or name.startswith("127.")
+        name, _, port = host.rpartition(":") if not host.endswith("]") else (host, "", "")
+        if not name or port != str(self.port):
+            return False
+        if name in _LOOPBACK_NAMES:
+            return True
+        try:
+            return ipaddress.ip_address(name.strip("[]")).is_loopback
+        except ValueError:
+            return False
 
     def _serve_client(self, connection: Any) -> None:
         from websockets.exceptions import ConnectionClosed
