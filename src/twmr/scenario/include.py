@@ -19,6 +19,11 @@ from twmr.scenario.structure import Given, ScenarioSpec
 #: the files being included, outermost first, each with where its inclusion is written
 _CHAIN: ContextVar[tuple[tuple[Path, Location], ...]] = ContextVar("twmr_include_chain",
                                                                   default=())
+#: the inclusions read so far while one top-level scenario is loaded
+_COUNT: ContextVar[list[int]] = ContextVar("twmr_include_count")
+#: most inclusions one scenario may read (a file included twice counts twice: 24 files that
+#: each include the next twice would read 2^24), and most files deep
+MAX_INCLUSIONS, MAX_DEPTH = 1_000, 32
 
 
 def subsystem(name: str, parameters: dict[str, Given[Any]], initial: dict[str, Given[Any]],
@@ -54,6 +59,18 @@ def subsystem(name: str, parameters: dict[str, Given[Any]], initial: dict[str, G
     from twmr.scenario.loaders import load_structure
     from twmr.scenario.overrides import assign
 
+    if not chain:
+        _COUNT.set([0])
+    count = _COUNT.get()
+    count[0] += 1
+    if count[0] > MAX_INCLUSIONS or len(chain) >= MAX_DEPTH:
+        what = f"more than {MAX_INCLUSIONS:,} inclusions (a file included twice counts twice)" \
+            if count[0] > MAX_INCLUSIONS else f"more than {MAX_DEPTH} files deep"
+        raise ScenarioError(Problem(given.where, f"component '{name}' includes '{shown}': the "
+                                    f"scenario reads {what}, which no system needs.",
+                                    "include each part once and wire it where it is needed; a "
+                                    "subsystem used many times can be one file with vector "
+                                    "ports."))
     token = _CHAIN.set((*(chain or ((_resolved(source) or target, where),)),
                         (target, given.where)))
     try:
