@@ -496,10 +496,16 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     c.add_argument("scenario")
     with_set(c)
     c.add_argument("--schedule", action="store_true", help="print the generated step loop")
+    c.add_argument("--trust-code", action="store_true",
+                   help="import the scenario's own Python blocks to check them (importing runs "
+                   "their code; without it they are refused)")
     c.set_defaults(fn=cmd_check)
     k = sub.add_parser("components", parents=[common],
                        help="list component kinds with ports, parameters, units")
     k.add_argument("kinds", nargs="*")
+    k.add_argument("--trust-code", action="store_true",
+                   help="import the scenario's own Python blocks to check them (importing runs "
+                   "their code; without it they are refused)")
     k.set_defaults(fn=cmd_components)
     pl = sub.add_parser("plot", parents=[common],
                         help="plot a result (folder, .arrows, .csv, .mat or .parquet)")
@@ -580,6 +586,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     i.add_argument("fmu")
     i.add_argument("--json", action="store_true",
                    help="print the interface (ports: name, causality, type, unit, size) as JSON")
+    i.add_argument("--trust-code", action="store_true",
+                   help="import the scenario's own Python blocks to check them (importing runs "
+                   "their code; without it they are refused)")
     i.set_defaults(fn=cmd_inspect)
     e = sub.add_parser("export", parents=[common],
                        help="export a component kind as a standalone C FMU (co-simulation), "
@@ -655,7 +664,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     _configure_logging(args)
     t0 = time.perf_counter()
     try:
-        return int(args.fn(args) or 0)
+        from twmr.scenario.kinds import inspecting
+
+        guard = inspecting(args.trust_code) if hasattr(args, "trust_code") else \
+            contextlib.nullcontext()
+        with guard:
+            return int(args.fn(args) or 0)
     except CosimError as err:
         if args.debug:
             raise

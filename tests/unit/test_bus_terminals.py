@@ -25,6 +25,12 @@ class Node(Component):
         "Tx_Data": "tx", "Tx_Clock": "tx_tick", "Rx_Data": "rx", "Rx_Clock": "rx_tick"})})
 
 
+@pytest.fixture(autouse=True)
+def _allow_this_module(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The scenarios name this test module's block: allowed as a user would allow a package."""
+    monkeypatch.setenv("TWMR_ALLOW_CODE", "tests")
+
+
 def scenario(wire: str) -> str:
     return f"""
 components:

@@ -391,10 +391,15 @@ class Execution:
             raise
         except KeyboardInterrupt:
             raise
-        except Exception as exc:  # noqa: BLE001
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - a block's exit() too
             name, call, t = self.algorithm.locate(exc)
             if math.isfinite(t):
                 self._n = self._step_of(t)
+            if isinstance(exc, SystemExit):
+                raise ComponentError(
+                    name, t, f"{call} called exit ({exc.code!r}), which would end twmr with "
+                    f"nothing said. Fix: raise an exception (or return) instead of exiting; "
+                    f"the results up to it are saved.") from None
             raise ComponentError(
                 name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
                 f"inputs and parameters at that time (the results up to it are saved)."

@@ -10,12 +10,16 @@ module, the class, the line of the user's code at fault) and how to fix it.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
+import os
 import re
 import sys
 import traceback
+from collections.abc import Iterator
+from contextvars import ContextVar
 from pathlib import Path
 from types import ModuleType
 
@@ -52,8 +56,10 @@ def load_kind(kind: str, base_dir: Path | None = None) -> type[Component]:
         raise KindError(f"the kind '{kind}' names no class after ':'.",
                         f"write the class name after the colon, e.g. '{example}:MyBlock'.")
     if is_file:
+        _trusted_file(kind, target, base)
         module, where = _import_file(kind, target, base), f"the file '{target}'"
     elif _MODULE.match(target):
+        _trusted_module(kind, target)
         module, where = _import_module(kind, target, name, base), f"the module '{target}'"
     else:
         raise KindError(f"the kind '{kind}': '{target}' is neither a Python file (ending in "
@@ -61,6 +67,65 @@ def load_kind(kind: str, base_dir: Path | None = None) -> type[Component]:
                         f"write 'path/to/file.py:{name}' (relative to the scenario's folder) "
                         f"or 'package.module:{name}'.")
     return _component_class(module, name, where)
+
+
+#: folders (os.pathsep-separated) and module names beyond the scenario's own folder tree whose
+#: code a scenario may run; '*' allows any (docs/security.md)
+ALLOW_CODE = "TWMR_ALLOW_CODE"
+
+
+def _allowed() -> list[str]:
+    return [a for a in os.environ.get(ALLOW_CODE, "").split(os.pathsep) if a.strip()]
+
+
+@contextlib.contextmanager
+def inspecting(trust_code: bool = False) -> Iterator[None]:
+    """While inside, a scenario is being inspected (`twmr check`, `inspect`, `components`):
+    user code is not imported unless `trust_code` (--trust-code)."""
+    token = _INSPECTING.set(not trust_code)
+    try:
+        yield
+    finally:
+        _INSPECTING.reset(token)
+
+
+def _inspecting_refused(kind: str) -> None:
+    if _INSPECTING.get():
+        raise KindError(f"the kind '{kind}' is user code: inspecting the scenario would import "
+                        f"it, and importing runs it.", "read the file first, then inspect with "
+                        "--trust-code (twmr check --trust-code ...), or run the scenario.")
+
+
+def _trusted_file(kind: str, target: str, base: Path) -> None:
+    """Refuse a file outside the scenario's folder tree unless TWMR_ALLOW_CODE allows it."""
+    _inspecting_refused(kind)
+    path = (base / Path(target).expanduser()).resolve()
+    roots = [base.resolve(), *(Path(a).expanduser().resolve() for a in _allowed() if a != "*")]
+    if "*" in _allowed() or any(path.is_relative_to(r) for r in roots):
+        return
+    raise KindError(f"the kind '{kind}' names '{path}', outside the scenario's folder "
+                    f"({base.resolve()}); a scenario runs only code from its own folder tree.",
+                    f"move the file beside the scenario, or allow its folder: "
+                    f"{ALLOW_CODE}={path.parent} (several separated by '{os.pathsep}').")
+
+
+def _trusted_module(kind: str, target: str) -> None:
+    """Refuse a module that is not ours unless TWMR_ALLOW_CODE names it (or its package):
+    installed blocks are registered by name (entry points) instead."""
+    if target == "twmr" or target.startswith("twmr."):
+        return
+    _inspecting_refused(kind)
+    allowed = _allowed()
+    if "*" in allowed or any(target == a or target.startswith(f"{a}.") for a in allowed):
+        return
+    raise KindError(f"the kind '{kind}' imports the module '{target}'; a scenario imports only "
+                    f"files in its own folder tree and blocks installed by name.",
+                    f"use the name the package registers ({_DOCS}), or allow the module: "
+                    f"{ALLOW_CODE}={target.split('.')[0]}.")
+
+
+#: True while `twmr check`, `inspect` or `components` reads a scenario without --trust-code
+_INSPECTING: ContextVar[bool] = ContextVar("twmr_inspecting", default=False)
 
 
 def _component_class(module: ModuleType, name: str, where: str) -> type[Component]:
@@ -114,7 +179,7 @@ def _import_file(kind: str, target: str, base: Path) -> ModuleType:
     sys.modules[name] = module  # the file's own dataclasses and kernels find their module
     try:
         spec.loader.exec_module(module)
-    except Exception as err:  # noqa: BLE001 - the user's code: reported with its own file:line
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - the user's code, at its file:line
         del sys.modules[name]
         raise code_failure(err, f"importing the file '{path}'", path) from None
     return module
@@ -134,7 +199,7 @@ def _import_module(kind: str, target: str, name: str, base: Path) -> ModuleType:
                         f"install the package that provides it (an installed package may "
                         f"register its kinds by name, {_DOCS}), or name a file: "
                         f"'path/to/file.py:{name}' relative to the scenario's folder.") from None
-    except Exception as err:  # noqa: BLE001 - the module's code: reported with its file:line
+    except (Exception, SystemExit) as err:  # noqa: BLE001 - the module's code, at its file:line
         raise code_failure(err, f"importing the module '{target}'", _origin(target)) from None
 
 
@@ -162,6 +227,10 @@ def code_failure(err: BaseException, doing: str, path: Path | None) -> KindError
         at = f"{err.filename}:{err.lineno}" if err.lineno else str(err.filename)
         return KindError(f"{doing} failed: a syntax error at {at}: {err.msg}.",
                          f"correct line {err.lineno} of {err.filename}.")
+    if isinstance(err, SystemExit):
+        return KindError(f"{doing} failed{line}: the code called exit ({err.code!r}), which "
+                         f"would end twmr with nothing said.", "remove the exit from the "
+                         "module's top level (guard it with `if __name__ == '__main__':`).")
     if isinstance(err, ModuleNotFoundError) and err.name:
         return KindError(f"{doing} failed{line}: no module named '{err.name}'.",
                          f"install the package that provides '{err.name}' "
