@@ -397,7 +397,7 @@ CASES: dict[str, Case] = {
     "kind-python-file-missing": Case(sub("kind: gain", "kind: 'nope.py:Gain'"),
                                      mentions=(f"{F}:6", "nope.py", "ctrl")),
     "kind-python-module-not-a-class": Case(sub("kind: gain", "kind: 'math:pi'"),
-                                           mentions=(f"{F}:6", "'pi'", "ctrl")),
+                                           mentions=(f"{F}:6", "math:pi", "ctrl", "--trust-code")),
     "kind-empty-string": Case(sub("kind: gain", "kind: ''"), mentions=(f"{F}:6", "ctrl")),
     # record and open
     "record-matches-nothing": Case(sub('"plant.*"', '"nothing.*"'),

@@ -32,6 +32,12 @@ T2 = T1 + 2 * E * math.sqrt(2 * G * H0) / G
 BALLS = ["bounce2s", "bounce3"]  # FMI 2.0 and 3.0, both with their state
 
 
+@pytest.fixture(autouse=True)
+def _allow_this_module(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The scenarios name blocks of this test module: allowed as a user allows a package."""
+    monkeypatch.setenv("TWMR_ALLOW_CODE", "tests")
+
+
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out = tmp_path_factory.mktemp("event_fmus")

@@ -80,7 +80,7 @@ def test_engine_sources_never_import_the_robot_or_can_packages() -> None:
     banned = re.compile(r"^\s*(from|import)\s+(twmr\.components|twmr\.hw|can|canopen|cantools)\b",
                         re.MULTILINE)
     for path in (ROOT / "src" / "twmr").rglob("*.py"):
-        found = banned.search(path.read_text())
+        found = banned.search(path.read_text(encoding="utf-8"))
         assert found is None, f"{path.relative_to(ROOT)}: {found.group(0)}"
 
 
@@ -109,12 +109,12 @@ def test_engine_ships_no_robot_code() -> None:
     assert {"twmr_plant", "asmc", "slip_disturbance"} <= robot
     engine = ROOT / "src" / "twmr"
     for path in engine.rglob("*.py"):
-        named = robot & _code_strings(ast.parse(path.read_text()))
+        named = robot & _code_strings(ast.parse(path.read_text(encoding="utf-8")))
         assert not named, f"{path.relative_to(ROOT)} names the robot's kinds {sorted(named)}"
     engine_twins = {Path(plugin(C_KERNELS, k, "C twin").source).resolve()
                     for k in set(plugins(C_KERNELS)) - robot}
     defines_kernel = re.compile(r"^void kernel_step\(", re.MULTILINE)
     for path in engine.rglob("*.c"):
-        if defines_kernel.search(path.read_text()):
+        if defines_kernel.search(path.read_text(encoding="utf-8")):
             assert path.resolve() in engine_twins, (
                 f"{path.relative_to(ROOT)} is a block's C kernel but no engine block's C twin")

@@ -59,7 +59,7 @@ def load_kind(kind: str, base_dir: Path | None = None) -> type[Component]:
         _trusted_file(kind, target, base)
         module, where = _import_file(kind, target, base), f"the file '{target}'"
     elif _MODULE.match(target):
-        _trusted_module(kind, target)
+        _trusted_module(kind, target, name, base)
         module, where = _import_module(kind, target, name, base), f"the module '{target}'"
     else:
         raise KindError(f"the kind '{kind}': '{target}' is neither a Python file (ending in "
@@ -109,7 +109,7 @@ def _trusted_file(kind: str, target: str, base: Path) -> None:
                     f"{ALLOW_CODE}={path.parent} (several separated by '{os.pathsep}').")
 
 
-def _trusted_module(kind: str, target: str) -> None:
+def _trusted_module(kind: str, target: str, name: str, base: Path) -> None:
     """Refuse a module that is not ours unless TWMR_ALLOW_CODE names it (or its package):
     installed blocks are registered by name (entry points) instead."""
     if target == "twmr" or target.startswith("twmr."):
@@ -118,8 +118,11 @@ def _trusted_module(kind: str, target: str) -> None:
     allowed = _allowed()
     if "*" in allowed or any(target == a or target.startswith(f"{a}.") for a in allowed):
         return
-    raise KindError(f"the kind '{kind}' imports the module '{target}'; a scenario imports only "
-                    f"files in its own folder tree and blocks installed by name.",
+    local = base / f"{target.replace('.', '/')}.py"
+    hint = f" (did you mean the file '{target.replace('.', '/')}.py:{name}'?)" \
+        if local.is_file() else ""
+    raise KindError(f"the kind '{kind}' imports the module '{target}'{hint}; a scenario imports "
+                    f"only files in its own folder tree and blocks installed by name.",
                     f"use the name the package registers ({_DOCS}), or allow the module: "
                     f"{ALLOW_CODE}={target.split('.')[0]}.")
 
