@@ -172,16 +172,20 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     from twmr.observers.pacing import PacingReport
 
     final = Path(out)
-    stage = _stage(final)
-    ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage)
-    error: BaseException | None = None
+    lock = _lock_folder(final)
     try:
-        ex.run()
-    except BaseException as exc:  # noqa: BLE001 - the folder is settled, then it is raised
-        error = exc
-    with held_signals():  # a second Ctrl-C must not cut the saving short
-        folder = _settle(stage, final, error is None)
-        result = _finish_folder(folder, tuple(formats), metric_fns)
+        stage = _stage(final)
+        ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage)
+        error: BaseException | None = None
+        try:
+            ex.run()
+        except BaseException as exc:  # noqa: BLE001 - the folder is settled, then it is raised
+            error = exc
+        with held_signals():  # a second Ctrl-C must not cut the saving short
+            folder = _settle(stage, final, error is None)
+            result = _finish_folder(folder, tuple(formats), metric_fns)
+    finally:
+        lock.close()
     if error is not None:
         error.partial_results = folder  # type: ignore[attr-defined]
         raise error
@@ -190,6 +194,37 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
 
 #: what a folder `simulate` may replace holds only these (a previous run's results)
 _RESULT_FILES = ("result.arrows", "summary.json")
+
+
+def _lock_folder(final: Path) -> Any:
+    """Hold `.<out>.lock` beside the results folder for the run (`flock`, let go by the kernel
+    when the process dies); CosimError naming the holder when another run holds it, since the
+    second result would silently replace the first."""
+    import fcntl
+    import json
+    import socket
+
+    path = final.absolute().with_name(f".{final.name}.lock")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(path, "a+", encoding="utf-8")  # noqa: SIM115 - closed by the caller
+    except OSError as err:
+        raise CosimError(f"cannot create {path} ({err.strerror or err}). Fix: give a results "
+                         f"folder you can write.") from None
+    try:
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lock.seek(0)
+        holder = lock.read().strip() or "a process"
+        lock.close()
+        raise CosimError(f"the results folder '{final}' is in use by another run ({holder}); "
+                         f"its result would replace this one's. Fix: wait for it to end, or "
+                         f"give another --out.") from None
+    lock.seek(0)
+    lock.truncate(0)
+    lock.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}) + "\n")
+    lock.flush()
+    return lock
 
 
 def _stage(final: Path) -> Path:
