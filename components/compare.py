@@ -22,12 +22,31 @@ METRICS = ("settling_time_x", "settling_time_y", "peak_error_x", "peak_error_y",
 UNITS = {"settling_time": "s", "peak_error": "m", "mse": "m2"}
 
 
-def run_scenario(path: Path, out: Path, overrides: Sequence[str] = ()) -> np.ndarray:
-    """Load and run one scenario, results in `out/<stem>/`; the recorded structured array."""
+def labels(paths: list[Path]) -> list[str]:
+    """A name per scenario: its file's stem, with as many of its folders in front as tell two
+    files of one stem apart ('a/x', 'b/x'); the same file twice is refused."""
+    resolved = [p.resolve() for p in paths]
+    twice = {str(p) for p in resolved if resolved.count(p) > 1}
+    if twice:
+        raise CosimError(f"{sorted(twice)[0]} is given twice. Fix: name each scenario once.")
+    depth = 0
+    while True:
+        names = ["/".join((*p.parent.parts[len(p.parent.parts) - depth:], p.stem)) if depth
+                 else p.stem for p in resolved]
+        if len(set(names)) == len(names):
+            return names
+        depth += 1
+
+
+def run_scenario(path: Path, out: Path, overrides: Sequence[str] = (),
+                 label: str = "") -> np.ndarray:
+    """Load and run one scenario, results in `out/<label>/` (default: its stem); the recorded
+    structured array."""
     import twmr
 
     print(f"running {path} ...", file=sys.stderr)
-    result = twmr.simulate(twmr.load(path, overrides), out / path.stem, progress=True)
+    result = twmr.simulate(twmr.load(path, overrides), out / (label or path.stem),
+                           progress=True)
     return np.array(result.data)
 
 
@@ -106,7 +125,8 @@ def compare(paths: list[Path], as_json: bool = False, out: Path | None = None,
     """Run every scenario, print the table (or JSON keyed by scenario, then metric), save
     figures."""
     out = out or Path("results") / "compare"
-    runs = {p.stem: run_scenario(p, out, overrides) for p in paths}
+    runs = {name: run_scenario(p, out, overrides, name)
+            for p, name in zip(paths, labels(paths), strict=True)}
     results: dict[str, dict[str, Any]] = {}
     for name, data in runs.items():
         m = tracking_metrics(data)
