@@ -14,6 +14,7 @@ reads either.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import shutil
@@ -185,7 +186,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
             folder = _settle(stage, final, error is None)
             result = _finish_folder(folder, tuple(formats), metric_fns)
     finally:
-        lock.close()
+        _unlock_folder(lock)
     if error is not None:
         error.partial_results = folder  # type: ignore[attr-defined]
         raise error
@@ -225,6 +226,14 @@ def _lock_folder(final: Path) -> Any:
     lock.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}) + "\n")
     lock.flush()
     return lock
+
+
+def _unlock_folder(lock: Any) -> None:
+    """Let go of `_lock_folder`'s lock, its file removed (nothing of it stays beside the
+    results; one a killed run left is taken over by the next)."""
+    with contextlib.suppress(OSError):
+        os.unlink(lock.name)
+    lock.close()
 
 
 def _stage(final: Path) -> Path:

@@ -26,6 +26,8 @@ def test_a_second_run_into_a_folder_in_use_is_refused(tmp_path: Path) -> None:
         assert not out.exists()
     finally:
         held.close()
+        (tmp_path / ".run.lock").unlink()
     result = twmr.simulate(SCENARIO, out=str(out))
     assert len(result.to_pandas()) == 6 and (out / "result.arrows").is_file()
     twmr.simulate(SCENARIO, out=str(out))  # a later run replaces it, as before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no lock left beside it
