@@ -77,7 +77,10 @@ def test_libcosim_demo_ends_where_libcosim_ends(stop: float, tmp_path: Path) -> 
 
 
 def test_embrace_runs_with_dotted_connectors(tmp_path: Path) -> None:
+    import locale
+
     folder = corpus("ssp", "omsimulator-embrace")
+    before = locale.setlocale(locale.LC_ALL)
     spec = load_ssp(folder)
     wires = {c.value for c in spec.connections}
     assert any(".consumerFeed.p" in w for w in wires)
@@ -86,6 +89,8 @@ def test_embrace_runs_with_dotted_connectors(tmp_path: Path) -> None:
     assert len(rows) == 1001 and rows["time"].iloc[-1] == 1.0
     assert np.isfinite(rows.drop(columns="time").to_numpy()).all()
     assert "Consumer.consumerFeed.p" in rows.columns
+    # its FMUs set the C locale (Python would read text as ASCII after them): set back
+    assert locale.setlocale(locale.LC_ALL) == before
 
 
 def test_round_trip_keeps_the_recording_and_so_the_metrics(tmp_path: Path) -> None:

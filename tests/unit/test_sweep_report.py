@@ -61,7 +61,7 @@ def test_summary_states_the_spread_of_every_metric_and_every_failure(tmp_path) -
     written = sweep_report(folder)
     report = folder / "report"
     assert written[0] == report / "summary.md"
-    text = written[0].read_text()
+    text = written[0].read_text(encoding="utf-8")
     assert "scenarios/paper_asmc.yaml" in text and "lhs" in text and "`7`" in text
     assert "uniform:0.9:1.1" in text and "uniform:0:2" in text
     assert "30 runs: 28 ok, 2 failed." in text
@@ -91,7 +91,7 @@ def test_all_failed_gives_the_failures_and_no_plot(tmp_path) -> None:
     folder = _folder(tmp_path, _runs(4, errors), SPEC)
     written = sweep_report(folder, tmp_path / "out")
     assert written == [tmp_path / "out" / "summary.md"]
-    text = written[0].read_text()
+    text = written[0].read_text(encoding="utf-8")
     assert "4 runs: 0 ok, 4 failed." in text
     assert all(f"`{i:012x}`" in text and f"run {i} broke" in text for i in errors)
     assert text.count("no finite value") == len(METRICS)
@@ -103,7 +103,7 @@ def test_text_parameters_without_sweep_json_and_an_empty_metric(tmp_path) -> Non
     frame["energy"] = math.nan
     folder = _folder(tmp_path, frame)
     written = sweep_report(folder)
-    text = written[0].read_text()
+    text = written[0].read_text(encoding="utf-8")
     assert "no sweep.json" in text
     assert "| `ctrl.mode` | ? | fast, safe, slow |" in text
     assert "| `energy` | no finite value |" in text

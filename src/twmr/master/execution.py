@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import locale
 import logging
 import math
 import signal
@@ -73,6 +74,19 @@ class RunInterrupted(KeyboardInterrupt):
 class ResultWriteError(CosimError):
     """Recording failed (disk full, folder removed...): the run stopped, components terminated."""
 
+
+
+@contextlib.contextmanager
+def kept_locale(who: str) -> Iterator[None]:
+    """The process locale as it was before `who` ran: an FMU's library may set it (Modelica
+    tools' FMUs set LC_ALL to "C"), which would make Python read and write text as ASCII."""
+    before = locale.setlocale(locale.LC_ALL)
+    try:
+        yield
+    finally:
+        if locale.setlocale(locale.LC_ALL) != before:
+            locale.setlocale(locale.LC_ALL, before)
+            log.debug("%s changed the process locale; it is set back", who)
 
 @dataclass(frozen=True)
 class RunContext:
@@ -289,7 +303,8 @@ class Execution:
         finally:
             self._stopping = True  # from here on, a further signal is ignored
             wall = time.perf_counter() - self._wall0
-            self._terminate_all()
+            with kept_locale("terminate"):
+                self._terminate_all()
             if frozen:
                 gc.unfreeze()
                 sys.setswitchinterval(switch)
@@ -486,7 +501,8 @@ class Execution:
         for name in self.system.order if order is None else order:
             comp = self.system.components[name]
             try:
-                fn(comp)
+                with kept_locale(name):
+                    fn(comp)
             except (CosimError, KeyboardInterrupt):
                 raise
             except Exception as exc:  # noqa: BLE001 - every component failure is reported
