@@ -40,9 +40,10 @@ def _odrive_options(texts: Mapping[str, str]) -> dict[str, int]:
 
 ODRIVE = CNode(source=C / "odrive_node.c", codec=(C / "odrive.c", C / "odrive.h"),
                parameters=_drive_parameters("node_ids", "gear", "torque_limit", "speed_limit",
-                                            "torque_constant"),
+                                            "torque_constant", "watchdog_periods"),
                texts={"firmware": CanMotorDrive.firmware.start}, options=_odrive_options,
                state=2)
 CIA402 = CNode(source=C / "cia402_node.c", codec=(C / "cia402.c", C / "cia402.h"),
-               parameters=_drive_parameters("node_ids", "gear", "torque_limit", "rated_torque"),
+               parameters=_drive_parameters("node_ids", "gear", "torque_limit", "rated_torque",
+                                            "watchdog_periods"),
                state=6)

@@ -23,7 +23,7 @@ import math
 import queue
 import threading
 import time
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar, Protocol
@@ -67,6 +67,8 @@ class BusCore:
         self.failures: list[str] = []  # of participants, gateways, the log, the thread
         self._errors: list[BusEvent] = []  # the first bus errors
         self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
+        self.sent_by: Counter[str] = Counter()  # frames transmitted, by participant
+        self.last_error: BusEvent | None = None
         self._members: dict[str, Participant] = {}
         self._cond = threading.Condition()
 
@@ -100,6 +102,10 @@ class BusCore:
     def _record(self, event: BusEvent) -> None:
         if event.kind in self.counts:
             self.counts[event.kind] += 1
+        if event.kind == "transmit":
+            self.sent_by[event.sender] += 1
+        elif event.kind == "bus_error":
+            self.last_error = event
         if event.kind != "confirm":
             self.rows.append((event.kind, event.time, event.start, event.frame, event.sender,
                               event.detail))
@@ -134,6 +140,7 @@ class BusRunner(BusCore):
         self._keepers: set[str] = set()
         self._closing = False
         self._stopped = False
+        self._handing = False  # the thread is handing events to the participants
         self._thread = threading.Thread(target=self._run, name=f"can-bus {name}", daemon=True)
         with _RUNNERS_LOCK:
             _RUNNERS[channel] = self
@@ -156,8 +163,8 @@ class BusRunner(BusCore):
         last participant that keeps a closed bus open stops it."""
         deadline = time.monotonic() + flush
         with self._cond:
-            while self.model.pending(name) and time.monotonic() < deadline and \
-                    self._thread.is_alive():
+            while (self.model.pending(name) or self._handing) and \
+                    time.monotonic() < deadline and self._thread.is_alive():
                 self._cond.wait(deadline - time.monotonic())
             self._members.pop(name, None)
             self._keepers.discard(name)
@@ -166,6 +173,18 @@ class BusRunner(BusCore):
             last = self._closing and not self._keepers
         if last:
             self._stop()
+
+    def handed(self, name: str, timeout: float) -> bool:
+        """Wait (at most `timeout` [s]) until the frames `name` queued have been on the wire
+        and handed to the others; whether they have."""
+        deadline = time.monotonic() + timeout
+        with self._cond:
+            while (self.model.pending(name) or self._handing) and self._thread.is_alive():
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self._cond.wait(left)
+            return not self.model.pending(name)
 
     def submit(self, sender: str, frame: can.Message, at: float | None = None) -> str:
         """Queue `frame` of `sender` now (or at run time `at` [s], for a participant stepped in
@@ -209,8 +228,11 @@ class BusRunner(BusCore):
                         if event.kind != "bus_error" or not math.isnan(event.start):
                             self._record(event)  # refusals were recorded at submission
                     members = dict(self._members)
-                    self._cond.notify_all()
+                    self._handing = True
                 self._dispatch(events, members)
+                with self._cond:
+                    self._handing = False
+                    self._cond.notify_all()
             except Exception as err:  # noqa: BLE001 - the bus thread outlives any failure
                 self.failures.append(f"bus '{self.name}' thread: {type(err).__name__}: {err}")
 
@@ -259,7 +281,8 @@ class BlockBus(can.BusABC):
         self.name = participant or "python-can"
         self.channel_info = f"can_bus '{bus.name}'"
         self._runner = bus
-        self._queue: queue.SimpleQueue[can.Message] = queue.SimpleQueue()
+        #: frames delivered and not yet received (as python-can's virtual bus has it)
+        self.queue: queue.SimpleQueue[can.Message] = queue.SimpleQueue()
         self._runner.join(self)
 
     def deliver(self, event: BusEvent) -> None:
@@ -270,9 +293,9 @@ class BlockBus(can.BusABC):
                               is_fd=event.frame.is_fd, bitrate_switch=event.frame.bitrate_switch,
                               dlc=event.frame.dlc, data=bytes(event.frame.data), is_rx=True,
                               channel=self._runner.name, check=False)
-            self._queue.put(msg)
+            self.queue.put(msg)
         elif event.kind == "bus_error" and not math.isnan(event.start):
-            self._queue.put(can.Message(timestamp=time.time(), is_error_frame=True,
+            self.queue.put(can.Message(timestamp=time.time(), is_error_frame=True,
                                         channel=self._runner.name, is_rx=True))
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
@@ -283,7 +306,7 @@ class BlockBus(can.BusABC):
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         try:
-            msg = self._queue.get_nowait() if timeout == 0 else self._queue.get(timeout=timeout)
+            msg = self.queue.get_nowait() if timeout == 0 else self.queue.get(timeout=timeout)
         except queue.Empty:
             return None, False
         return msg, False

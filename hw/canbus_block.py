@@ -20,8 +20,10 @@ frames carried so far, bus errors so far, the bus load over the last step.
 """
 from __future__ import annotations
 
+import logging
 import math
 import time
+from collections import Counter, deque
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -42,9 +44,16 @@ from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import bus_options, describe, interface_problem
 from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
-from twmr.hw.cansim import STUFFING, CanBusModel
+from twmr.hw.cansim import STARVED, STUFFING, CanBusModel
 from twmr.hw.lsbus_node import LsBusNode, frame_of
 from twmr.hw.steppedbus import SteppedBus
+
+log = logging.getLogger(__name__)
+
+#: the share of its time the bus is busy over `flood_time` from which it counts as flooded
+FLOODED = 0.9
+#: the share of the steps over `flood_time` that must be flooded (or have bus errors) to stop
+BAD_SHARE = 0.8
 
 
 def channel_of(run_id: int, name: str) -> str:
@@ -85,6 +94,7 @@ class CanBus(Component):
 
     kind = "can_bus"
     construction_parameters = ("can_config",)
+    terminate_stage = 1  # after the nodes whose last frames it carries
     #: beside the ports, what a step changes: the bus time busy so far [s], and which rates
     #: LS-BUS nodes set (((key, who and when), ...))
     state_attributes = ("_busy", "_set_by")
@@ -103,6 +113,11 @@ class CanBus(Component):
     can_context = Parameter("default", type=STRING, description="section of can_config")
     log_file = Parameter("auto", type=STRING, description="frame log (.arrows) in the results "
                          "folder; 'auto' = <name>_frames.arrows, '' = none")
+    flood_time = Parameter(0.1, unit="s", min=0.0, description="a bus on the wall clock (drives, "
+                           f"hardware) stops the run when over this long it was busy "
+                           f"{FLOODED:.0%} of the time, or {BAD_SHARE:.0%} of the steps had a "
+                           f"frame lose {STARVED} arbitrations or a bus error (a flood or an "
+                           "error storm; a simulated bus notes it once; 0: never)")
 
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
@@ -118,6 +133,7 @@ class CanBus(Component):
         self._given: frozenset[str] = frozenset()
         self._nodes: dict[str, LsBusNode] = {}
         self._limits: dict[str, int] = {}  # terminal -> the maxSize of its peer's Rx_Data
+        self._hosts: dict[str, Component] = {}  # terminal -> the component behind it
         self._busy = 0.0
         self._set_by: tuple[tuple[str, str], ...] = ()
 
@@ -213,6 +229,7 @@ class CanBus(Component):
             self.__dict__[var.name] = var.start
         self.terminals[name] = {m: f"{name}.{m}" for m in members}
         self.peers[name] = (peer.name, terminal)
+        self._hosts[name] = peer
         rx = peer.terminals[terminal].get("Rx_Data", "")
         if isinstance(source, Path) and rx in (sizes := max_sizes(source)):
             self._limits[name] = sizes[rx]
@@ -224,6 +241,11 @@ class CanBus(Component):
         self._start = 0.0
         self._busy = 0.0
         self._set_by = ()
+        #: the steps of the last flood_time: (t, a frame starved, a bus error, bus time, busy
+        #: time, frames sent by whom so far), and the model's (starved, bus errors) counts
+        self._flood: tuple[deque[tuple[float, bool, bool, float, float, Counter[str]]],
+                           tuple[int, int]] = (deque(), (0, 0))
+        self._flood_told = False
         self.gateway: Gateway | None = None
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
                             str(self.stuffing))
@@ -274,6 +296,7 @@ class CanBus(Component):
         self._take(bus, t)
         if isinstance(bus, SteppedBus):
             bus.advance(t + h)
+        self._t_end = t + h
         d = self.__dict__
         for terminal, node in self._nodes.items():
             told = node.received()
@@ -285,6 +308,55 @@ class CanBus(Component):
         busy = bus.model.busy_time
         self.load = min(1.0, (busy - self._busy) / h)
         self._busy = busy
+        self._watch_flood(bus, t, h)
+
+    def _watch_flood(self, bus: BusRunner | SteppedBus, t: float, h: float) -> None:
+        """HardwareError once, over the last `flood_time`, the bus was busy `FLOODED` of its
+        time, or `BAD_SHARE` of the steps had a frame starved (it lost `STARVED` arbitrations)
+        or a bus error (a flood, or an error storm), naming who sent most in that time (or the
+        last error)."""
+        steps, before = self._flood
+        counts = (bus.model.starved, bus.counts["bus_error"])
+        starved, failed = (now > was for now, was in zip(counts, before, strict=True))
+        clock = t + h if isinstance(bus, SteppedBus) else bus.now()  # bus time
+        steps.append((t, starved, failed, clock, bus.model.busy_time, Counter(bus.sent_by)))
+        self._flood = (steps, counts)
+        while len(steps) > 1 and steps[1][0] <= t + h - self.flood_time + 1e-9 * h:
+            steps.popleft()
+        span = t + h - steps[0][0]
+        if self.flood_time <= 0 or span < self.flood_time - 1e-9 * h:
+            return
+        first = steps[0]
+        load = (bus.model.busy_time - first[4]) / max(clock - first[3], 1e-12)
+        starving = sum(s[1] for s in steps)
+        stormy = sum(s[2] for s in steps)
+        flooded = load >= FLOODED or starving >= BAD_SHARE * len(steps)
+        if not flooded and stormy < BAD_SHARE * len(steps):
+            return
+        window = Counter(bus.sent_by)
+        window.subtract(first[5])
+        total = sum(window.values())
+        if flooded and total:
+            who, n = window.most_common(1)[0]
+            what = (f"flooded: over {span:.3g} s from t = {first[0]:.6g} s the bus was busy "
+                    f"{load:.0%} of the time and {starving} of {len(steps)} steps had a frame "
+                    f"lose {STARVED} arbitrations; participant '{who}' sent {n} of the {total} "
+                    f"frames")
+        else:
+            last = bus.last_error
+            what = (f"an error storm: over {span:.3g} s from t = {first[0]:.6g} s, {stormy} of "
+                    f"{len(steps)} steps had bus errors" +
+                    (f", the last: {bus.describe(last)}" if last else ""))
+        steps.clear()
+        if isinstance(bus, SteppedBus):  # a simulated bus only: the run may study a flood
+            if not self._flood_told:
+                self._flood_told = True
+                log.warning("bus '%s' %s (noted once; on a bus with drives the run would stop)",
+                            self.name, what)
+            return
+        raise HardwareError(self.name, t + h, f"bus '{self.name}' {what}. The run stops, every "
+                            f"drive at zero torque and disabled. Fix: find the participant that "
+                            f"floods or fails; flood_time: 0 turns the watch off.")
 
     def _join(self, bus: BusRunner | SteppedBus) -> None:
         for node in self._nodes.values():
@@ -395,9 +467,14 @@ class CanBus(Component):
         return out
 
     def terminate(self) -> None:
-        """The bus stops when its last participant has left (a drive's zero torque and disable
-        still pass, and go out through the link outside), then closes that link and writes its
-        log."""
+        """After the components behind its terminals (`terminate_stage`): the frames each
+        sent as it terminated (a CAN node FMU's zero torque and disable) go on the wire in
+        place of any it had queued; the bus stops when its last participant has left (a drive's
+        zero torque and disable still pass, and go out through the link outside), then closes
+        that link and writes its log."""
+        bus = getattr(self, "bus", None)
+        if bus is not None:
+            self._last_frames(bus)
         bus, self.bus = getattr(self, "bus", None), None
         if isinstance(bus, SteppedBus):
             self.bus_done = bus
@@ -407,6 +484,35 @@ class CanBus(Component):
             if math.isnan(bus.offset):
                 bus.offset = self._start - time.monotonic()
             bus.close()
+
+    def _last_frames(self, bus: BusRunner | SteppedBus) -> None:
+        """What each terminal's component sent as it terminated, on the wire and handed to the
+        others (at most 0.5 s of waiting on the wall clock); frames it had queued dropped."""
+        at = getattr(self, "_t_end", self._start)
+        sent: list[str] = []
+        for terminal, node in self._nodes.items():
+            host = self._hosts.get(terminal)
+            raw = host.last_sent(node.terminal) if host is not None else b""
+            with bus_lock(bus):
+                bus.model.drop(node.name)
+            try:
+                frames = [frame_of(op) for op in ops.decode(raw)
+                          if isinstance(op, (ops.CanTransmit, ops.CanFdTransmit))]
+            except ops.BusOperationError as err:
+                bus.failures.append(f"bus '{self.name}': {self._about(node, raw)} at terminate: "
+                                    f"{err}")
+                continue
+            for frame in frames:
+                bus.submit(node.name, frame, at=at if isinstance(bus, SteppedBus) else None)
+            if frames:
+                sent.append(node.name)
+        if isinstance(bus, SteppedBus):
+            bus.advance(at + 1.0)
+            return
+        for name in sent:
+            if not bus.handed(name, 0.5):
+                bus.failures.append(f"bus '{self.name}': the last frames of terminal '{name}' "
+                                    f"were not all on the wire within 0.5 s")
 
     def _closed(self, bus: BusCore) -> None:
         """The bus has stopped: close the link outside, write the log."""

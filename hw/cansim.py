@@ -235,6 +235,11 @@ class _Pending:
     sender: str
     time: float
     seq: int
+    losses: int = 0  # arbitrations it lost
+
+
+#: arbitrations a frame loses before it counts as starved (`CanBusModel.starved`)
+STARVED = 16
 
 
 @dataclass
@@ -249,6 +254,8 @@ class CanBusModel:
     stuffing: str = "exact"
     members: set[str] = field(default_factory=set)
     busy_time: float = 0.0  # [s] of bus time carrying frames (intermission included)
+    #: frames that lost `STARVED` arbitrations (a higher priority floods the bus), so far
+    starved: int = 0
     live: bool = True  # False while the bus comes up or winds down: no ACK errors then
     #: participants whose frames that lose arbitration are dropped, not sent again
     discarding: set[str] = field(default_factory=set)
@@ -266,6 +273,12 @@ class CanBusModel:
     def leave(self, name: str) -> None:
         """`name` is gone; frames it submitted stay queued (they are on their way)."""
         self.members.discard(name)
+
+    def drop(self, name: str) -> int:
+        """Forget the frames `name` queued and not yet on the wire (a node that stopped); how
+        many."""
+        queued = self._queues.pop(name, ())
+        return len(queued)
 
     def pending(self, name: str) -> int:
         """Frames of `name` not yet finished on the wire."""
@@ -329,6 +342,8 @@ class CanBusModel:
             self._queues[winner.sender].popleft()
             for lost in contenders:
                 if lost is not winner:
+                    lost.losses += 1
+                    self.starved += lost.losses == STARVED
                     if lost.sender in self.discarding:
                         self._queues[lost.sender].popleft()
                     events.append(BusEvent("arbitration_lost", start, lost.frame, lost.sender,

@@ -6,8 +6,11 @@ The drives are the protocol's own emulator (`Link.emulate`: ODrive CAN Simple, C
 to the bus block as `can_drive` joins its emulated drives; their parameters are the `can_drive`
 block's. Each step the plant's wheel speeds are the axes' load speeds (`wheel_speed`) and
 `torque` is what the axes apply at the end of the step (after the drives' own limits; zero out
-of closed loop / OPERATION ENABLED). The emulators run on the wall clock: a scenario with this
-block runs paced, and cannot be rolled back.
+of closed loop / OPERATION ENABLED). The drives guard themselves as real ones set up for a bench:
+an emulated ODrive arms its axis watchdog (`watchdog`), an emulated CiA 402 drive faults when
+SYNC stops. They terminate after the bus (`terminate_stage`), so they hear the host's last
+frames. The emulators run on the wall clock: a scenario with this block runs paced, and cannot
+be rolled back.
 """
 from __future__ import annotations
 
@@ -30,6 +33,7 @@ class EmulatedDrives(Component):
 
     kind = "emulated_drives"
     needs_realtime: ClassVar[bool] = True
+    terminate_stage = 2  # after the bus has carried its host's last frames
     can_get_and_set_state = False  # the emulators run on the wall clock
     construction_parameters = ("eds",)
 
@@ -42,6 +46,9 @@ class EmulatedDrives(Component):
     firmware = _drive("firmware")
     encoder_period = Parameter(1e-3, unit="s", min=0.0, description="ODrive: period of the "
                                "cyclic encoder estimates (0: only when asked)")
+    watchdog = Parameter(0.1, unit="s", min=0.0, description="ODrive: the axis watchdog each "
+                         "drive arms itself, as saved with odrivetool: no torque command for "
+                         "this long -> IDLE (0: off). CiA 402: the drives watch SYNC (0.25 s)")
     eds = _drive("eds")
     rated_torque = _drive("rated_torque")
     increments_per_rev = _drive("increments_per_rev")
@@ -75,6 +82,7 @@ class EmulatedDrives(Component):
         return DriveSpec(nodes=tuple(int(n) for n in self.node_ids), gear=float(self.gear),
                          firmware=str(self.firmware), torque_constant=float(self.torque_constant),
                          encoder_period=float(self.encoder_period), eds=str(self.eds),
+                         saved_watchdog=float(self.watchdog),
                          rated_torque=int(self.rated_torque),
                          increments_per_rev=int(self.increments_per_rev))
 

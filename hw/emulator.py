@@ -22,6 +22,7 @@ J omega' = torque with wheel inertia `inertia` [kg.m2].
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import struct
 import threading
@@ -110,8 +111,24 @@ class OdriveEmulator:
             return {n: axis.torque for n, axis in self.axes.items()}
 
     def close(self) -> None:
+        """Stop, after handling the frames already on its bus (a real drive gets the host's
+        last zero torque and IDLE however soon the host closes) and sending each axis's next
+        heartbeat (what the drive reports after them)."""
         self._stop.set()
         self._thread.join(timeout=1.0)
+        if not self._thread.is_alive():
+            for _ in range(1000):
+                msg = self.bus.recv(timeout=0)
+                if msg is None:
+                    break
+                try:
+                    self._handle(msg)
+                except (ValueError, IndexError, struct.error):
+                    self.malformed += 1
+            self._advance(0.0)
+            for axis in self.axes.values():
+                with contextlib.suppress(can.CanError):
+                    self._heartbeat(axis)
         self.bus.shutdown()
 
     # -- the drive ---------------------------------------------------------------------------

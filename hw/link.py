@@ -43,6 +43,9 @@ class DriveSpec:
     drive_watchdog: float = 0.1  # ODrive axis watchdog set by the host [s]; 0: not set
     endpoints: str = ""  # ODrive flat_endpoints.json of the firmware build
     encoder_period: float = 1e-3  # emulated ODrive: cyclic estimates period [s]
+    #: emulated ODrive: its axis watchdog on from power-up [s], as set and saved with odrivetool
+    #: (0: off, as from the factory)
+    saved_watchdog: float = 0.0
     eds: str = ""  # CiA 402 EDS/DCF
     rated_torque: int = 1000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
     increments_per_rev: int = 4096  # CiA 402 encoder increments per motor turn

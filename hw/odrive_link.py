@@ -140,6 +140,7 @@ class OdriveLink(Link):
         return OdriveEmulator(spec.nodes, options, spec.firmware, spec.gear,
                               encoder_period=spec.encoder_period,
                               torque_constant=spec.torque_constant,
+                              watchdog_timeout=spec.saved_watchdog,
                               endpoints=endpoints), replace(spec, endpoints=endpoints)
 
     # -- bus -----------------------------------------------------------------------------------

@@ -4,7 +4,8 @@
  * period RPDO1 to each drive — the controlword that walks it toward OPERATION ENABLED
  * (cia402_next_controlword of its last statusword, fault reset on a rising edge) and, once
  * enabled, the target torque limited to drive.torque_limit in per mille of drive.rated_torque —
- * then one SYNC; each TPDO1 received gives that drive's statusword and wheel speed, and the
+ * then one SYNC (the stop: RPDO1 with zero torque and SHUTDOWN, or DISABLE VOLTAGE on a fault,
+ * to each drive, then SYNC); each TPDO1 received gives that drive's statusword and wheel speed, and the
  * period's feedback is complete when both drives' came since the last RPDOs. The SDO
  * configuration (cyclic synchronous torque mode, the PDO mapping) is the drive's own (its DCF,
  * or `twmr` run once with the can_drive block): the FMU sends no SDO. s[i] is drive i's last
@@ -14,6 +15,12 @@
 #include "node.h"
 
 static unsigned node_id(const Model *m, int i) { return (unsigned)m->v[V_drive_node_ids + i]; }
+
+static void sync(LsbusBuffer *tx) {
+    CanFrame f = {0};
+    f.id = CIA402_SYNC;
+    lsbus_transmit(tx, &f);
+}
 
 const char *node_check(const Model *m) {
     int i;
@@ -83,7 +90,20 @@ void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
                                                                        rated), d);
         lsbus_transmit(tx, &f);
     }
-    f.id = CIA402_SYNC;
-    f.length = 0;
-    lsbus_transmit(tx, &f);
+    sync(tx);
+}
+
+void node_stop(const Model *m, double *s, LsbusBuffer *tx, int fault) {
+    unsigned word = fault ? CIA402_DISABLE_VOLTAGE : CIA402_SHUTDOWN;
+    unsigned char d[8];
+    CanFrame f = {0};
+    int i;
+    for (i = 0; i < 2; i++) {
+        s[2 + i] = word;
+        f.id = CIA402_RPDO1 + node_id(m, i);
+        f.data = d;
+        f.length = cia402_encode_rpdo1(word, 0, d);
+        lsbus_transmit(tx, &f);
+    }
+    sync(tx);
 }

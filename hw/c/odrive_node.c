@@ -5,7 +5,8 @@
  * to drive.torque_limit, and a remote request of Get_Encoder_Estimates (encoder: polled); each
  * Get_Encoder_Estimates received gives that axis's wheel speed (non-finite ones are dropped),
  * and the period's feedback is complete when both axes' came since the last torques (s[i]: axis
- * i's came). ODRIVE_LINE (5 or 6) is the firmware line. The axis watchdog is not set (no RxSdo
+ * i's came). The stop: zero torque, then Set_Axis_State (idle), or Estop on a fault, to each
+ * axis. ODRIVE_LINE (5 or 6) is the firmware line. The axis watchdog is not set (no RxSdo
  * here). */
 #include <math.h>
 #include "node.h"
@@ -88,5 +89,19 @@ void node_transmit(const Model *m, double *s, LsbusBuffer *tx) {
     for (i = 0; i < 2; i++) {
         request.id = odrive_can_id(node_id(m, i), ODRIVE_GET_ENCODER_ESTIMATES);
         lsbus_transmit(tx, &request);
+    }
+}
+
+void node_stop(const Model *m, double *s, LsbusBuffer *tx, int fault) {
+    unsigned char d[8];
+    int i;
+    (void)s;
+    for (i = 0; i < 2; i++) {
+        unsigned n = node_id(m, i);
+        send(tx, n, ODRIVE_SET_INPUT_TORQUE, d, odrive_encode_torque(0.0, m->v[V_drive_gear], d));
+        if (fault)
+            send(tx, n, ODRIVE_ESTOP, d, 0);
+        else
+            send(tx, n, ODRIVE_SET_AXIS_STATE, d, odrive_encode_axis_state(ODRIVE_AXIS_IDLE, d));
     }
 }

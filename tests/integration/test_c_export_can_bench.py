@@ -27,7 +27,8 @@ BENCH = SCENARIOS / "bench_odrive_trajectory1.yaml"
 STOP = 2.0
 #: what the scenario's comment exports: the bench's controller and drive limits
 EXPORT = {"drive": "backward", "lookahead": 0.05, "drive.torque_limit": 40.0,
-          "drive.torque_constant": 0.8, "drive.speed_limit": 50.0}
+          "drive.torque_constant": 0.8, "drive.speed_limit": 50.0,
+          "drive.watchdog_periods": WATCHDOG}
 #: [m]; measured 2026-12-02: 0.026-0.028 m over 2 s (docs/export.md)
 ERROR_BOUND = 0.1
 

@@ -242,3 +242,17 @@ def test_a_tick_inside_a_step_keeps_its_time_on_the_bus(nodes, tmp_path, isolate
     assert first.time == pytest.approx(0.25 + bits_to_eof(1, bytes([1, 2, 3, 4])) / RATE,
                                        abs=1e-9)
     assert values(r, "n2.rx_time") == [-1.0, 0.4]
+
+
+def test_a_flood_on_a_bus_in_run_time_is_noted_once_and_the_run_goes_on(nodes, tmp_path,
+                                                                         caplog) -> None:
+    """Node n1 sends id 1 every 0.2 ms at 100 kbit/s (a frame takes about 0.8 ms): n2's frame
+    waits behind the queue; on a bus with nothing on the wall clock the watch notes the flood
+    once (naming n1) and the run, a simulation, ends at its stop time."""
+    text = scenario(nodes["triggered"], nodes["countdown"], ", period: 2.0e-4",
+                    bus="{kind: can_bus, parameters: {flood_time: 0.01}}", stop=0.4)
+    with caplog.at_level("WARNING", logger="twmr.hw.canbus_block"):
+        r = simulate(loads(text, source="flood.yaml"), tmp_path)
+    assert r["time"][-1] == pytest.approx(0.4)
+    noted = [m for m in caplog.messages if "flooded" in m]
+    assert len(noted) == 1 and "participant 'n1'" in noted[0], caplog.messages

@@ -273,6 +273,9 @@ class Component:
     #: bus terminals (FMI-LS-BUS network terminals): name -> {member: port}, members Tx_Data,
     #: Tx_Clock, Rx_Data, Rx_Clock; a wire `a.T -> b.U` joins each Tx member to the other's Rx
     terminals: Mapping[str, Mapping[str, str]] = MappingProxyType({})
+    #: when `terminate()` comes among the others': 0 first (a bus terminal's host, whose last
+    #: frames stop its drives), 1 a bus that carries those frames, 2 a device that hears them
+    terminate_stage: ClassVar[int] = 0
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)
     sized_by: ClassVar[dict[str, str]] = {}
@@ -472,6 +475,11 @@ class Component:
 
     def terminate(self) -> None:
         """Release resources; called once, also after an error."""
+
+    def last_sent(self, terminal: str) -> bytes:
+        """The bus operations bus terminal `terminal` sent as it terminated (a CAN node's
+        frames that stop its drives), read by its bus after `terminate()`; b'' for none."""
+        return b""
 
     def report(self) -> dict[str, Any]:
         """Figures about the run so far (e.g. round-trip times), collected after it ends."""

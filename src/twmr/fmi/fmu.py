@@ -794,21 +794,40 @@ class FmuComponent(Component):
                         f"{self.why_no_state()}. Fix: use an algorithm that does not roll steps "
                         f"back with this FMU, or an FMU exported with state support.")
 
+    def _read_last_sent(self, fmu: Any) -> None:
+        """Each bus terminal's Tx_Data after fmi3Terminate, where the FMU lets it be read."""
+        vrs = {p.name: p.vrs[0] for p in self.ports}
+        for terminal, members in self.terminals.items():
+            try:
+                with self.log.probe():
+                    raw = fmu.getBinary([vrs[members["Tx_Data"]]])[0]
+            except Exception:  # noqa: BLE001 - an FMU that keeps nothing for after terminate
+                continue
+            if raw:
+                self._last_sent[terminal] = bytes(raw)
+
+    def last_sent(self, terminal: str) -> bytes:
+        return getattr(self, "_last_sent", {}).get(terminal, b"")
+
     def why_no_state(self) -> str:
         iface = "model exchange" if self.me else "co-simulation"
         attribute = "canGetAndSetFMUState" if self.fmi3 else "canGetAndSetFMUstate"
         return f"its modelDescription.xml does not declare {attribute}=\"true\" for {iface}"
 
     def terminate(self) -> None:
-        """fmiTerminate and fmiFreeInstance (only for an instance that was created)."""
+        """fmiTerminate, each bus terminal's last Tx_Data read (FMI 3.0 allows getting values
+        in the Terminated state: a CAN node's frames that stop its drives), fmiFreeInstance
+        (only for an instance that was created)."""
         if self._states is not None:
             self._states.close()
             self._states = None
+        self._last_sent: dict[str, bytes] = {}
         if self._fmu is not None:
             fmu, self._fmu = self._fmu, None
             try:
                 if not self._pythonfmu:  # see __init__: pythonfmu's own binary
                     fmu.terminate()
+                    self._read_last_sent(fmu)
                     fmu.freeInstance()
             except Exception:  # noqa: BLE001 - terminating after an error must not mask it
                 pass

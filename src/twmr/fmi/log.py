@@ -7,9 +7,11 @@ INFO when the run shows the whole log (`twmr run --fmu-log`).
 from __future__ import annotations
 
 import collections
+import contextlib
 import itertools
 import logging
 import weakref
+from collections.abc import Iterator
 from typing import Any
 
 log = logging.getLogger("twmr.fmu")
@@ -75,13 +77,23 @@ class FmuLog:
         self.instance = instance
         self.lines: collections.deque[str] = collections.deque(maxlen=KEEP)
         self._keep: list[Any] = []  # ctypes callbacks must outlive the instance
+        self.probing = False  # a call whose refusal is expected: its messages at DEBUG
+
+    @contextlib.contextmanager
+    def probe(self) -> Iterator[None]:
+        """Within: a call the FMU may refuse without harm (its messages kept at DEBUG)."""
+        self.probing = True
+        try:
+            yield
+        finally:
+            self.probing = False
 
     def add(self, status: int, category: str, message: str) -> None:
         label = _STATUS[status] if 0 <= status < len(_STATUS) else str(status)
         line = f"[{label}] {category + ': ' if category else ''}{message.rstrip()}"
         self.lines.append(line)
         level = logging.INFO if show_all else (logging.WARNING if 0 < status < 5 and status != 2
-                                               else logging.DEBUG)
+                                               and not self.probing else logging.DEBUG)
         log.log(level, "FMU '%s' %s", self.instance, line)
 
     def tail(self) -> list[str]:

@@ -550,11 +550,13 @@ class Execution:
 
     def _terminate_all(self) -> None:
         """Terminate every component, even if one fails, with Ctrl-C, SIGTERM and SIGHUP held
-        off until all are done (a drive's terminate sends zero torque and disables it)."""
+        off until all are done (a drive's terminate sends zero torque and disables it), in the
+        order of their `terminate_stage` (a bus after the hosts whose last frames it carries)."""
+        components = self.system.components
         with held_signals():
-            for name in self.system.order:
+            for name in sorted(self.system.order, key=lambda n: components[n].terminate_stage):
                 try:
-                    self.system.components[name].terminate()
+                    components[name].terminate()
                 except BaseException:  # noqa: BLE001 - terminate every component whatever fails
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
 

@@ -6,7 +6,7 @@
  * clocked by Tx_Clock), Rx_Clock (triggered input clock), Tx_Clock: a triggered output clock, or
  * built with -DCOUNTDOWN an input countdown clock whose interval the FMU gives.
  * At instantiation the Tx buffer holds two Configuration operations (CAN baud rate `bitrate`, start
- * 100000 bit/s, arbitration lost behaviour BUFFER_AND_RETRANSMIT). Every `period` seconds (k = 1, 2, ...) the node
+ * 100000 bit/s, arbitration lost behaviour BUFFER_AND_RETRANSMIT). At `delay` + k `period` seconds (k = 1, 2, ...; delay 0 unless set) the node
  * appends a CAN Transmit of identifier `id` with the 4 data bytes of its Binary input `payload`
  * (start 01 02 03 04, shorter or longer values cut or padded to 4).
  * Triggered: the Tx clock ticks at the end of the step holding the transmit time; with early return
@@ -25,7 +25,7 @@
 #include <string.h>
 #include "fmi3Functions.h"
 
-enum { VR_RX_DATA = 0, VR_TX_DATA = 1, VR_RX_CLOCK = 2, VR_TX_CLOCK = 3, VR_ID = 10, VR_PERIOD = 11,
+enum { VR_RX_DATA = 0, VR_TX_DATA = 1, VR_RX_CLOCK = 2, VR_TX_CLOCK = 3, VR_ID = 10, VR_PERIOD = 11, VR_DELAY = 15,
        VR_FAULT = 12, VR_PAYLOAD = 13, VR_BITRATE = 14, VR_RX_FRAMES = 20, VR_RX_ID = 21, VR_RX_TIME = 22,
        VR_RX_PAYLOAD = 23, VR_CONFIRMS = 24, VR_RX_UNKNOWN = 25, VR_TX_FRAMES = 26, VR_TX_TIME = 27, VR_BUS_ERRORS = 28,
        VR_TIME = 1024 };
@@ -33,7 +33,7 @@ enum { BUF = 2048 };
 typedef enum { M_INSTANTIATED, M_INIT, M_EVENT, M_STEP, M_TERMINATED } Mode;
 
 typedef struct {
-    double time, period, next_tx, rx_time, tx_time;
+    double time, period, delay, next_tx, rx_time, tx_time;
     unsigned id, rx_id, bitrate;
     int fault, bus_errors, rx_frames, confirms, rx_unknown, tx_frames, event_mode_used, early_allowed;
     unsigned char tx[BUF], rx[BUF], payload[4], rx_payload[64];
@@ -106,7 +106,7 @@ static void reconfigure(Inst *c) {
 }
 static void defaults(Inst *c) {
     static const unsigned char start[4] = {1, 2, 3, 4};
-    c->time = 0; c->period = 0.3; c->id = 1; c->bitrate = 100000; c->fault = 0; c->bus_errors = 0; memcpy(c->payload, start, 4);
+    c->time = 0; c->period = 0.3; c->delay = 0; c->id = 1; c->bitrate = 100000; c->fault = 0; c->bus_errors = 0; memcpy(c->payload, start, 4);
     c->rx_frames = c->confirms = c->rx_unknown = c->tx_frames = 0; c->rx_id = 0; c->rx_time = -1;
     c->tx_time = -1; c->rx_payload_len = 0; c->tx_len = c->rx_len = 0; c->rx_active = 0;
     c->tx_reported = 0; c->interval_changed = 1; c->mode = M_INSTANTIATED;
@@ -142,7 +142,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean tolDef, fmi3F
 fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     Inst *i = (Inst *)c;
     if (!(i->period > 0)) return fail(i, "cannode: period must be positive");
-    i->next_tx = i->time + i->period;
+    i->next_tx = i->time + i->delay + i->period;
     i->mode = M_EVENT;
     return fmi3OK;
 }
@@ -163,6 +163,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
         switch (vr[j]) {
         case VR_TIME: v[j] = i->time; break;
         case VR_PERIOD: v[j] = i->period; break;
+        case VR_DELAY: v[j] = i->delay; break;
         case VR_RX_TIME: v[j] = i->rx_time; break;
         case VR_TX_TIME: v[j] = i->tx_time; break;
         default: return bad_vr(i, "fmi3GetFloat64", vr[j]);
@@ -173,9 +174,9 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Float64 v[], size_t nv) {
     Inst *i = (Inst *)c;
     for (size_t j = 0; j < n; j++) {
-        if (vr[j] != VR_PERIOD) return bad_vr(i, "fmi3SetFloat64", vr[j]);
-        if (i->mode != M_INSTANTIATED && i->mode != M_INIT) return fail(i, "period is fixed");
-        i->period = v[j];
+        if (vr[j] != VR_PERIOD && vr[j] != VR_DELAY) return bad_vr(i, "fmi3SetFloat64", vr[j]);
+        if (i->mode != M_INSTANTIATED && i->mode != M_INIT) return fail(i, "period and delay are fixed");
+        if (vr[j] == VR_PERIOD) i->period = v[j]; else i->delay = v[j];
     }
     return fmi3OK;
 }

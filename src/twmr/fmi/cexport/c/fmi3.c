@@ -6,7 +6,13 @@
  * initialization ends (the drives' start-up frames and the first torques), in the event where
  * the drives' feedback of a period is complete (the torques from the inputs at that point, as
  * the block's evaluate), and at the end of a doStep in which nothing was sent (the torques
- * from the inputs held over the step: a lost answer does not stop the exchange). */
+ * from the inputs held over the step: a lost answer does not stop the exchange). The drives
+ * are stopped (node_stop: zero torque, then disabled) at fmi3Terminate from step or event
+ * mode, those frames readable on Tx_Data in the Terminated state, and on any fault the node
+ * sees: a Bus Error or a bus-off Status on Rx_Data, malformed Rx_Data, or drive.watchdog_periods
+ * steps in a row without the drives' feedback (the host watchdog). A fault is latched: no
+ * torque is sent after it, and doStep and fmi3UpdateDiscreteStates ask to terminate. */
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "fmi3Functions.h"
@@ -109,8 +115,10 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 }
 
 #ifdef BUS_TERMINAL
-/* the frames of one controller period, sent at the next tick of Tx_Clock */
+/* the frames of one controller period, sent at the next tick of Tx_Clock (none after a
+ * fault) */
 static void transmit(Instance *s) {
+    if (s->c.fault) return;
     kernel_eval(&s->c.m);
     s->c.dirty = 0;
     node_transmit(&s->c.m, s->c.node, &s->c.tx);
@@ -121,6 +129,24 @@ static void transmit(Instance *s) {
                  "(%d bytes) and were dropped", s->c.tx.overflow, LSBUS_TX_BYTES);
         s->c.tx.overflow = 0;
     }
+}
+
+/* the frames that stop the drives, in place of any not yet sent, at the next tick */
+static void stop_drives(Instance *s) {
+    s->c.tx.n = 0;
+    node_stop(&s->c.m, s->c.node, &s->c.tx, s->c.fault);
+    s->c.tx_active = 1;
+    s->c.tx_reported = 0;
+    s->c.sent = 1;
+}
+
+/* a fault seen on the bus: latched, the drives stopped, the simulation asked to end */
+static void fault(Instance *s, const char *what) {
+    if (s->c.fault) return;
+    s->c.fault = 1;
+    stop_drives(s);
+    inst_log(s, ST_ERROR, "logStatusError", "%s at t = %.9g s: the drives were sent zero torque "
+             "and the protocol's stop on a fault; the FMU asks to terminate", what, s->c.m.time);
 }
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
@@ -162,9 +188,9 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
     (void)n_values;
     for (i = 0; i < n; i++) {
         if (vr[i] != VR_TX_DATA) return bad_vr(instance, "fmi3GetBinary", vr[i]);
-        if (!INST->c.event_mode || !INST->c.tx_active) {
+        if (!INST->c.tx_active || (!INST->c.event_mode && INST->c.phase != PH_TERMINATED)) {
             inst_log(INST, ST_ERROR, "logStatusError", "CanChannel.Tx_Data is readable only in "
-                     "event mode while CanChannel.Tx_Clock ticks");
+                     "event mode while CanChannel.Tx_Clock ticks, and after fmi3Terminate");
             return fmi3Error;
         }
         values[i] = INST->c.tx.b;
@@ -173,22 +199,35 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
     return fmi3OK;
 }
 
-/* the operations received: each CAN Transmit to the protocol, the others ignored; the period's
- * frames sent when they completed its feedback */
+/* the operations received: each CAN Transmit to the protocol, a Bus Error or a bus-off Status
+ * a fault, the others ignored; the period's frames sent when they completed its feedback */
 static fmi3Status receive(Instance *s, const unsigned char *bytes, size_t size) {
     long at = 0;
     unsigned code;
     int complete = 0;
+    char what[96];
     CanFrame f;
-    while ((at = lsbus_next(bytes, size, (size_t)at, &code, &f)) > 0)
-        if (code == LSBUS_CAN_TRANSMIT) complete |= node_receive(&s->c.m, s->c.node, &f);
+    while ((at = lsbus_next(bytes, size, (size_t)at, &code, &f)) > 0) {
+        if (code == LSBUS_CAN_TRANSMIT) {
+            complete |= node_receive(&s->c.m, s->c.node, &f);
+        } else if (code == LSBUS_BUS_ERROR && f.length >= 7) {
+            sprintf(what, "a bus error (code %u) on frame 0x%lx", f.data[4],
+                    f.data[0] | (unsigned long)f.data[1] << 8 | (unsigned long)f.data[2] << 16 |
+                    (unsigned long)f.data[3] << 24);
+            fault(s, what);
+        } else if (code == LSBUS_STATUS && f.length >= 1 && f.data[0] == LSBUS_BUS_OFF) {
+            fault(s, "bus-off");
+        }
+    }
     if (at < 0) {
-        inst_log(s, ST_ERROR, "logStatusError", "CanChannel.Rx_Data (%zu bytes) holds a malformed "
-                 "bus operation", size);
+        fault(s, "malformed bus operations on CanChannel.Rx_Data");
         return fmi3Error;
     }
     s->c.dirty = 1;
-    if (complete) transmit(s);
+    if (complete) {
+        s->c.quiet = 0;
+        transmit(s);
+    }
     return fmi3OK;
 }
 
@@ -239,7 +278,8 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *need_upd
                                                 "event mode");
     if (INST->c.tx_active) INST->c.tx.n = 0;
     INST->c.tx_active = INST->c.tx_reported = INST->c.rx_active = 0;
-    *need_update = *terminate = *nominals_changed = *values_changed = *next_defined = fmi3False;
+    *need_update = *nominals_changed = *values_changed = *next_defined = fmi3False;
+    *terminate = INST->c.fault != 0;
     *next_time = 0.0;
     return fmi3OK;
 }
@@ -254,6 +294,9 @@ fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
 #endif
 
 fmi3Status fmi3Terminate(fmi3Instance instance) {
+#ifdef BUS_TERMINAL
+    if (INST->c.phase == PH_STEP) stop_drives(INST);
+#endif
     INST->c.phase = PH_TERMINATED;
     return fmi3OK;
 }
@@ -298,14 +341,20 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h,
     *event_handling_needed = fmi3False;
 #ifdef BUS_TERMINAL
     if (status == fmi3OK) {  /* nothing sent in this step: the outputs at t + h, inputs held */
-        if (!INST->c.sent) {
-            transmit(INST);
+        if (!INST->c.sent && !INST->c.fault) {
+            if (++INST->c.quiet >= (long)INST->c.m.v[V_drive_watchdog_periods])
+                fault(INST, "host watchdog: no feedback from the drives for "
+                      "drive.watchdog_periods steps");
+            else
+                transmit(INST);
             *event_handling_needed = fmi3True;
         }
         INST->c.sent = 0;
     }
-#endif
+    *terminate = INST->c.fault != 0;
+#else
     *terminate = fmi3False;
+#endif
     *early_return = fmi3False;
     *last_time = status == fmi3OK ? t + h : t;
     return status;

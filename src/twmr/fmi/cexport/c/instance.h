@@ -24,6 +24,8 @@ typedef struct {
     double node[NODE_NS];  /* the protocol's own state (node.h) */
     int event_mode, tx_active, tx_reported, rx_active;
     int sent;  /* frames of a period were sent since the step began */
+    int fault;  /* a fault was seen: the drives were stopped, the FMU asks to terminate */
+    long quiet;  /* steps in a row that ended without the drives' feedback */
 #endif
 } Core;
 

@@ -45,6 +45,9 @@ long lsbus_next(const unsigned char *bytes, size_t size, size_t at, unsigned *co
         f->length = p[14] | (unsigned)p[15] << 8;
         f->data = p + 16;
         if (len != LSBUS_HEADER + 8 + (f->rtr ? 0 : f->length)) return -1;
+    } else {
+        f->data = p + LSBUS_HEADER;
+        f->length = (unsigned)(len - LSBUS_HEADER);
     }
     return (long)(at + len);
 }

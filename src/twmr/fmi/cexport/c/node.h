@@ -19,5 +19,8 @@ void node_start(const Model *m, double *s, LsbusBuffer *tx);
 int node_receive(Model *m, double *s, const CanFrame *f);
 /* the frames of one controller period: the torques of m */
 void node_transmit(const Model *m, double *s, LsbusBuffer *tx);
+/* the frames that stop the drives: zero torque, then disable (`fault` 0: the normal stop,
+ * else the stop on a fault), as the protocol's Link.disable sends them */
+void node_stop(const Model *m, double *s, LsbusBuffer *tx, int fault);
 
 #endif
