@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -296,6 +297,9 @@ class CanMotorDrive(Component):
         self.get_state()
 
     def initialize(self) -> None:
+        """Start the drives, then hold them at zero torque every step period until the first
+        step (what the run does in between, such as loading compiled kernels, must not leave
+        the drives' watchdog without commands)."""
         try:
             self._live().start(self.start_timeout)
         except LinkError as err:
@@ -305,10 +309,20 @@ class CanMotorDrive(Component):
                 self._protection = self.link.protection()
         self._publish(time.monotonic())
         self._age_max = 0.0  # measured over the steps
+        run = getattr(self, "_run", None)
+        self._holding = ZeroTorque(self._live(), len(self._nodes),
+                                   getattr(run, "step", 0.0) or 0.01)
+
+    def _release(self) -> None:
+        """Stop holding the drives at zero torque (the run's own commands follow)."""
+        holding, self._holding = getattr(self, "_holding", None), None
+        if holding is not None:
+            holding.stop()
 
     def evaluate(self, t: float) -> None:
         """Send the (limited) torque command now: the drives apply it over [t, t + h)."""
         self._t = t
+        self._release()
         try:
             self.torque = self._live().command(clamp(self.torque_command, self.torque_limit))
         except LinkError as err:
@@ -371,6 +385,7 @@ class CanMotorDrive(Component):
     def terminate(self) -> None:
         """Zero torque and disable every drive (IDLE / SHUTDOWN, or Estop / DISABLE VOLTAGE after
         a fault), then close the bus, the log and the emulators."""
+        self._release()
         link, self.link = getattr(self, "link", None), None
         try:
             if link is not None:
@@ -388,3 +403,26 @@ class CanMotorDrive(Component):
             for emu in getattr(self, "emulators", ()):
                 emu.close()
             self.emulators = []
+
+
+class ZeroTorque:
+    """Zero torque to the `n` drives of `link` every `period` [s] from a thread of its own, until
+    `stop()`; a failed send ends it (the run's first step then finds the link's fault)."""
+
+    def __init__(self, link: Link, n: int, period: float):
+        self.link, self.n, self.period = link, n, period
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="can-drive zero torque",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period):
+            try:
+                self.link.command((0.0,) * self.n)
+            except LinkError:
+                return
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5.0)

@@ -169,3 +169,24 @@ def test_the_watchdog_is_not_tripped_while_the_host_steps() -> None:
         assert not watchdog_trips(d.emulators[0], 0)
     finally:
         d.terminate()
+
+
+@pytest.mark.parametrize("protocol_name", ["odrive", "cia402"])
+def test_a_pause_between_initialize_and_the_first_step_leaves_the_drives_enabled(
+        protocol_name: str) -> None:
+    """What a run does between starting the drives and its first step (loading compiled kernels
+    took 0.4 s in benchmarks/realtime_loop.py) must not trip the drives' own watchdog: the block
+    holds them at zero torque until its first command (ODrive: axis watchdog 0.1 s; CiA 402: no
+    SYNC for 0.25 s faults the drive)."""
+    d = started(protocol_name, **({"drive_watchdog": WATCHDOG} if protocol_name == "odrive"
+                                  else {}))
+    emu = d.emulators[0]
+    try:
+        time.sleep(0.6)
+        Paced(d).run(20, torque=(1.0, -1.0))
+        if protocol_name == "odrive":
+            assert not watchdog_trips(emu, 0) and not watchdog_trips(emu, 1)
+            assert [a.state for a in emu.axes.values()] == [p.AXIS_CLOSED_LOOP] * 2
+        assert d.link is not None and d.link.fault is None
+    finally:
+        d.terminate()
