@@ -310,8 +310,8 @@ class CanMotorDrive(Component):
         self._publish(time.monotonic())
         self._age_max = 0.0  # measured over the steps
         run = getattr(self, "_run", None)
-        self._holding = ZeroTorque(self._live(), len(self._nodes),
-                                   getattr(run, "step", 0.0) or 0.01)
+        self._holding: ZeroTorque | None = ZeroTorque(self._live(), len(self._nodes),
+                                                      getattr(run, "step", 0.0) or 0.01)
 
     def _release(self) -> None:
         """Stop holding the drives at zero torque (the run's own commands follow)."""
