@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -256,3 +257,52 @@ def test_a_sweeps_workers_start_without_dasks_malloc_trim_default(monkeypatch, c
         client.close()
         cluster.close()
     assert list(seen.values()) == [configured]
+
+
+@pytest.mark.timeout(300)
+def test_a_sweep_whose_workers_are_gone_for_good_fails_the_runs_left(tmp_path, monkeypatch
+                                                                     ) -> None:
+    """The cluster loses its only worker for good while runs wait (scaled to none, as when a
+    nanny cannot start another): the sweep waits NO_WORKER_PATIENCE (2 s here), then fails the
+    runs left, saying so, and ends with every row in its table."""
+    import threading
+
+    from twmr.sweeps import engine
+
+    monkeypatch.setattr(engine, "NO_WORKER_PATIENCE", 2.0)
+    made = engine.dask_client
+
+    def one_worker_then_none(workers, scheduler, dashboard=False):
+        client, cluster = made(1, scheduler, dashboard)
+
+        def scale_down() -> None:
+            journal = tmp_path / "gone" / "runs.jsonl"
+            while not (journal.exists() and journal.read_text().strip()):
+                time.sleep(0.05)
+            cluster.scale(0)
+
+        threading.Thread(target=scale_down, daemon=True).start()
+        return client, cluster
+
+    monkeypatch.setattr(engine, "dask_client", one_worker_then_none)
+    (tmp_path / "slow.py").write_text(
+        "import time\n"
+        "from twmr.core import Component, Input, Output, Parameter\n\n\n"
+        "class Slow(Component):\n"
+        "    u = Input(start=0.0)\n"
+        "    y = Output(start=0.0)\n"
+        "    which = Parameter(0.0)\n\n"
+        "    def do_step(self, t: float, h: float) -> None:\n"
+        "        time.sleep(0.2)\n"
+        "        self.y = self.which\n")
+    scenario = tmp_path / "slow.yaml"
+    scenario.write_text("components:\n  k: {kind: 'slow.py:Slow'}\nopen: [k.u]\n"
+                        "experiment: {start: 0.0, stop: 0.02, step: 0.01}\n")
+    outcome = twmr.sweep(scenario, [f"k.which=values:{','.join(map(str, range(1, 9)))}"],
+                         method="grid", workers=1, out=tmp_path / "gone")
+    table = outcome.frame()
+    assert len(table) == 8, table[["run_id", "k.which", "status", "error"]].to_string()
+    failed = table[table["status"] == "failed"]
+    assert len(failed) >= 1
+    assert all("no Dask worker was left" in e for e in failed["error"]), failed["error"]
+    assert len(pd.read_parquet(tmp_path / "gone" / "runs.parquet")) == 8

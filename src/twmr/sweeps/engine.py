@@ -26,6 +26,7 @@ import math
 import os
 import signal
 import threading
+import time
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -306,24 +307,25 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
             pending.add(f)
             futures.append(f)
 
-        for future in pending:
+        done = Finished(pending, client, futures)
+        for future in done:
             batch = by_key[future.key]
             alone = future.key.startswith("run-")
-            if future.status != "finished" and len(batch) > 1:  # lost with its worker
-                lane += batch
+            if future.status != "finished" and len(batch) > 1 and not done.gave_up:
+                lane += batch  # lost with its worker
                 if not any(not f.done() and f.key.startswith("run-") for f in futures):
                     next_alone()
                 continue
-            if alone and lane:
+            if alone and lane and not done.gave_up:
                 next_alone()
             if future.status == "finished":
                 rows = future.result()
-            else:  # the worker died under it (several times) or the task was lost
-                error = lost_error(future.exception())
-                rows = [{"run_id": task.run_id, "sample": task.sample, **task.values,
-                         "status": "failed", "error": error, "wall_time_s": math.nan,
-                         "step_time_s": math.nan, "worker": "", "warnings": []}
-                        for task in batch]
+            else:  # the worker died under it (several times), the task was lost, no worker
+                error = no_worker() if done.gave_up else lost_error(future.exception())
+                rows = [failed_row(task, error) for task in batch]
+            if done.gave_up and lane:
+                rows += [failed_row(task, no_worker()) for task in lane]
+                lane.clear()
             for row in rows:
                 row = {"run_id": row["run_id"], IDENTITY: place.sweep_id, **row}
                 warned.add(row["run_id"], row["warnings"])
@@ -374,6 +376,63 @@ def close_client(client: Any, cluster: Any, futures: list[Any]) -> None:
             cluster.close(timeout=10)
     except BaseException:  # noqa: BLE001 - closing after Ctrl-C must not hide the rows
         log.debug("closing the Dask cluster failed", exc_info=True)
+
+
+#: how long a sweep waits with no Dask worker at all before it fails the runs left [s]
+NO_WORKER_PATIENCE = 60.0
+
+
+def no_worker() -> str:
+    """The error of a run no worker was left to run."""
+    return (f"no Dask worker was left to run it (the workers died and none came back within "
+            f"{NO_WORKER_PATIENCE:g} s). Fix: run the sweep again with --resume: the runs done "
+            f"are kept; look at what killed the workers (memory, a crash in native code).")
+
+
+class Finished:
+    """The futures of `pending` (a dask `as_completed`) as they finish. When the cluster has
+    had no worker for `NO_WORKER_PATIENCE` s (killed, and not replaced), the futures left in
+    `futures` are cancelled and given as they are (`gave_up` set): a sweep never waits on
+    workers that will not come."""
+
+    def __init__(self, pending: Any, client: Any, futures: list[Any]):
+        self.pending, self.client, self.futures = pending, client, futures
+        self.gave_up = False
+
+    def __iter__(self) -> Iterator[Any]:
+        alone_since: float | None = None
+        checked = time.monotonic()
+        given: set[Any] = set()  # keys (a finished future may go back to pending: its data
+        while not self.pending.is_empty():  # was on a worker that died)
+            if self.pending.has_ready():
+                future = next(self.pending)
+                given.add(future.key)
+                yield future
+                continue
+            time.sleep(0.02)
+            now = time.monotonic()
+            if now - checked < 1.0:
+                continue
+            checked = now
+            if self.client.nthreads():
+                alone_since = None
+                continue
+            alone_since = alone_since if alone_since is not None else now
+            if now - alone_since >= NO_WORKER_PATIENCE:
+                self.gave_up = True
+                left = [f for f in self.futures if not f.done() and f.key not in given]
+                self.client.cancel(left)
+                log.warning("no Dask worker for %g s: the %d batches left fail",
+                            NO_WORKER_PATIENCE, len(left))
+                yield from left
+                return
+
+
+def failed_row(task: RunTask, error: str) -> dict[str, Any]:
+    """The row of a run that did not run to its end on a worker."""
+    return {"run_id": task.run_id, "sample": task.sample, **task.values, "status": "failed",
+            "error": error, "wall_time_s": math.nan, "step_time_s": math.nan, "worker": "",
+            "warnings": []}
 
 
 def lost_error(exc: BaseException | None) -> str:

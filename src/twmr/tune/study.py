@@ -35,10 +35,13 @@ import numpy as np
 
 from twmr.core.warned import SweepWarnings
 from twmr.sweeps.engine import (
+    Finished,
     check_names,
     close_client,
     dask_client,
+    failed_row,
     lost_error,
+    no_worker,
     overrides_of,
     vector_bases,
 )
@@ -283,15 +286,15 @@ def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str,
     """The rows of `tasks` (in their order): in this process, or on the cluster all at once."""
     if client is None:
         return [execute(t) for t in tasks]
-    from dask.distributed import wait
+    from dask.distributed import as_completed
 
     futures = client.map(execute, tasks, pure=False,
                          key=[f"{prefix}-{t.sample}-{t.run_id}" for t in tasks])
-    wait(futures)
+    done = Finished(as_completed(futures), client, futures)
+    for _ in done:
+        pass
     return [f.result() if f.status == "finished" else
-            {"run_id": t.run_id, "sample": t.sample, **t.values, "status": "failed",
-             "error": lost_error(f.exception()), "wall_time_s": math.nan,
-             "step_time_s": math.nan, "worker": "", "warnings": []}
+            failed_row(t, no_worker() if f.cancelled() else lost_error(f.exception()))
             for f, t in zip(futures, tasks, strict=True)]
 
 
