@@ -213,3 +213,29 @@ def test_the_start_names_elements_from_descriptions_and_marks_discrete_ports_as_
     assert start["labels"] == ["time", "p.pose x_M", "p.pose y_M", "p.pose theta",
                                "st.counter", "g.y"]
     assert start["stepped"] == [False, False, False, False, True, False]
+
+
+def test_a_page_that_connects_while_the_view_closes_is_turned_away(view):
+    """A page (a reconnecting tab) whose connection opens after close() told the others: it is
+    sent the close at once and close() returns (its handler used to wait for data forever, and
+    close() for the handler: `twmr run --live` hung after its run, its result never
+    promoted)."""
+    from websockets.exceptions import ConnectionClosed
+
+    real = view._server.shutdown
+    late: list = []
+
+    def shutdown(*args, **kwargs) -> None:
+        late.append(connect(f"ws://127.0.0.1:{view.port}/ws"))  # handshake done before shutdown
+        _wait_for(lambda: view.clients or getattr(view, "_closing", False))  # its handler ran
+        real(*args, **kwargs)
+
+    view._server.shutdown = shutdown
+    closer = threading.Thread(target=view.close, daemon=True)
+    closer.start()
+    closer.join(60)
+    assert not closer.is_alive(), "close() waited on the late page"
+    with pytest.raises(ConnectionClosed) as closed:
+        while True:
+            late[0].recv(timeout=10)
+    assert closed.value.rcvd is not None and closed.value.rcvd.code == 1001

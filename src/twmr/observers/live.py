@@ -48,6 +48,8 @@ _STATIC = {"/": ("live.html", "text/html; charset=utf-8"),
            "/uPlot.min.css": ("uPlot.min.css", "text/css; charset=utf-8"),
            "/uPlot.LICENSE": ("uPlot.LICENSE", "text/plain; charset=utf-8")}
 _LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+#: the most close() waits for the pages to let go [s]
+CLOSE_WAIT = 5.0
 
 
 class LiveAddressError(CosimError):
@@ -110,6 +112,7 @@ class LiveView(Observer):
         self._end_message: str | None = None
         self._server: Any = None
         self._thread: threading.Thread | None = None
+        self._closing = False
 
     @property
     def url(self) -> str:
@@ -146,10 +149,13 @@ class LiveView(Observer):
         return self.url
 
     def close(self) -> None:
-        """Tell every page the server goes, then stop serving."""
+        """Tell every page the server goes, then stop serving: a page that connects from now on
+        is turned away, and one that does not let go within `CLOSE_WAIT` s is left to the
+        server's thread (the run never waits on a viewer)."""
         if self._server is None:
             return
         with self._lock:
+            self._closing = True
             clients = list(self.clients)
         for client in clients:
             client.push(None)
@@ -164,9 +170,14 @@ class LiveView(Observer):
         for client in stuck:  # a viewer that does not read: its blocked send fails now
             with contextlib.suppress(OSError):
                 client.connection.socket.shutdown(socket.SHUT_RDWR)
-        self._server.shutdown()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
+        stopper = threading.Thread(target=self._server.shutdown, name="twmr-live-close",
+                                   daemon=True)
+        stopper.start()
+        stopper.join(CLOSE_WAIT)
+        if stopper.is_alive():
+            log.warning("live view: a page did not let go within %g s; left behind", CLOSE_WAIT)
+        elif self._thread is not None:
+            self._thread.join(timeout=CLOSE_WAIT)
         self._server = None
 
     def wait(self) -> None:
@@ -226,9 +237,14 @@ class LiveView(Observer):
             return
         client = _Client(connection)
         with self._lock:
-            self.clients.append(client)
-            first = [m for m in (self._start_message, self._history_frame(),
-                                 self._end_message) if m is not None]
+            closing = self._closing
+            if not closing:
+                self.clients.append(client)
+                first = [m for m in (self._start_message, self._history_frame(),
+                                     self._end_message) if m is not None]
+        if closing:
+            connection.close(1001, "the live view closed")
+            return
         try:
             for message in first:
                 connection.send(message)
