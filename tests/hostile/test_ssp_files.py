@@ -191,3 +191,35 @@ def test_a_run_writes_only_its_results_and_the_unpacked_package(built, tmp_path)
     assert_ok(outcome)
     assert_writes_only_under(outcome, [cache, *result_family(out)])
     assert (out / "summary.json").is_file() and list(cache.glob("ssp/*/SystemStructure.ssd"))
+
+
+@pytest.mark.parametrize("tamper", ["edit", "add", "remove", "manifest"])
+def test_an_unpacked_copy_changed_in_the_cache_is_not_trusted(built, tmp_path, monkeypatch,
+                                                              caplog, tamper) -> None:
+    """The unpacked folder is checked against the SHA-256 of every file it was unpacked with:
+    an edited .ssd (which would change the next run's result), a file added or removed, or a
+    manifest not ours make the next load unpack the archive again, with a warning naming it."""
+    monkeypatch.setenv("TWMR_CACHE_DIR", str(tmp_path / "cache"))
+    ssp = broken(tmp_path, built, linear_ssd())
+    folder = archive.unpacked(ssp)
+    ssd = folder / "SystemStructure.ssd"
+    original = ssd.read_bytes()
+    fmu_count = len(list(folder.rglob("*.fmu")))
+    if tamper == "edit":
+        ssd.write_bytes(original.replace(b'name="', b'name="x', 1))
+    elif tamper == "add":
+        (folder / "resources" / "extra.fmu").write_bytes(b"PK")
+    elif tamper == "remove":
+        next(folder.rglob("*.fmu")).unlink()
+    else:
+        (folder / archive.MANIFEST).write_text("{}")
+    with caplog.at_level("WARNING", logger="twmr.fmi.ssp.archive"):
+        again = archive.unpacked(ssp)
+    assert again == folder and ssd.read_bytes() == original
+    assert not (folder / "resources" / "extra.fmu").exists()
+    assert len(list(folder.rglob("*.fmu"))) == fmu_count > 0
+    assert any("was changed since it was unpacked" in m for m in caplog.messages)
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="twmr.fmi.ssp.archive"):
+        archive.unpacked(ssp)  # as unpacked: trusted, nothing said
+    assert not caplog.messages

@@ -5,10 +5,15 @@ stays inside the package (no '..', no absolute path, no drive, no link), the mem
 enough and their declared sizes within `MAX_UNPACKED_BYTES`; while extracting, a member that
 inflates beyond its declared size is stopped. The extraction goes to
 `$TWMR_CACHE_DIR/ssp/<sha256 of the archive>` (written under a temporary name, then renamed), so
-nothing lands beside the archive or in the results folder, and a package is unpacked once."""
+nothing lands beside the archive or in the results folder, and a package is unpacked once. The
+folder's `.complete` holds the SHA-256 of every file written; a folder whose files differ from it
+(edited, added, removed after the unpacking) is not trusted: it is unpacked again, with a
+warning naming the file."""
 from __future__ import annotations
 
 import hashlib
+import json
+import logging
 import os
 import shutil
 import stat
@@ -23,6 +28,10 @@ from twmr.core.errors import Location, Problem, ScenarioError
 MAX_UNPACKED_BYTES = 4 * 2**30
 MAX_MEMBERS = 10_000
 _CHUNK = 2**20
+#: the file of an unpacked folder that marks it complete and records its files' SHA-256
+MANIFEST = ".complete"
+
+log = logging.getLogger(__name__)
 
 
 def cache_root() -> Path:
@@ -45,8 +54,13 @@ def unpacked(archive: Path) -> Path:
         for chunk in iter(lambda: f.read(_CHUNK), b""):
             digest.update(chunk)
     target = cache_root() / digest.hexdigest()[:32]
-    if (target / ".complete").is_file():
-        return target
+    if (target / MANIFEST).is_file():
+        changed = _changed(target)
+        if not changed:
+            return target
+        log.warning("the unpacked copy of %s in %s was changed since it was unpacked (%s); "
+                    "unpacking it again", source, target, changed)
+        shutil.rmtree(target, ignore_errors=True)
     target.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".partial-", dir=target.parent))
     try:
@@ -58,18 +72,48 @@ def unpacked(archive: Path) -> Path:
             raise _refused(source, f"it is damaged or uses a feature zipfile cannot read "
                            f"({err})", "repack the archive (plain zip, deflate).") from None
         _verify(work, source)
-        (work / ".complete").write_text(source + "\n")
-        if target.exists() and not (target / ".complete").is_file():  # left by a killed run
+        (work / MANIFEST).write_text(json.dumps({"archive": source, "files": _digests(work)},
+                                                indent=1, sort_keys=True) + "\n")
+        if target.exists() and not (target / MANIFEST).is_file():  # left by a killed run
             shutil.rmtree(target, ignore_errors=True)
         try:
             work.rename(target)
         except OSError:  # another process unpacked it first
-            if not (target / ".complete").is_file():
+            if not (target / MANIFEST).is_file():
                 raise
     finally:
         if work.exists():
             shutil.rmtree(work, ignore_errors=True)
     return target
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    """SHA-256 of every file under `folder` but the manifest, by relative POSIX path."""
+    out = {}
+    for path in sorted(folder.rglob("*")):
+        if path.is_file() and path.name != MANIFEST:
+            digest = hashlib.sha256()
+            with path.open("rb") as f:
+                for chunk in iter(lambda: f.read(_CHUNK), b""):
+                    digest.update(chunk)
+            out[path.relative_to(folder).as_posix()] = digest.hexdigest()
+    return out
+
+
+def _changed(folder: Path) -> str:
+    """'' when the files under `folder` are those its manifest records, else the first that
+    differs (or why the manifest cannot be read)."""
+    try:
+        recorded = json.loads((folder / MANIFEST).read_text())["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return f"its {MANIFEST} is not one twmr wrote"
+    now = _digests(folder)
+    for name in sorted(set(recorded) | set(now)):
+        if recorded.get(name) != now.get(name):
+            what = "added" if name not in recorded else "removed" if name not in now else \
+                "edited"
+            return f"'{name}' {what}"
+    return ""
 
 
 def _checked(z: zipfile.ZipFile, source: str) -> list[tuple[zipfile.ZipInfo, PurePosixPath]]:
