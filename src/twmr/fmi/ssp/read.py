@@ -32,6 +32,7 @@ from twmr.fmi.ssp.flatten import Edge, EndKey, Flattener, Fmu, Path_
 from twmr.fmi.ssp.params import Entry, Value, parameter_mapping, parameter_set
 from twmr.fmi.ssp.schema import validate
 from twmr.fmi.ssp.xmlsafe import MAX_XML_BYTES, NS, at, parse_xml, tag
+from twmr.scenario.include import MAX_DEPTH, MAX_INCLUSIONS
 from twmr.scenario.structure import ExperimentSpec, Given, RecordingSpec, ScenarioSpec
 
 log = logging.getLogger("twmr")
@@ -76,6 +77,7 @@ class _Reader:
         self.units: dict[str, Unit] = {}
         self.enums: dict[str, dict[str, int]] = {}
         self.reading: list[Path] = []
+        self.included = 0  # .ssd files read as nested systems so far
         self.refused: set[Path_] = set()  # elements refused (their connections are not checked)
         #: bound parameters that name nothing of their system: (where, name, system)
         self.unmatched: list[tuple[Location, str, str]] = []
@@ -195,6 +197,14 @@ class _Reader:
             if file in self.reading:
                 self.refuse(where, f"'{src}' includes itself", "remove the cycle of .ssd files.")
                 return
+            self.included += 1
+            if self.included > MAX_INCLUSIONS or len(self.reading) >= MAX_DEPTH:
+                what = f"more than {MAX_INCLUSIONS:,} .ssd inclusions (one included twice " \
+                    f"counts twice)" if self.included > MAX_INCLUSIONS else \
+                    f"more than {MAX_DEPTH} .ssd files deep"
+                raise ScenarioError(Problem(where, f"'{src}': the system includes {what}, the "
+                                            f"limit a system may have.", "include each part "
+                                            "once, with fewer levels of .ssd files."))
             self.reading.append(file)
             root, inner = self.xml(file, where)
             self.description(root, inner, path, file.parent)
