@@ -75,10 +75,10 @@ def _ssd_files(folder: Path, depth: int, twice: bool) -> Path:
 
 
 def test_doubling_ssd_inclusions_are_refused(tmp_path: Path) -> None:
-    with pytest.raises(ScenarioError, match="more than 1,000 .ssd inclusions"):
+    with pytest.raises(ScenarioError, match=r"more than 1,000 \.ssd inclusions"):
         twmr.load(_ssd_files(tmp_path, 24, twice=True))
 
 
 def test_an_ssd_chain_too_deep_is_refused(tmp_path: Path) -> None:
-    with pytest.raises(ScenarioError, match="more than 32 .ssd files deep"):
+    with pytest.raises(ScenarioError, match=r"more than 32 \.ssd files deep"):
         twmr.load(_ssd_files(tmp_path, 40, twice=False))

@@ -286,6 +286,7 @@ class Execution:
             if exp.algorithm == "jacobi":
                 propagate_start_values(self.system)
             self.algorithm.start()
+            self._signal_swallowed()
             if paced:
                 gc.freeze()  # what set-up created too; no collection once drives run
                 self._relay = _Relay(self._deliver)
@@ -341,9 +342,17 @@ class Execution:
             if self._n % every == 0:
                 self._emit()
 
+    def _signal_swallowed(self) -> None:
+        """Raise the stop a signal asked for, where its handler's exception was swallowed (by a
+        C callback it interrupted, such as numba's compiler in llvmlite): the run goes on only
+        while no stop signal came."""
+        if self._signalled:
+            raise RunInterrupted(self._signalled)
+
     def _advance(self, n1: int) -> int:
         """The algorithm's advance from the present step towards `n1`; the step it reached must be
         n1, or (`variable_step`) one after the present step and not past n1."""
+        self._signal_swallowed()
         n0 = self._n
         n = self._guarded(self.algorithm.advance, n0, n1)
         if n != n1 and not (self.algorithm.variable_step and n0 < n < n1):
@@ -503,6 +512,7 @@ class Execution:
             try:
                 with kept_locale(name):
                     fn(comp)
+                self._signal_swallowed()
             except (CosimError, KeyboardInterrupt):
                 raise
             except Exception as exc:  # noqa: BLE001 - every component failure is reported
@@ -574,19 +584,32 @@ class Execution:
 
     def _catch_stop_signals(self) -> dict[int, Any]:
         """Ctrl-C, SIGTERM and SIGHUP stop the run (main thread only); once it is stopping,
-        a further one (a second Ctrl-C) is ignored until the results are handed over."""
+        a further one (a second Ctrl-C) is ignored until the results are handed over. What to
+        restore: the previous handlers by signal, and (key 0) `sys.unraisablehook`."""
         self._stopping = False
+        self._signalled = ""
         if threading.current_thread() is not threading.main_thread():
             return {}
 
         def stop(signum: int, frame: Any) -> None:
             if not self._stopping:
                 self._stopping = True
-                raise RunInterrupted(signal.Signals(signum).name)
+                self._signalled = signal.Signals(signum).name
+                raise RunInterrupted(self._signalled)
 
-        return {sig: signal.signal(sig, stop) for sig in _STOP_SIGNALS}
+        hook = sys.unraisablehook
+
+        def quiet(unraisable: Any) -> None:  # the stop is raised again: no traceback for it
+            if not isinstance(unraisable.exc_value, RunInterrupted):
+                hook(unraisable)
+
+        sys.unraisablehook = quiet
+        return {sig: signal.signal(sig, stop) for sig in _STOP_SIGNALS} | {0: hook}
 
     @staticmethod
     def _restore_signals(previous: dict[int, Any]) -> None:
         for sig, handler in previous.items():
-            signal.signal(sig, handler)
+            if sig == 0:
+                sys.unraisablehook = handler
+            else:
+                signal.signal(sig, handler)
