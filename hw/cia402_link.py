@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import logging
+import math
 import struct
 import threading
 import time
@@ -69,6 +70,7 @@ class Cia402Link(Link):
         self.values = {n: {"status": 0, "rpm": 0, "inc": 0, "stamp": 0.0} for n in self.nodes}
         self.beats = {n: time.monotonic() for n in self.nodes}  # grace until the first one
         self.fault: Fault | None = None
+        self.fault_at = math.nan  # perf_counter() when the fault was latched
         self.running = False
         self.rtt_ns: list[int] = []
         self._pending: set[tuple[int, int]] = set()
@@ -193,6 +195,7 @@ class Cia402Link(Link):
         with self.lock:
             if self.fault is None:
                 self.fault = fault
+                self.fault_at = time.perf_counter()
 
     def _on_tpdo(self, n: int, number: int, pdo: Any) -> None:
         now_ns = time.perf_counter_ns()

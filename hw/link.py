@@ -77,6 +77,7 @@ class Link(ABC):
     #: --fmi 3 --can NAME`, twmr.fmi.cexport.busnode.CNode), or None
     c_node: ClassVar[Any] = None
     fault: Fault | None
+    fault_at: float  # time.perf_counter() when `fault` was latched (nan: none)
     rtt_ns: list[int]
 
     @abstractmethod

@@ -57,6 +57,7 @@ class OdriveLink(Link):
         self.beats = {n: 0.0 for n in self.nodes}
         self.states = {n: p.Heartbeat(0, 0) for n in self.nodes}
         self.fault: Fault | None = None
+        self.fault_at = math.nan  # perf_counter() when the fault was latched
         self.running = False  # closed loop reached: leaving it is a fault
         self.rtt_ns: list[int] = []
         self.watchdog: dict[int, tuple[bool, str]] = {n: (False, "not started")
@@ -206,6 +207,7 @@ class OdriveLink(Link):
         with self.lock:
             if self.fault is None:
                 self.fault = fault
+                self.fault_at = time.perf_counter()
 
     # -- life cycle ------------------------------------------------------------------------------
     def _set_watchdogs(self, timeout: float) -> None:

@@ -52,6 +52,7 @@ class Paced:
         self.steps = 0
         self.t0 = time.perf_counter()
         self.behind = 0
+        self.starts: list[float] = []  # perf_counter() as each step began
 
     def mark(self) -> None:
         """Count `behind` from now."""
@@ -67,6 +68,7 @@ class Paced:
             elif wait <= -H / 2:
                 self.behind += 1
             self.drive.torque_command, self.drive.wheel_speed = torque, speed
+            self.starts.append(time.perf_counter())
             self.drive.evaluate(t)
             self.drive.do_step(t, H)
             self.steps += 1

