@@ -4,6 +4,7 @@ every latest frame, foreign pages are refused, the page and its vendored plots a
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import socket
@@ -224,9 +225,11 @@ def test_a_page_that_connects_while_the_view_closes_is_turned_away(view):
 
     real = view._server.shutdown
     late: list = []
+    pages = contextlib.ExitStack()
 
     def shutdown(*args, **kwargs) -> None:
-        late.append(connect(f"ws://127.0.0.1:{view.port}/ws"))  # handshake done before shutdown
+        page = pages.enter_context(connect(f"ws://127.0.0.1:{view.port}/ws"))
+        late.append(page)  # its handshake is done before the shutdown
         _wait_for(lambda: view.clients or getattr(view, "_closing", False))  # its handler ran
         real(*args, **kwargs)
 
@@ -235,7 +238,7 @@ def test_a_page_that_connects_while_the_view_closes_is_turned_away(view):
     closer.start()
     closer.join(60)
     assert not closer.is_alive(), "close() waited on the late page"
-    with pytest.raises(ConnectionClosed) as closed:
+    with pages, pytest.raises(ConnectionClosed) as closed:
         while True:
             late[0].recv(timeout=10)
     assert closed.value.rcvd is not None and closed.value.rcvd.code == 1001
