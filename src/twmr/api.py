@@ -85,23 +85,26 @@ def load(source: str | Path | dict[str, Any] | ScenarioSpec,
     structure, `twmr.scenario.structure`), with `comp.name=value` overrides (also
     `experiment.stop|step|start|algorithm|realtime=...` and `comp.step_multiple=m`). Raises
     `ScenarioError` listing every problem found."""
+    from twmr.scenario.loaders import load_yaml, loader_of
+
     if isinstance(source, ScenarioSpec):
         scenario = Scenario(source.source, source, source.base_dir, tuple(overrides))
     elif isinstance(source, dict):
         scenario = Scenario("<dict>", source, Path.cwd(), tuple(overrides))
-    elif _is_ssp(source):
-        from twmr.scenario.build import _guarded
-        from twmr.scenario.loaders import load_structure
-
-        spec = _guarded(str(source), lambda: load_structure(source))
-        scenario = Scenario(str(source), spec, spec.base_dir, tuple(overrides))
     elif isinstance(source, Path) or ("\n" not in source and (
-            Path(source).suffix.lower() in (".yaml", ".yml") or Path(source).exists())):
-        from twmr.scenario.yamlread import read_file
-
+            loader_of(source) is not None or Path(source).exists())):
         path = Path(source)
-        text = read_file(path)
-        scenario = Scenario(str(path), text, path.resolve().parent, tuple(overrides))
+        loader = loader_of(path) or load_yaml
+        if loader is load_yaml:  # its text is the scenario's content (sweeps identify by it)
+            from twmr.scenario.yamlread import read_file
+
+            text = read_file(path)
+            scenario = Scenario(str(path), text, path.resolve().parent, tuple(overrides))
+        else:
+            from twmr.scenario.build import _guarded
+
+            spec = _guarded(str(path), lambda: loader(path))
+            scenario = Scenario(str(path), spec, spec.base_dir, tuple(overrides))
     else:
         scenario = Scenario("<string>", source, Path.cwd(), tuple(overrides))
     scenario.system  # noqa: B018 - build now: every problem is reported at load
@@ -116,15 +119,6 @@ def build(scenario: Scenario | str | Path | dict[str, Any], overrides: Sequence[
     from twmr.built import build as build_once
 
     return build_once(scenario, overrides)
-
-
-def _is_ssp(source: str | Path) -> bool:
-    """An SSP archive, .ssd file or unpacked folder (read by `twmr.fmi.ssp`)."""
-    if isinstance(source, str) and "\n" in source:
-        return False
-    path = Path(source)
-    return path.suffix.lower() in (".ssp", ".ssd") or ".ssp#" in path.name.lower() or \
-        path.is_dir()
 
 
 def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path | None = None,

@@ -220,13 +220,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     from twmr.fmi import describe_fmu, fmu_interface
+    from twmr.scenario.loaders import load_ssp, loader_of
 
-    if _is_ssp(Path(args.fmu)):
+    loader = loader_of(Path(args.fmu)) if Path(args.fmu).suffix.lower() != ".fmu" else None
+    if loader is not None:
         from twmr.fmi.ssp.listing import describe_ssp
         from twmr.scenario.listing import describe
 
         scenario = api_load(Path(args.fmu))
-        print(describe_ssp(scenario.spec))
+        if loader is load_ssp:
+            print(describe_ssp(scenario.spec))
         print(describe(scenario.system))
         return 0
     if args.json:
@@ -244,16 +247,11 @@ def api_load(path: Path) -> Any:
     return load(path)
 
 
-def _is_ssp(path: Path) -> bool:
-    from twmr.api import _is_ssp as is_ssp
-
-    return path.suffix.lower() != ".fmu" and is_ssp(path)
-
-
 def _is_scenario(args: argparse.Namespace) -> bool:
     """`twmr export` of a whole scenario (to SSP) rather than of one kind (to an FMU)."""
-    return Path(args.kind).suffix.lower() in (".yaml", ".yml") or \
-        str(args.out or "").lower().endswith(".ssp")
+    from twmr.scenario.loaders import loader_of
+
+    return loader_of(Path(args.kind)) is not None or str(args.out or "").lower().endswith(".ssp")
 
 
 def cmd_export(args: argparse.Namespace) -> int:

@@ -20,11 +20,8 @@ from twmr.scenario import (
     Given,
     ScenarioSpec,
     build_system,
-    load,
-    load_structure,
     read_structure,
 )
-from twmr.scenario.loaders import LOADERS, load_yaml
 from twmr.scenario.overrides import apply_overrides
 from twmr.scenario.structure import ExperimentSpec, RecordingSpec
 
@@ -114,22 +111,6 @@ def test_the_builder_reads_only_the_structure_a_hand_made_one_runs_like_the_yaml
     with pytest.raises(ScenarioError, match=r"^my-tool:42 \(ctrl k\): component 'ctrl', "
                                             r"parameter 'k' = nan: NaN"):
         build_system(broken)
-
-
-def test_a_loader_by_suffix_feeds_the_same_builder(tmp_path: Path, monkeypatch) -> None:
-    """The seam another format (SSP) plugs into: a loader for its suffix making the
-    structure."""
-    seen: list[Path] = []
-
-    def toy(path: Path) -> ScenarioSpec:
-        seen.append(path)
-        return load_yaml(FIXTURE)
-
-    monkeypatch.setitem(LOADERS, ".toy", toy)
-    path = tmp_path / "model.toy"
-    assert load_structure(path) == load_yaml(FIXTURE)
-    system = load(path, ["ctrl.k=3"])
-    assert seen == [path, path] and system.components["ctrl"].k == 3.0
 
 
 def test_a_set_value_that_is_not_yaml_is_one_paragraph(capsys) -> None:

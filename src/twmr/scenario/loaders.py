@@ -1,9 +1,10 @@
 """Loaders: a scenario file, YAML text or a dict -> `ScenarioSpec`, checked against the JSON Schema.
 
-`load_structure(path)` picks the loader by the file's suffix (`LOADERS`); `read_structure(source)`
-reads YAML text or a dict of the same shape. A YAML value's location is its file, line and key
-path; a dict's is its key path. SSP (`.ssp`, `.ssd`, an unpacked folder) is read by
-`twmr.fmi.ssp`.
+`load_structure(path)` picks the loader of the file's suffix from the entry-point group
+`twmr.loaders` (`loader_of`: the one place `twmr.load`, `twmr.scenario.load` and the CLI ask;
+an installed package adds a format with one entry point); `read_structure(source)` reads YAML
+text or a dict of the same shape. A YAML value's location is its file, line and key path; a
+dict's is its key path. SSP (`.ssp`, `.ssd`, an unpacked folder) is read by `twmr.fmi.ssp`.
 """
 from __future__ import annotations
 
@@ -165,15 +166,21 @@ def load_ssp(path: Path) -> ScenarioSpec:
     return load(path)
 
 
-#: a loader by file suffix: path -> ScenarioSpec
-LOADERS: dict[str, Callable[[Path], ScenarioSpec]] = {".yaml": load_yaml, ".yml": load_yaml,
-                                                      ".ssp": load_ssp, ".ssd": load_ssp}
+def loader_of(path: str | Path) -> Callable[[Path], ScenarioSpec] | None:
+    """The loader registered for the suffix of `path` (entry-point group `twmr.loaders`, named
+    by the suffix without its dot; 'x.ssp#variant' has the suffix '.ssp'); a folder is an
+    unpacked SSP; None: no loader claims it."""
+    from twmr.registry import LOADERS, plugin, plugins
+
+    path = Path(path)
+    if path.is_dir():
+        return load_ssp
+    name = Path(path.name.split("#", 1)[0]).suffix.lower().lstrip(".")
+    return plugin(LOADERS, name, "scenario format") if name in plugins(LOADERS) else None
 
 
 def load_structure(path: str | Path) -> ScenarioSpec:
-    """The structure of the scenario file at `path`, by the loader of its suffix (YAML for an
-    unknown one); a folder holding SystemStructure.ssd is an unpacked SSP."""
+    """The structure of the scenario file at `path`, by the loader of its suffix (YAML for a
+    suffix no loader claims); a folder holding SystemStructure.ssd is an unpacked SSP."""
     path = Path(path)
-    if path.is_dir():
-        return load_ssp(path)
-    return LOADERS.get(path.suffix.lower(), load_yaml)(path)
+    return (loader_of(path) or load_yaml)(path)
