@@ -4,8 +4,7 @@ Used by noisy_sensor.yaml as `kind: "my_block.py:NoisySensor"`.
 """
 from numba import njit
 
-from twmr.core import Component, Input, Output, Parameter
-from twmr.master.compiled import Kernel
+from twmr import Component, Input, Kernel, Output, Parameter
 
 #: the linear congruential generator of the noise: s <- (A s + C) mod M
 A, C, M = 1103515245, 12345, 2**31

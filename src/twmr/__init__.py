@@ -1,22 +1,28 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
 `twmr.load`, `twmr.simulate`, `twmr.build`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see
-`twmr.api`); imported on first use, so `import twmr` stays light.
+`twmr.api`), and all a block of your own needs: `Component`, `Input`, `Output`, `Parameter`,
+`State`, `Kernel` and `CosimError` (`docs/components.md`). Imported on first use, so `import
+twmr` stays light.
 """
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 __version__ = "0.2.0"
-__all__ = ["Result", "Scenario", "__version__", "build", "load", "read_result", "simulate",
-           "sweep", "tune"]
+#: the names of `twmr` and the module each comes from (imported when first used)
+_FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", "simulate",
+                          "sweep", "tune"), "twmr.api"),
+         **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
+                         "twmr.core"),
+         "Kernel": "twmr.core.kernel"}
+__all__ = sorted([*_FROM, "__version__"])
 
 
 def __getattr__(name: str) -> Any:
-    if name in __all__:
-        from twmr import api
-
-        return getattr(api, name)
+    if name in _FROM:
+        return getattr(importlib.import_module(_FROM[name]), name)
     raise AttributeError(f"module 'twmr' has no attribute {name!r}")
 
 

@@ -180,3 +180,17 @@ def test_a_short_step_needs_the_variable_step_capability() -> None:
         rows[type(algo).__name__] = store.data()
     assert rows["FixedStep"].shape == (51, 4)
     assert np.array_equal(rows["VariableHalfStep"], rows["FixedStep"])
+
+
+def test_a_block_needs_one_import_from_twmr() -> None:
+    """What a block of one's own uses comes from `twmr` itself, the same objects as inside."""
+    import twmr
+    from twmr import Component, CosimError, Input, Kernel, Output, Parameter, State
+    from twmr.core import component, errors, kernel, port
+
+    assert (Component, Input, Output, Parameter, State) == (
+        component.Component, port.Input, port.Output, port.Parameter, port.State)
+    assert Kernel is kernel.Kernel and CosimError is errors.CosimError
+    assert {"Component", "Kernel", "simulate", "load"} <= set(dir(twmr))
+    with pytest.raises(AttributeError):
+        twmr.Nothing  # noqa: B018
