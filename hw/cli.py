@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
-from twmr.hw.link import protocols
+from twmr.hw.link import DriveSpec, protocols
 
 
 def emulate_drive(args: argparse.Namespace) -> int:
@@ -147,7 +147,8 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     rp.add_argument("--protocol", choices=protocols(), default="odrive")
     rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
     rp.add_argument("--gear", type=float, default=1.0, help="motor turns per wheel turn")
-    rp.add_argument("--rated-torque", type=int, default=1000, help="CiA 402 0x6076 [mN.m]")
+    rp.add_argument("--rated-torque", type=int, default=DriveSpec.rated_torque,
+                    help="CiA 402 0x6076 [mN.m]")
     rp.add_argument("--out", help="CSV file (default: standard output)")
     rp.add_argument("--play", action="store_true", help="send the frames onto a bus instead")
     rp.add_argument("--fast", action="store_true", help="with --play: no original timing")

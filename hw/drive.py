@@ -87,10 +87,12 @@ class CanMotorDrive(Component):
     encoder = Parameter("cyclic", type=STRING, description="ODrive: cyclic | polled estimates")
     eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
                     "shipped maxon EPOS4 EDS)")
-    rated_torque = Parameter(100_000, type="Integer", min=1, description="CiA 402: rated "
-                             "torque [mN.m] used when the drive reports 0 in 0x6076")
-    increments_per_rev = Parameter(4096, type="Integer", min=1, description="CiA 402: encoder "
-                                   "increments per motor revolution")
+    rated_torque = Parameter(DriveSpec.rated_torque, type="Integer", min=1,
+                             description="CiA 402: rated torque [mN.m] used when the drive "
+                             "reports 0 in 0x6076")
+    increments_per_rev = Parameter(DriveSpec.increments_per_rev, type="Integer", min=1,
+                                   description="CiA 402: encoder increments per motor "
+                                   "revolution")
     watchdog_periods = Parameter(10, type="Integer", min=1, description="host watchdog: steps "
                                  "without fresh feedback before the drives are disabled")
     heartbeat_timeout = Parameter(0.5, unit="s", min=0.0, description="heartbeat loss")

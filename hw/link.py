@@ -47,7 +47,7 @@ class DriveSpec:
     #: (0: off, as from the factory)
     saved_watchdog: float = 0.0
     eds: str = ""  # CiA 402 EDS/DCF
-    rated_torque: int = 1000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
+    rated_torque: int = 100_000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
     increments_per_rev: int = 4096  # CiA 402 encoder increments per motor turn
 
 

@@ -37,8 +37,8 @@ class Decoder:
     protocol: str = "odrive"
     firmware: str = "0.6.10"
     gear: float = 1.0
-    rated_torque: int = 1000  # CiA 402 0x6076 [mN.m]
-    increments_per_rev: int = 4096
+    rated_torque: int = DriveSpec.rated_torque  # CiA 402 0x6076 [mN.m]
+    increments_per_rev: int = DriveSpec.increments_per_rev
 
     @cached_property
     def _link(self) -> type[Link]:
