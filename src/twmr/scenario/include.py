@@ -14,16 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import Location, Problem, ScenarioError
-from twmr.scenario.structure import Given, ScenarioSpec
+from twmr.scenario.structure import MAX_DEPTH, MAX_INCLUSIONS, Given, ScenarioSpec
 
 #: the files being included, outermost first, each with where its inclusion is written
 _CHAIN: ContextVar[tuple[tuple[Path, Location], ...]] = ContextVar("twmr_include_chain",
                                                                   default=())
 #: the inclusions read so far while one top-level scenario is loaded
 _COUNT: ContextVar[list[int]] = ContextVar("twmr_include_count")
-#: most inclusions one scenario may read (a file included twice counts twice: 24 files that
-#: each include the next twice would read 2^24), and most files deep
-MAX_INCLUSIONS, MAX_DEPTH = 1_000, 32
 
 
 def subsystem(name: str, parameters: dict[str, Given[Any]], initial: dict[str, Given[Any]],

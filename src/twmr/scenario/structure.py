@@ -20,6 +20,10 @@ from typing import Any, Generic, TypeVar
 
 from twmr.core.errors import Location
 
+#: most inclusions one scenario may read, of scenario files or .ssd files (a file included twice
+#: counts twice: 24 files that each include the next twice would read 2^24), and most files deep
+MAX_INCLUSIONS, MAX_DEPTH = 1_000, 32
+
 T = TypeVar("T")
 
 

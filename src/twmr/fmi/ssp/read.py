@@ -32,8 +32,14 @@ from twmr.fmi.ssp.flatten import Edge, EndKey, Flattener, Fmu, Path_
 from twmr.fmi.ssp.params import Entry, Value, parameter_mapping, parameter_set
 from twmr.fmi.ssp.schema import validate
 from twmr.fmi.ssp.xmlsafe import MAX_XML_BYTES, NS, at, parse_xml, tag
-from twmr.scenario.include import MAX_DEPTH, MAX_INCLUSIONS
-from twmr.scenario.structure import ExperimentSpec, Given, RecordingSpec, ScenarioSpec
+from twmr.scenario.structure import (
+    MAX_DEPTH,
+    MAX_INCLUSIONS,
+    ExperimentSpec,
+    Given,
+    RecordingSpec,
+    ScenarioSpec,
+)
 
 log = logging.getLogger("twmr")
 
