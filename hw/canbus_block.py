@@ -39,6 +39,7 @@ from twmr.core import (
     Parameter,
 )
 from twmr.core.port import BINARY, CLOCK
+from twmr.core.run import RunContext
 from twmr.fmi.lsbus import operations as ops
 from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
@@ -236,7 +237,7 @@ class CanBus(Component):
         return self.terminals[name]
 
     # -- life cycle ------------------------------------------------------------------------------
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         self._run_folder = getattr(run, "folder", None)
         self._start = 0.0
         self._busy = 0.0
@@ -259,7 +260,7 @@ class CanBus(Component):
         out = self._run_folder
         name = f"{self.name}_frames.arrows" if self.log_file == "auto" else self.log_file
         # a step taken again (adaptive) takes its events back: the log is written at the end
-        period = None if stepped and getattr(run, "algorithm", "") == "adaptive" else 0.5
+        period = None if stepped and run.steps_retaken else 0.5
         self.log: FrameLog | None = FrameLog(self.bus, Path(out) / name, period) \
             if self.log_file and out is not None else None
 

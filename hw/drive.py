@@ -44,6 +44,7 @@ from twmr.core import (
     Output,
     Parameter,
 )
+from twmr.core.run import RunContext
 from twmr.hw.bus import FrameLog, bus_options, interface_problem
 from twmr.hw.link import DriveSpec, Link, foreign_parameters, protocol, protocols
 from twmr.hw.safety import Fault, LinkError, clamp, stale
@@ -278,7 +279,7 @@ class CanMotorDrive(Component):
             eds=str(self.eds), rated_torque=int(self.rated_torque),
             increments_per_rev=int(self.increments_per_rev))
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         self._run_folder = run.folder
         self._run = run
 

@@ -20,6 +20,7 @@ from typing import Any, ClassVar
 import can
 
 from twmr.core import STRING, Component, HardwareError, Input, Output, Parameter
+from twmr.core.run import RunContext
 from twmr.hw.drive import CanMotorDrive
 from twmr.hw.link import DriveSpec, Emulator, protocol, protocols
 
@@ -86,7 +87,7 @@ class EmulatedDrives(Component):
                          rated_torque=int(self.rated_torque),
                          increments_per_rev=int(self.increments_per_rev))
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         self._run = run
 
     def setup(self, start: float, stop: float | None) -> None:

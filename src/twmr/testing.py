@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.component import Component
-from twmr.master.execution import RunContext
+from twmr.core.run import RunContext
 
 
 class Harness:

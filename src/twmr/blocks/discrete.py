@@ -14,6 +14,7 @@ from twmr.core.component import Component
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import BOOLEAN, INTEGER, STRING, Input, Output, Parameter
+from twmr.core.run import RunContext
 
 #: how a `transfer_function` is discretised (or that its coefficients are already in z)
 TF_METHODS = {"zoh": 0, "tustin": 1, "discrete": 2}
@@ -63,7 +64,7 @@ class _Feedthrough(Component):
 
     _step = 0.0  #: [s] the base step; 0 without `prepare` (h = 0 is a valid limit here)
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         self._step = run.step
 
     def step_of(self, h: float) -> float:
@@ -230,7 +231,7 @@ class ZeroOrderHold(Component):
                      f"number of steps of {h} s.", "give a multiple of the step.")]
         return []
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         _refuse(self, self.check_step(run.step))
 
     def initialize(self) -> None:
@@ -282,7 +283,7 @@ class TransportDelay(Component):
                      f"give buffer >= {math.ceil(d) + 1}.")]
         return []
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         _refuse(self, self.check_step(run.step))
 
     def initialize(self) -> None:
@@ -347,7 +348,7 @@ class Pid(_Feedthrough):
                      f"circle).", f"give N < {2.0 / h:g} 1/s, or a smaller step.")]
         return []
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         super().prepare(run)
         _refuse(self, self.check_step(run.step))
 

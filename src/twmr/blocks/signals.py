@@ -13,6 +13,7 @@ from twmr.core.component import Component
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Output, Parameter
+from twmr.core.run import RunContext
 
 
 class Ramp(Component):
@@ -140,7 +141,7 @@ class Noise(Component):
                  f"({steps:.6g} steps), so samples would not fall on communication points.",
                  "give period as k * step (or 0: a sample every step).")]
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         """Refuses a period off the step (a run not built from a scenario: `Harness`)."""
         super().prepare(run)
         for _, message, fix in self.check_step(run.step):

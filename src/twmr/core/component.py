@@ -29,6 +29,7 @@ from typing import Any, ClassVar, NamedTuple
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel, KernelFunction, compiled_pays, python_params
 from twmr.core.port import Input, Output, Parameter, State, Variable
+from twmr.core.run import RunContext
 
 #: what a saved state may hold: values that are immutable and pickle (tuples of them nest)
 PLAIN = (type(None), numbers.Number, str, bytes)
@@ -412,10 +413,11 @@ class Component:
         return None
 
     # -- life cycle (FMI 2.0 co-simulation) ---------------------------------------------------
-    def prepare(self, run: Any) -> None:
-        """Called first with the run's `RunContext`: `run.folder` is where the component may
-        write files of its own (None: the run writes nothing), `run.step` the base step [s],
-        `run.paced` whether steps follow the wall clock."""
+    def prepare(self, run: RunContext) -> None:
+        """Called first with the run's `RunContext` (`twmr.core.run`): `run.folder` is where
+        the component may write files of its own (None: the run writes nothing), `run.step` the
+        base step [s], `run.paced` whether steps follow the wall clock, and what the algorithm
+        does as capabilities (`outputs_as_stepped`, `steps_retaken`), never its name."""
 
     def setup(self, start: float, stop: float | None) -> None:
         """Called once before `initialize()` with the experiment's start and stop times [s]."""

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError, FmuTerminated
+from twmr.core.run import RunContext
 from twmr.fmi import guard
 from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
@@ -294,13 +295,13 @@ class FmuComponent(Component):
         suffix = _call_suffix(fmi_type, self.fmi3)
         return getattr(self._fmu, f"get{suffix}"), getattr(self._fmu, f"set{suffix}")
 
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         self.run_folder = run.folder
         self._wired = run.wired_inputs(self.name)
         self._read = run.read_outputs(self.name)
-        # Jacobi passes on the outputs as they are after the step: the feedthrough ones too are
+        # outputs passed on as they are after the step (Jacobi): the feedthrough ones too are
         # got after doStep (at t + h with the inputs held, as the native blocks leave them)
-        self._after_step_all = getattr(run, "algorithm", "") == "jacobi"
+        self._after_step_all = run.outputs_as_stepped
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)

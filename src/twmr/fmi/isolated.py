@@ -29,6 +29,7 @@ from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import FmuError
+from twmr.core.run import RunContext
 from twmr.fmi.fmu import FmuComponent
 from twmr.fmi.worker import receive, send
 
@@ -210,14 +211,14 @@ class IsolatedFmu(Component):
         return code
 
     # -- life cycle ---------------------------------------------------------------------------
-    def prepare(self, run: Any) -> None:
+    def prepare(self, run: RunContext) -> None:
         wired, read = run.wired_inputs(self.name), run.read_outputs(self.name)
         self._inputs = tuple(n for n in self.inputs if wired is None or n in wired)
         self._outputs = tuple(n for n in self.outputs if read is None or n in read)
         if self._conn is None:
             self._start()
         self._call("prepare", (run.folder, run.step, run.paced, wired, read,
-                               getattr(run, "algorithm", "gauss_seidel")))
+                               run.outputs_as_stepped, run.steps_retaken))
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)

@@ -32,9 +32,9 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.core.run import RunContext
 from twmr.fmi import guard
 from twmr.fmi.fmu import FmuComponent
-from twmr.master.execution import RunContext
 
 #: how long a side polls for the other's message before it blocks [s]
 SPIN = 2e-4
@@ -63,13 +63,15 @@ class _Server:
         self.values = self.fmu.__dict__
 
     def prepare(self, folder: Any, step: float, paced: bool, wired: set[str] | None,
-                read: set[str] | None, algorithm: str = "gauss_seidel") -> None:
+                read: set[str] | None, outputs_as_stepped: bool = False,
+                steps_retaken: bool = False) -> None:
         """The parent's `RunContext`, narrowed to this instance's wired inputs and read outputs."""
         def pairs(ports: set[str] | None) -> frozenset[tuple[str, str]] | None:
             return None if ports is None else frozenset((self.fmu.name, p) for p in ports)
 
         self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read),
-                                    algorithm=algorithm))
+                                    outputs_as_stepped=outputs_as_stepped,
+                                    steps_retaken=steps_retaken))
 
     def setup(self, start: float, stop: float | None) -> None:
         self.fmu.setup(start, stop)

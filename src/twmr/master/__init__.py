@@ -6,8 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+from twmr.core.run import RunContext
 from twmr.master.algorithm import Algorithm, NonFinite, make_algorithm
-from twmr.master.execution import Execution, Pacer, RunContext, RunInterrupted, columns_of
+from twmr.master.execution import Execution, Pacer, RunInterrupted, columns_of
 from twmr.observers.base import Observer
 from twmr.observers.store import ResultStore
 from twmr.scenario.system import System

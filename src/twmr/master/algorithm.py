@@ -26,6 +26,9 @@ class Algorithm(ABC):
     needs_state_rollback: ClassVar[bool] = False
     #: the step reached may fall short of the step asked for (`advance` returns it)
     variable_step: ClassVar[bool] = False
+    #: the outputs a component leaves after `do_step` are passed on as they are, without
+    #: another `evaluate` at t + h (Jacobi); told to the components (`RunContext`)
+    outputs_as_stepped: bool = False
     #: the generated source, if any, for tracebacks and `twmr check --schedule`
     source: str = ""
 

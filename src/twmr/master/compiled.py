@@ -155,6 +155,7 @@ class CompiledStep(Algorithm):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
+        self.outputs_as_stepped = method == "jacobi"
         self.mode = mode
         #: False: the loop generated for this scenario even where the driver would
         #: run (the benchmark's "before")

@@ -21,7 +21,6 @@ import sys
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +28,7 @@ import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError, FmuTerminated
 from twmr.core.port import BINARY
+from twmr.core.run import RunContext
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.master.jacobi_start import propagate_start_values
@@ -87,30 +87,6 @@ def kept_locale(who: str) -> Iterator[None]:
         if locale.setlocale(locale.LC_ALL) != before:
             locale.setlocale(locale.LC_ALL, before)
             log.debug("%s changed the process locale; it is set back", who)
-
-@dataclass(frozen=True)
-class RunContext:
-    """What a run offers a component before `setup` (`Component.prepare`): a folder for its own
-    files (None: the run writes nothing), the base step h [s], and whether steps are paced to the
-    wall clock. `wired` holds the (instance, input) pairs driven by a wire and `read` the
-    (instance, output) pairs the run reads (wired or recorded); None: every port. `algorithm`
-    is the experiment's ('jacobi': the outputs after a step are passed on as they are)."""
-
-    folder: Path | None
-    step: float
-    paced: bool
-    wired: frozenset[tuple[str, str]] | None = None
-    read: frozenset[tuple[str, str]] | None = None
-    algorithm: str = "gauss_seidel"
-
-    def wired_inputs(self, instance: str) -> set[str] | None:
-        """Inputs of `instance` written by the master at each step (None: all of them)."""
-        return None if self.wired is None else {p for n, p in self.wired if n == instance}
-
-    def read_outputs(self, instance: str) -> set[str] | None:
-        """Outputs of `instance` the run reads (None: all of them)."""
-        return None if self.read is None else {p for n, p in self.read if n == instance}
-
 
 class Pacer:
     """Holds step n until wall time t0 + n h: sleep, then spin on perf_counter_ns for the last
@@ -270,7 +246,9 @@ class Execution:
                 self.folder, exp.step, paced,
                 frozenset((c.dst, c.dst_port) for c in self.system.connections),
                 frozenset([(c.src, c.src_port) for c in self.system.connections]
-                          + list(self.signals)), exp.algorithm)
+                          + list(self.signals)),
+                outputs_as_stepped=self.algorithm.outputs_as_stepped,
+                steps_retaken=self.algorithm.needs_state_rollback)
             if paced:
                 # collect now, before hardware starts (a full collection stalls every thread
                 # for tens of ms), and freeze: a collection during the paced run scans only
@@ -283,7 +261,7 @@ class Execution:
             self._lifecycle("prepare", lambda c: c.prepare(context))
             self._lifecycle("setup", lambda c: c.setup(exp.start, exp.stop))
             self._lifecycle("initialize", lambda c: c.initialize(), self._hardware_last())
-            if exp.algorithm == "jacobi":
+            if self.algorithm.outputs_as_stepped:
                 propagate_start_values(self.system)
             self.algorithm.start()
             self._signal_swallowed()

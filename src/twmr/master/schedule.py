@@ -94,6 +94,7 @@ class FixedStep(Algorithm):
         if method not in METHODS:
             raise ValueError(f"unknown fixed-step method {method!r}; use one of {METHODS}")
         self.method = method
+        self.outputs_as_stepped = method == "jacobi"
         self._source: str | None = ""
         self.filename = ""
         self.plan: Plan | None = None
