@@ -124,16 +124,19 @@ def build(scenario: Scenario | str | Path | dict[str, Any], overrides: Sequence[
 def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path | None = None,
              *, formats: Sequence[str] = (), observers: Sequence[Observer] = (),
              metrics: Sequence[str] = (), progress: bool = False,
-             header: dict[str, Any] | None = None, live: str | None = None) -> Result:
+             header: dict[str, Any] | None = None, live: str | None = None,
+             compiled: str | None = None) -> Result:
     """Run a scenario to its stop time and return its `Result`.
 
     `out`: the run's folder (crash-consistent `result.arrows`, `summary.json`, the asked export
     `formats` of 'csv' / 'mat' / 'parquet'); None keeps the rows in memory. `metrics` names
     registered metric functions (e.g. 'tracking') whose figures go into `summary['metrics']`.
     `live`: '[HOST:]PORT' of a live view of the run in the browser (`docs/live.md`; its URL is
-    logged), closed when the run ends.
+    logged), closed when the run ends. `compiled`: 'auto' | 'on' | 'off', the compiled loop
+    (docs/components.md; None: `TWMR_COMPILED`, default 'auto').
     Raises a `CosimError` (or `KeyboardInterrupt`) after every component is terminated; the
     results so far are in `<out>.incomplete` (see the module's docstring)."""
+    from twmr.master.algorithm import algorithm_for
     from twmr.master.execution import Execution, held_signals
     from twmr.observers.store import ResultStore
     from twmr.observers.summary import SignalSummary
@@ -143,6 +146,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     metric_fns = _metric_functions(metrics)
     system = scenario.fresh_system()
     _check_metrics(metric_fns, system)
+    algorithm = algorithm_for(system, compiled)
     store = ResultStore()
     summary = SignalSummary({"scenario": scenario.source, "overrides": list(scenario.overrides),
                              "algorithm": system.experiment.algorithm,
@@ -158,7 +162,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
 
         extra.append(LiveView(live))
     if out is None:
-        ex = Execution(system, [store, summary, *extra, *observers])
+        ex = Execution(system, [store, summary, *extra, *observers], algorithm=algorithm)
         ex.run()
         result = Result(ex.columns, ex.units, store.data(), summary.document,
                         ticks=store.tick_table())
@@ -170,7 +174,8 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     lock = _lock_folder(final)
     try:
         stage = _stage(final)
-        ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage)
+        ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage,
+                       algorithm=algorithm)
         error: BaseException | None = None
         try:
             ex.run()

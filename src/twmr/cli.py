@@ -69,8 +69,6 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         fmu_log.show_all = True
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
-    if args.compiled:
-        os.environ["TWMR_COMPILED"] = args.compiled  # read by the master (and sweep workers)
     if getattr(args, "verbose", False):
         os.environ[TIMING_ENV] = "1"  # the time spent per block, in summary.json and below
     formats = _formats(args.format)
@@ -84,7 +82,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     foxglove = _foxglove_server(args)
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
-                              progress=not args.quiet,
+                              progress=not args.quiet, compiled=args.compiled or None,
                               observers=[o for o in (live, foxglove) if o is not None])
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)
@@ -477,7 +475,7 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--compiled", choices=("auto", "on", "off"),
                    help="compile the step loop with numba: auto (default: when every block "
                         "offers a kernel and the run has >= 10000 steps), on (an error "
-                        "otherwise), off (the Python loop); sets TWMR_COMPILED")
+                        "otherwise), off (the Python loop); default TWMR_COMPILED, else auto")
     r.add_argument("--live", metavar="[HOST:]PORT",
                    help="serve live scopes of the recorded signals in the browser while the run "
                         "goes (host 127.0.0.1 unless given; port 0: a free one, printed)")

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from twmr import api as twmr_api
 from twmr.core.errors import CosimError
 from twmr.master import Execution
 from twmr.master.schedule import FixedStep
@@ -194,3 +195,18 @@ def test_a_block_needs_one_import_from_twmr() -> None:
     assert {"Component", "Kernel", "simulate", "load"} <= set(dir(twmr))
     with pytest.raises(AttributeError):
         twmr.Nothing  # noqa: B018
+
+
+def test_simulate_takes_the_compiled_loop_as_an_argument(monkeypatch) -> None:
+    """`twmr.simulate(..., compiled=)` chooses the loop without an environment variable (which
+    stays the default when the argument is left out); the rows are the same either way."""
+    monkeypatch.setenv("TWMR_COMPILED", "off")
+    text = ("components:\n  c: {kind: constant}\n  i: {kind: integrator}\n"
+            "connections: [c.y -> i.u]\nexperiment: {stop: 1.0, step: 0.001}\n")
+    on = twmr_api.simulate(twmr_api.load(text), compiled="on")
+    off = twmr_api.simulate(twmr_api.load(text))
+    assert on.summary["pacing"]["algorithm.compiled"] is True
+    assert off.summary["pacing"].get("algorithm.compiled") is not True
+    np.testing.assert_array_equal(on.values, off.values)
+    with pytest.raises(CosimError, match="not a mode"):
+        twmr_api.simulate(twmr_api.load(text), compiled="fast")

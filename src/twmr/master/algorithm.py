@@ -91,8 +91,11 @@ def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
     'gauss_seidel', 'jacobi', 'adaptive'): its factory called with `compiled` 'auto' | 'on' |
     'off' (None: `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError`
     naming the known algorithms when `name` is not one."""
-    from twmr.master.compiled import compiled_mode
+    from twmr.master.compiled import MODES, compiled_mode
 
+    if compiled is not None and compiled not in MODES:
+        raise CosimError(f"compiled={compiled!r} is not a mode of the compiled loop. Fix: give "
+                         f"one of {', '.join(MODES)} (or None: TWMR_COMPILED, else auto).")
     factory = plugin(ALGORITHMS, name, "master algorithm")
     algorithm = factory(compiled_mode() if compiled is None else compiled)
     if not isinstance(algorithm, Algorithm):
