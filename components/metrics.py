@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from twmr.metricset import MetricSet
+
 BAND = 0.15
 DEFINITIONS = {
     "settling_time": f"earliest t after which |e| <= {BAND} m until the end [s]",
@@ -77,8 +79,7 @@ def tracking_metrics(data: np.ndarray, band: float = BAND) -> dict[str, Any]:
     return out
 
 
-def tracking(result: Any) -> dict[str, Any]:
-    """The `tracking` metric set of a `twmr.Result` (see `needs` for what it must record)."""
+def _tracking(result: Any) -> dict[str, Any]:
     return tracking_metrics(result.data)
 
 
@@ -91,28 +92,8 @@ def _tracking_needs(columns: list[str]) -> str:
             "('<plant>.pose')")
 
 
-tracking.needs = _tracking_needs  # type: ignore[attr-defined]
-#: the unit of each figure, for reports (`twmr.registry.metric_units`)
-tracking.units = {f"{name}_{axis}": unit for name, unit in  # type: ignore[attr-defined]
-                  (("settling_time", "s"), ("peak_error", "m"), ("mse", "m2")) for axis in "xy"}
-
-
-def figure_name(column: str) -> str:
-    """A recorded column as a name an objective can use: 'plant.pose[1]' -> 'plant_pose_1'."""
-    return re.sub(r"\W+", "_", column).strip("_")
-
-
-def signals(result: Any) -> dict[str, Any]:
-    """The `signals` metric set: for every recorded column c (time excepted), ms_c (mean of c^2
-    over the recorded samples, as eq. (38)), peak_c (largest |c|) and final_c (its last value);
-    c as `figure_name` writes it."""
-    out: dict[str, Any] = {}
-    if len(result.values) == 0:
-        return out
-    for k, column in enumerate(result.columns[1:], 1):
-        v = result.values[:, k]
-        name = figure_name(column)
-        out[f"ms_{name}"] = float(np.mean(v * v))
-        out[f"peak_{name}"] = float(np.max(np.abs(v)))
-        out[f"final_{name}"] = float(v[-1])
-    return out
+#: the `tracking` metric set of a `twmr.Result`, with what it must record and its figures' units
+tracking = MetricSet(_tracking, _tracking_needs,
+                     {f"{name}_{axis}": unit for name, unit in
+                      (("settling_time", "s"), ("peak_error", "m"), ("mse", "m2"))
+                      for axis in "xy"})

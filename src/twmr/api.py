@@ -18,12 +18,13 @@ import contextlib
 import logging
 import os
 import shutil
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.metricset import MetricSet
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
 from twmr.scenario.structure import ScenarioSpec
@@ -301,7 +302,7 @@ def _settle(stage: Path, final: Path, completed: bool) -> Path:
 
 
 def _finish_folder(folder: Path, formats: tuple[str, ...],
-                   metric_fns: dict[str, Callable[[Result], dict[str, Any]]]) -> Result:
+                   metric_fns: dict[str, MetricSet]) -> Result:
     from twmr.observers.writers import export
 
     result = read_result(folder)
@@ -312,13 +313,14 @@ def _finish_folder(folder: Path, formats: tuple[str, ...],
     return result
 
 
-def _metric_functions(names: Sequence[str]) -> dict[str, Callable[[Result], dict[str, Any]]]:
+def _metric_functions(names: Sequence[str]) -> dict[str, MetricSet]:
+    from twmr.metricset import metric_set
     from twmr.registry import metric
 
-    return {name: metric(name) for name in names}
+    return {name: metric_set(metric(name)) for name in names}
 
 
-def _check_metrics(fns: dict[str, Callable[..., Any]], system: System) -> None:
+def _check_metrics(fns: dict[str, MetricSet], system: System) -> None:
     """Refuse, before running, a metric set whose `needs(columns)` names what is missing."""
     from twmr.master.execution import columns_of
 
@@ -326,13 +328,13 @@ def _check_metrics(fns: dict[str, Callable[..., Any]], system: System) -> None:
         return
     columns = columns_of(system, system.record.signals)[0]
     for name, fn in fns.items():
-        missing = getattr(fn, "needs", lambda c: "")(columns)
+        missing = fn.needs(columns)
         if missing:
             raise CosimError(f"the metric set '{name}' {missing}, which this scenario does not "
                              f"record. Fix: record them, or leave it out.")
 
 
-def _add_metrics(result: Result, fns: dict[str, Callable[[Result], dict[str, Any]]],
+def _add_metrics(result: Result, fns: dict[str, MetricSet],
                  folder: Path | None) -> None:
     if not fns or not len(result):
         return

@@ -4,7 +4,8 @@ Like python-can's interface registry: names map to ``module:attr`` strings and a
 imported only when its entry is used, so robot analysis and hardware libraries load only when a
 scenario or command needs them. A kind may also name a class directly ('my_block.py:MyBlock',
 'package.module:MyBlock', see `lookup`). Groups: ``twmr.components`` (a `Component` subclass),
-``twmr.metrics`` (a function `Result -> dict[str, float]`), ``twmr.commands`` (a function
+``twmr.metrics`` (a `twmr.metricset.MetricSet`, or a function `Result -> dict[str, float]`),
+``twmr.commands`` (a function
 `register(subparsers)` adding one or more subcommands), ``twmr.formats`` (result writers),
 ``twmr.algorithms`` (master algorithms), ``twmr.can_protocols`` (CAN drive links),
 ``twmr.c_kernels`` (the C twins of blocks, for FMU export) and ``twmr.loaders`` (scenario file
@@ -168,11 +169,12 @@ def metric_units(names: list[str]) -> dict[str, str]:
     """The unit of each figure of the metric sets `names` that declare them (a `units` mapping
     on the set); sets that are not installed are left out."""
     from twmr.core.errors import CosimError
+    from twmr.metricset import metric_set
 
     units: dict[str, str] = {}
     for name in names:
         try:
-            units.update(getattr(metric(name), "units", {}))
+            units.update(metric_set(metric(name)).units)
         except (CosimError, ImportError):
             continue
     return units

@@ -191,7 +191,7 @@ experiment: {{start: 0.0, stop: 0.2, step: 0.01}}
     outcome = twmr.sweep(scenario, ["f.mode=values:0,1"], method="grid", workers=2,
                          out=tmp_path / "crash")  # mode 1: a segmentation fault in doStep
     table = outcome.frame().set_index("f.mode")
-    assert table.loc[0, "status"] == "ok"
+    assert table.loc[0, "status"] == "ok", table.loc[0, "error"]
     assert table.loc[1, "status"] == "failed"
     assert "worker process running it died" in table.loc[1, "error"]
 

@@ -39,7 +39,7 @@ def test_mse_and_column_lookup() -> None:
 
 
 def test_signals_figures_of_a_sine() -> None:
-    from twmr.components.metrics import signals
+    from twmr.metricset import signals
     from twmr.result import Result
 
     t = np.linspace(0.0, 2.0, 2001)

@@ -309,6 +309,7 @@ def _collect(tasks: list[RunTask], place: SweepFolder, outcome: SweepOutcome, *,
 
         done = Finished(pending, client, futures)
         for future in done:
+            settled(future)
             batch = by_key[future.key]
             alone = future.key.startswith("run-")
             if future.status != "finished" and len(batch) > 1 and not done.gave_up:
@@ -426,6 +427,16 @@ class Finished:
                             NO_WORKER_PATIENCE, len(left))
                 yield from left
                 return
+
+
+def settled(future: Any) -> None:
+    """Wait (at most `NO_WORKER_PATIENCE` s) for a future that finished and then lost its
+    result with the worker that held it: Dask computes it again."""
+    if future.status in ("lost", "pending"):
+        from dask.distributed import wait
+
+        with contextlib.suppress(TimeoutError):
+            wait([future], timeout=NO_WORKER_PATIENCE)
 
 
 def failed_row(task: RunTask, error: str) -> dict[str, Any]:

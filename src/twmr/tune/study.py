@@ -43,6 +43,7 @@ from twmr.sweeps.engine import (
     lost_error,
     no_worker,
     overrides_of,
+    settled,
     vector_bases,
 )
 from twmr.sweeps.folder import append_row, open_journal, release_lock, take_lock
@@ -291,8 +292,8 @@ def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str,
     futures = client.map(execute, tasks, pure=False,
                          key=[f"{prefix}-{t.sample}-{t.run_id}" for t in tasks])
     done = Finished(as_completed(futures), client, futures)
-    for _ in done:
-        pass
+    for future in done:
+        settled(future)
     return [f.result() if f.status == "finished" else
             failed_row(t, no_worker() if f.cancelled() else lost_error(f.exception()))
             for f, t in zip(futures, tasks, strict=True)]
