@@ -271,7 +271,7 @@ def main(trials: int = 120, realisations: int = 10, validate: int = 100, phases:
     band_figure({"c": frames["circle"][1]}, [("c", "ASMC (tuned)")],
                 f"Circle, tuned ASMC: {validate} realisations", FIGS / "tune_asmc_circle.png")
     mechanism_figure(m, FIGS / "tune_asmc_circle_mechanism.png")
-    from twmr.tune.report import tune_report
+    from twmr.tuning.report import tune_report
 
     for path in tune_report(OUT / "tune", FIGS / "tune_asmc_report"):
         if path.suffix != ".png":

@@ -393,11 +393,11 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
     param) tried first, in order, before the sampler proposes. Writes `out` (default
     tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet, best.yaml,
-    report/. Returns a `twmr.tune.TuneOutcome`."""
+    report/. Returns a `twmr.tuning.TuneOutcome`."""
     from twmr.sweeps import parse_vary
-    from twmr.tune import Expression, TuneSpec, parse_constraint, parse_param
-    from twmr.tune import tune as run_tune
-    from twmr.tune.report import tune_report
+    from twmr.tuning import Expression, TuneSpec, parse_constraint, parse_param
+    from twmr.tuning import tune as run_tune
+    from twmr.tuning.report import tune_report
 
     def texts(given: dict[str, str] | Sequence[str]) -> list[str]:
         return [f"{k}={v}" for k, v in given.items()] if isinstance(given, dict) else list(given)

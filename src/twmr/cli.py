@@ -366,7 +366,7 @@ def _start_point(text: str) -> dict[str, object]:
     """`NAME=VALUE,NAME=VALUE` of --start as {NAME: value} (values read as YAML scalars)."""
     import yaml
 
-    from twmr.tune import TuneError
+    from twmr.tuning import TuneError
 
     point: dict[str, object] = {}
     for part in text.split(","):
@@ -391,7 +391,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        progress=not args.quiet)
     best = outcome.best
     if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
-        from twmr.tune import TuneError
+        from twmr.tuning import TuneError
 
         raise TuneError(f"every trial failed; the first's error: {outcome.trials[0]['error']} "
                         f"(all are in {outcome.folder}/realisations.parquet)")

@@ -21,7 +21,7 @@ KNOWN_LAZY = {
     frozenset({"twmr.fmi.clocks", "twmr.fmi.fmu", "twmr.fmi.guard", "twmr.fmi.isolated",
                "twmr.fmi.worker"}),
     frozenset({"twmr.api", "twmr.built", "twmr.sweeps", "twmr.sweeps.engine", "twmr.sweeps.run",
-               "twmr.tune", "twmr.tune.report", "twmr.tune.study"}),
+               "twmr.tuning", "twmr.tuning.report", "twmr.tuning.study"}),
 }
 
 

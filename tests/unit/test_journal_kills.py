@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from twmr.sweeps.folder import JOURNAL, SweepFolder, append_row, open_journal
-from twmr.tune.study import JOURNAL as TUNE_JOURNAL
-from twmr.tune.study import _read_journal
+from twmr.tuning.study import JOURNAL as TUNE_JOURNAL
+from twmr.tuning.study import _read_journal
 
 pytestmark = pytest.mark.timeout(120)
 

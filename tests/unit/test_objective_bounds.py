@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from twmr.tune.objective import Expression, TuneError
+from twmr.tuning.objective import Expression, TuneError
 
 pytestmark = pytest.mark.timeout(30)
 

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from twmr.plots import legend_outside, line_style, pyplot, save
-from twmr.tune.objective import parse_param
-from twmr.tune.study import DESCRIPTION, TRIALS
+from twmr.tuning.objective import parse_param
+from twmr.tuning.study import DESCRIPTION, TRIALS
 
-log = logging.getLogger("twmr.tune")
+log = logging.getLogger("twmr.tuning")
 
 
 def tune_report(folder: Path, out: Path | None = None) -> list[Path]:

@@ -49,7 +49,7 @@ from twmr.sweeps.engine import (
 from twmr.sweeps.folder import append_row, open_journal, release_lock, take_lock
 from twmr.sweeps.run import RunTask, execute
 from twmr.sweeps.spec import SweepSpec, Vary, run_id
-from twmr.tune.objective import (
+from twmr.tuning.objective import (
     Constraint,
     Expression,
     Param,
@@ -59,7 +59,7 @@ from twmr.tune.objective import (
     unknown_names,
 )
 
-log = logging.getLogger("twmr.tune")
+log = logging.getLogger("twmr.tuning")
 DESCRIPTION, JOURNAL = "tune.json", "trials.jsonl"
 TRIALS, REALISATIONS, BEST = "trials.parquet", "realisations.parquet", "best.yaml"
 BASELINE = "baseline.parquet"
