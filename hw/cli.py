@@ -31,9 +31,7 @@ def emulate_drive(args: argparse.Namespace) -> int:
         raise CosimError(f"emulate-drive: --eds {args.eds} is not an option of protocol "
                          f"{args.protocol}. Fix: choose the protocol whose drives read an "
                          f"EDS/DCF (--protocol cia402), or leave --eds out.")
-    spec = DriveSpec(nodes=nodes, gear=args.gear, firmware=args.firmware,
-                     torque_constant=args.torque_constant, encoder_period=args.encoder_period,
-                     eds=args.eds or "")
+    spec = DriveSpec.of(args, nodes=nodes, eds=args.eds or "")
     for key, what, fix in link.check(spec):
         raise CosimError(f"emulate-drive: --{key.replace('_', '-')}: {what} Fix: {fix}")
     try:

@@ -270,14 +270,7 @@ class CanMotorDrive(Component):
 
     def spec(self) -> DriveSpec:
         """The drives as every protocol sees them (each reads its own fields)."""
-        return DriveSpec(
-            nodes=tuple(int(n) for n in self.node_ids), gear=float(self.gear),
-            torque_limit=float(self.torque_limit), speed_limit=float(self.speed_limit),
-            heartbeat_timeout=float(self.heartbeat_timeout), firmware=str(self.firmware),
-            encoder=str(self.encoder), torque_constant=float(self.torque_constant),
-            drive_watchdog=float(self.drive_watchdog), endpoints=str(self.endpoints),
-            eds=str(self.eds), rated_torque=int(self.rated_torque),
-            increments_per_rev=int(self.increments_per_rev))
+        return DriveSpec.of(self, nodes=self.node_ids)
 
     def prepare(self, run: RunContext) -> None:
         self._run_folder = run.folder

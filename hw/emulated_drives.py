@@ -80,12 +80,8 @@ class EmulatedDrives(Component):
         return [("bus", what + ".", "name a component of kind can_bus.")] if what else []
 
     def _spec(self) -> DriveSpec:
-        return DriveSpec(nodes=tuple(int(n) for n in self.node_ids), gear=float(self.gear),
-                         firmware=str(self.firmware), torque_constant=float(self.torque_constant),
-                         encoder_period=float(self.encoder_period), eds=str(self.eds),
-                         saved_watchdog=float(self.watchdog),
-                         rated_torque=int(self.rated_torque),
-                         increments_per_rev=int(self.increments_per_rev))
+        return DriveSpec.of(self, nodes=tuple(int(n) for n in self.node_ids),
+                            saved_watchdog=float(self.watchdog))
 
     def prepare(self, run: RunContext) -> None:
         self._run = run

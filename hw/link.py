@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 if TYPE_CHECKING:
@@ -46,6 +46,22 @@ class DriveSpec:
     #: emulated ODrive: its axis watchdog on from power-up [s], as set and saved with odrivetool
     #: (0: off, as from the factory)
     saved_watchdog: float = 0.0
+
+    @classmethod
+    def of(cls, source: Any, **given: Any) -> DriveSpec:
+        """The spec from the attributes of `source` named as its fields (a drive block's
+        parameters, a command's arguments, a decoder's settings: the one place a spec is
+        built), each converted to its field's type; `given` overrides or adds fields. Fields
+        `source` lacks keep their defaults."""
+        values: dict[str, Any] = {}
+        for f in fields(cls):
+            if f.name in given:
+                values[f.name] = given[f.name]
+            elif getattr(source, f.name, None) is not None:
+                value = getattr(source, f.name)
+                kind: Any = type(f.default)
+                values[f.name] = tuple(int(n) for n in value) if kind is tuple else kind(value)
+        return cls(**values)
     eds: str = ""  # CiA 402 EDS/DCF
     rated_torque: int = 100_000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
     increments_per_rev: int = 4096  # CiA 402 encoder increments per motor turn

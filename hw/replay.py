@@ -46,8 +46,7 @@ class Decoder:
 
     @cached_property
     def _spec(self) -> DriveSpec:
-        return DriveSpec(gear=self.gear, firmware=self.firmware, rated_torque=self.rated_torque,
-                         increments_per_rev=self.increments_per_rev)
+        return DriveSpec.of(self)
 
     def problems(self) -> list[tuple[str, str, str]]:
         """What is wrong with the decoding parameters (parameter, what, fix)."""
