@@ -1,4 +1,4 @@
-"""FMUs inside the compiled loop (`twmr.master.fmu_kernel`): FMI 2.0 co-simulation FMUs called
+"""FMUs inside the compiled loop (`twmr.fmi.compiled_calls`): FMI 2.0 co-simulation FMUs called
 through their C function pointers, against the Python loop calling them through fmpy.
 
 The paper's blocks exported as standalone C FMUs (`twmr export`, bit-identical to the Python

@@ -1,4 +1,4 @@
-"""FMUs of every scalar type in the compiled loop (`twmr.master.fmu_kernel`): chains of the C test
+"""FMUs of every scalar type in the compiled loop (`twmr.fmi.compiled_calls`): chains of the C test
 FMUs (a Van der Pol oscillator into two feedthrough FMUs, FMI 2.0 and FMI 3.0, tests/fmus/) run
 by the Python loop and compiled must record equal rows element for element; Integer and Boolean
 values cross into Real inputs and into integer inputs of other widths with the Python path's

@@ -37,10 +37,12 @@ def modules(packages: dict[str, Path] = PACKAGES) -> dict[str, Path]:
 def imports(name: str, path: Path, known: dict[str, Path], everywhere: bool) -> set[str]:
     """The modules of the package that `name` imports (at its top level, or `everywhere`)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
+    typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and "TYPE_CHECKING" in ast.unparse(block.test) for n in ast.walk(block)}
     nodes: list[ast.AST] = []
     pending = list(ast.walk(tree)) if everywhere else list(tree.body)
     for node in pending:
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+        if id(node) in typing_only:
             continue
         if not everywhere and isinstance(node, ast.Try):
             nodes.extend(node.body)
@@ -116,7 +118,8 @@ def test_the_reader_sees_a_cycle(tmp_path: Path) -> None:
     (root / "__init__.py").write_text("")
     (root / "a.py").write_text("from p import b\n")
     (root / "b.py").write_text("from . import c\n\ndef f():\n    from p.a import x\n")
-    (root / "c.py").write_text("import p.b\n")
+    (root / "c.py").write_text("from typing import TYPE_CHECKING\n\nimport p.b\n\n"
+                               "if TYPE_CHECKING:\n    import p.a\n")
     packages = {"p": root}
     assert cycles(everywhere=False, packages=packages) == {frozenset({"p.b", "p.c"})}
     assert cycles(everywhere=True, packages=packages) == {frozenset({"p.a", "p.b", "p.c"})}

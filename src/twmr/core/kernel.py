@@ -27,7 +27,10 @@ import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import CodeType, FunctionType
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from twmr.fmi.compiled_calls import FmuCalls
 
 #: runs of at least this many steps repay loading numba (its import and machine code from its
 #: cache: about half a second, more than a shorter run's Python steps)
@@ -187,43 +190,12 @@ class Kernel:
     step: Any = None
     advance: Any = None
     sync: Callable[[Any], None] | None = None
-    #: an FMU the loop calls itself through its C function pointers (`twmr.master.fmu_kernel`)
+    #: an FMU the loop calls itself through its C function pointers
+    #: (`twmr.fmi.compiled_calls.FmuCalls`)
     fmu: FmuCalls | None = None
 
     def __deepcopy__(self, memo: dict[int, Any]) -> Kernel:
         return self  # immutable: a saved component state shares it
-
-
-@dataclass(frozen=True)
-class FmuTransfer:
-    """One set or get call of an FMU in the generated loop: the FMI function (e.g.
-    'fmi3SetInt8'), the ports it carries [(port, width)] in the order of their value
-    references, how many value references and values, and whether the loop carries the values
-    as floats (else as integers)."""
-
-    call: str
-    ports: tuple[tuple[str, int], ...]
-    nvr: int
-    count: int
-    real: bool
-
-
-@dataclass(frozen=True)
-class FmuCalls:
-    """What the generated loop needs to call an FMI 2.0 or 3.0 co-simulation FMU
-    (`twmr.master.fmu_kernel`): its calls, one per FMI type, setting the inputs, getting the
-    feedthrough outputs and getting the outputs read after a step. The parameters of its
-    `Kernel` are (doStep as a ctypes function taking pointers as size_t, the instance, doStep's
-    flags (3 booleans) and last successful time (FMI 3.0), then per call in that order (the
-    function, the value references as uint32, a value buffer of the call's C type)); a status
-    above Warning stops the run, reported by `error(call, status, t)` (status -1: fmi3DoStep
-    asked to terminate)."""
-
-    fmi3: bool
-    inputs: tuple[FmuTransfer, ...]
-    feedthrough: tuple[FmuTransfer, ...]
-    after_step: tuple[FmuTransfer, ...]
-    error: Callable[[str, int, float], BaseException]
 
 
 #: (function, parameter index, shape of the table) -> whether the function only reads fields
@@ -321,5 +293,5 @@ def _field_read(node: ast.expr, table: Any, parents: dict[ast.AST, ast.AST], bou
     return False
 
 
-__all__ = ["AUTO_MIN_STEPS", "FmuCalls", "FmuTransfer", "Kernel", "KernelFunction",
+__all__ = ["AUTO_MIN_STEPS", "Kernel", "KernelFunction",
            "compiled_pays", "kernel_function", "python_params"]

@@ -716,10 +716,10 @@ class FmuComponent(Component):
         """This FMU's compiled form, for the compiled loop (`twmr.master.compiled`, mode 'on'):
         the loop calls its set, get and doStep functions itself through their C function
         pointers, with the calls and their order of `evaluate` / `do_step`
-        (`twmr.master.fmu_kernel`). None for model exchange, event mode, an isolated FMU or
+        (`twmr.fmi.compiled_calls`). None for model exchange, event mode, an isolated FMU or
         pythonfmu's own FMUs (they keep the Python loop); `NotCompilable` for a port the loop
         cannot carry. Call after `initialize`; `h` [s] is its step."""
-        from twmr.master.fmu_kernel import TERMINATE, compiled_form
+        from twmr.fmi.compiled_calls import TERMINATE, compiled_form
 
         fmu = self._fmu
         if fmu is None or self.me or self.event_mode or self._pythonfmu or \

@@ -28,7 +28,7 @@ discretisation) are made in Python once.
 
 An FMI 2.0 or 3.0 co-simulation FMU joins the generated loop in mode 'on': the loop calls its C
 functions itself, through what its `compiled_calls(h)` gives (`twmr.fmi.fmu.FmuComponent`,
-`twmr.master.fmu_kernel`), its Integer and Boolean ports carried as integers.
+`twmr.fmi.compiled_calls`), its Integer and Boolean ports carried as integers.
 
 The generated module (a kind's adapters, or a scenario's loop) is written to the cache folder
 (`TWMR_CACHE_DIR`, default ~/.cache/twmr/schedules) under a name hashing its source, the source
@@ -59,7 +59,7 @@ import numpy as np
 
 from twmr.core.component import replaced_on_instance
 from twmr.core.errors import CosimError, Location, Problem
-from twmr.core.kernel import AUTO_MIN_STEPS, FmuCalls, Kernel, compiled_pays  # noqa: F401 - re-exported
+from twmr.core.kernel import AUTO_MIN_STEPS, Kernel, compiled_pays
 from twmr.core.port import CLOCK, TEXT_TYPES
 from twmr.master import driver, stats
 from twmr.master.algorithm import Algorithm, NonFinite
@@ -126,10 +126,10 @@ def _number(value: Any, kind: str) -> Any:
 
 def _carried(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, str], str]:
     """How the loop carries each port: 'f' float64, 'i' int64, 'u' uint64, 'b' int64 as a bool
-    (`fmu_kernel.carried`; an integer input as its source, so it holds the same value) or 'x'
+    (`compiled_calls.carried`; an integer input as its source, so it holds the same value) or 'x'
     not at all (a String, Binary or Clock port of an FMU that the run neither sets nor
     reads)."""
-    from twmr.master.fmu_kernel import carried
+    from twmr.fmi.compiled_calls import carried
 
     out: dict[tuple[str, str], str] = {}
     for name in system.order:
@@ -440,7 +440,7 @@ class CompiledStep(Algorithm):
             exp = self._system.experiment
             t = exp.start + bad * exp.step
             if fail >= 0:
-                from twmr.master.fmu_kernel import CALLS, call_names
+                from twmr.fmi.compiled_calls import CALLS, call_names
 
                 fmu = self._kernels[fail // CALLS].fmu
                 assert fmu is not None
@@ -534,7 +534,7 @@ _PORTS = ("input", "output", "state")
 
 def _kernels(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
-    from twmr.master.fmu_kernel import NotCompilable
+    from twmr.fmi.compiled_calls import NotCompilable
 
     """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
     'on': in 'auto' an FMU keeps the Python loop, whose chunks of steps are smaller — a crash
@@ -603,11 +603,11 @@ def _generate(system: System, plan: Plan, kernels: dict[str, Kernel],
               kinds: dict[tuple[str, str], str]) -> tuple[str, dict[str, Any]]:
     """(source, {name: kernel function}) of `run(n0, n1, start, h, H, P, X, Y, U, buf, dec)` and
     `finish(n, start, h, P, X, Y, U, buf)` rendered from `plan` over `kernels`; both return (X, Y,
-    U, rows written, the step of a NaN/Inf or of a failed FMU call or -1, `fmu_kernel.CALLS` *
-    component index + the call's index (`fmu_kernel.call_names`) of that failure or -1, its
+    U, rows written, the step of a NaN/Inf or of a failed FMU call or -1, `compiled_calls.CALLS` *
+    component index + the call's index (`compiled_calls.call_names`) of that failure or -1, its
     status). Port values are carried as `kinds` says; a Real input written from an Integer or
     Boolean source gets the source's value as a float."""
-    from twmr.master.fmu_kernel import call_lines
+    from twmr.fmi.compiled_calls import call_lines
 
     comps = system.components
     order = plan.order

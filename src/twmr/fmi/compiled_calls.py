@@ -1,6 +1,6 @@
-"""A co-simulation FMU inside the generated loop (`twmr.master.compiled`): its compiled form
-(`compiled_form`, a `Kernel` whose `fmu` is an `FmuCalls`) and the lines of the loop that call
-its C functions (`call_lines`).
+"""A co-simulation FMU inside the generated loop (`twmr.master.compiled`): what the loop needs to
+call it (`FmuCalls`, `FmuTransfer`), its compiled form (`compiled_form`, a `Kernel` whose `fmu`
+is an `FmuCalls`) and the lines of the loop that call its C functions (`call_lines`).
 
 The loop calls the FMU's set, get and doStep functions itself, through their addresses, one
 call per FMI type with the value references and a value buffer of that type laid out once: the
@@ -21,11 +21,45 @@ from __future__ import annotations
 
 import ctypes
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from twmr.core.kernel import FmuCalls, FmuTransfer, Kernel
+from twmr.core.kernel import Kernel
+
+
+@dataclass(frozen=True)
+class FmuTransfer:
+    """One set or get call of an FMU in the generated loop: the FMI function (e.g.
+    'fmi3SetInt8'), the ports it carries [(port, width)] in the order of their value
+    references, how many value references and values, and whether the loop carries the values
+    as floats (else as integers)."""
+
+    call: str
+    ports: tuple[tuple[str, int], ...]
+    nvr: int
+    count: int
+    real: bool
+
+
+@dataclass(frozen=True)
+class FmuCalls:
+    """What the generated loop needs to call an FMI 2.0 or 3.0 co-simulation FMU: its calls,
+    one per FMI type, setting the inputs, getting the feedthrough outputs and getting the
+    outputs read after a step. The parameters of its
+    `Kernel` are (doStep as a ctypes function taking pointers as size_t, the instance, doStep's
+    flags (3 booleans) and last successful time (FMI 3.0), then per call in that order (the
+    function, the value references as uint32, a value buffer of the call's C type)); a status
+    above Warning stops the run, reported by `error(call, status, t)` (status -1: fmi3DoStep
+    asked to terminate)."""
+
+    fmi3: bool
+    inputs: tuple[FmuTransfer, ...]
+    feedthrough: tuple[FmuTransfer, ...]
+    after_step: tuple[FmuTransfer, ...]
+    error: Callable[[str, int, float], BaseException]
+
 
 #: a failed call is reported as component index * CALLS + the call's index in the FMU's list
 CALLS = 256
