@@ -102,9 +102,9 @@ def load(source: str | Path | dict[str, Any] | ScenarioSpec,
             text = read_file(path)
             scenario = Scenario(str(path), text, path.resolve().parent, tuple(overrides))
         else:
-            from twmr.scenario.build import _guarded
+            from twmr.scenario.build import guarded
 
-            spec = _guarded(str(path), lambda: loader(path))
+            spec = guarded(str(path), lambda: loader(path))
             scenario = Scenario(str(path), spec, spec.base_dir, tuple(overrides))
     else:
         scenario = Scenario("<string>", source, Path.cwd(), tuple(overrides))

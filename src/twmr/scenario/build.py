@@ -61,7 +61,7 @@ _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Z
 
 def load(path: str | Path, overrides: Sequence[str] = ()) -> System:
     """Build the System of the scenario file at `path` (with `--set` overrides)."""
-    return build_system(_guarded(str(path), lambda: apply_overrides(load_structure(path),
+    return build_system(guarded(str(path), lambda: apply_overrides(load_structure(path),
                                                                     overrides)))
 
 
@@ -79,8 +79,8 @@ def scenario_spec(text: str | dict[str, Any] | ScenarioSpec, source: str = "<str
     `--set` overrides applied. Raises a `CosimError` subclass."""
     if isinstance(text, ScenarioSpec):
         spec = text
-        return _guarded(spec.source, lambda: apply_overrides(spec, overrides))
-    return _guarded(source, lambda: apply_overrides(read_structure(text, source, base_dir),
+        return guarded(spec.source, lambda: apply_overrides(spec, overrides))
+    return guarded(source, lambda: apply_overrides(read_structure(text, source, base_dir),
                                                     overrides))
 
 
@@ -88,7 +88,7 @@ def build_system(spec: ScenarioSpec) -> System:
     """The System of a scenario's structure (subsystems flattened into blocks named by their
     path, `twmr.scenario.flatten`): components created and configured, wires checked, order
     found. Raises a `CosimError` subclass listing every problem."""
-    return _guarded(spec.source, lambda: _Builder(flatten(spec)).build())
+    return guarded(spec.source, lambda: _Builder(flatten(spec)).build())
 
 
 def reconfigure(flat: ScenarioSpec, system: System, names: Sequence[str]) -> None:
@@ -109,10 +109,10 @@ def reconfigure(flat: ScenarioSpec, system: System, names: Sequence[str]) -> Non
         if not builder.problems:
             builder.check_steps(comps, system.experiment.step)
         builder.fail_if_problems()
-    _guarded(flat.source, run)
+    guarded(flat.source, run)
 
 
-def _guarded(source: str, make: Any) -> Any:
+def guarded(source: str, make: Any) -> Any:
     """`make()`, with any failure that is not a CosimError reported as a ScenarioError."""
     try:
         return make()
