@@ -53,7 +53,9 @@ log = logging.getLogger(__name__)
 
 #: the share of its time the bus is busy over `flood_time` from which it counts as flooded
 FLOODED = 0.9
-#: the share of the steps over `flood_time` that must be flooded (or have bus errors) to stop
+#: frames starved over `flood_time` from which the bus counts as flooded (a healthy bench: none)
+STARVED_FRAMES = 8
+#: the share of the steps over `flood_time` with a bus error from which it is an error storm
 BAD_SHARE = 0.8
 
 
@@ -116,9 +118,10 @@ class CanBus(Component):
                          "folder; 'auto' = <name>_frames.arrows, '' = none")
     flood_time = Parameter(0.1, unit="s", min=0.0, description="a bus on the wall clock (drives, "
                            f"hardware) stops the run when over this long it was busy "
-                           f"{FLOODED:.0%} of the time, or {BAD_SHARE:.0%} of the steps had a "
-                           f"frame lose {STARVED} arbitrations or a bus error (a flood or an "
-                           "error storm; a simulated bus notes it once; 0: never)")
+                           f"{FLOODED:.0%} of the time or {STARVED_FRAMES} frames lost "
+                           f"{STARVED} arbitrations in a row (a flood), or {BAD_SHARE:.0%} of "
+                           "the steps had a bus error (an error storm); a simulated bus notes it "
+                           "once; 0: never")
 
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
@@ -242,10 +245,10 @@ class CanBus(Component):
         self._start = 0.0
         self._busy = 0.0
         self._set_by = ()
-        #: the steps of the last flood_time: (t, a frame starved, a bus error, bus time, busy
-        #: time, frames sent by whom so far), and the model's (starved, bus errors) counts
-        self._flood: tuple[deque[tuple[float, bool, bool, float, float, Counter[str]]],
-                           tuple[int, int]] = (deque(), (0, 0))
+        #: the steps of the last flood_time: (t, frames starved so far, a bus error in it, bus
+        #: time, busy time, frames sent by whom so far), and the bus errors so far
+        self._flood: tuple[deque[tuple[float, int, bool, float, float, Counter[str]]], int] = \
+            (deque(), 0)
         self._flood_told = False
         self.gateway: Gateway | None = None
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
@@ -313,15 +316,15 @@ class CanBus(Component):
 
     def _watch_flood(self, bus: BusRunner | SteppedBus, t: float, h: float) -> None:
         """HardwareError once, over the last `flood_time`, the bus was busy `FLOODED` of its
-        time, or `BAD_SHARE` of the steps had a frame starved (it lost `STARVED` arbitrations)
-        or a bus error (a flood, or an error storm), naming who sent most in that time (or the
-        last error)."""
-        steps, before = self._flood
-        counts = (bus.model.starved, bus.counts["bus_error"])
-        starved, failed = (now > was for now, was in zip(counts, before, strict=True))
+        time or `STARVED_FRAMES` frames starved (each lost `STARVED` arbitrations in a row): a
+        flood, naming who sent most in that time; or `BAD_SHARE` of the steps had a bus error:
+        an error storm, naming the last."""
+        steps, errors_before = self._flood
+        errors = bus.counts["bus_error"]
         clock = t + h if isinstance(bus, SteppedBus) else bus.now()  # bus time
-        steps.append((t, starved, failed, clock, bus.model.busy_time, Counter(bus.sent_by)))
-        self._flood = (steps, counts)
+        steps.append((t, bus.model.starved, errors > errors_before, clock, bus.model.busy_time,
+                      Counter(bus.sent_by)))
+        self._flood = (steps, errors)
         while len(steps) > 1 and steps[1][0] <= t + h - self.flood_time + 1e-9 * h:
             steps.popleft()
         span = t + h - steps[0][0]
@@ -329,9 +332,9 @@ class CanBus(Component):
             return
         first = steps[0]
         load = (bus.model.busy_time - first[4]) / max(clock - first[3], 1e-12)
-        starving = sum(s[1] for s in steps)
+        starved = bus.model.starved - first[1]
         stormy = sum(s[2] for s in steps)
-        flooded = load >= FLOODED or starving >= BAD_SHARE * len(steps)
+        flooded = load >= FLOODED or starved >= STARVED_FRAMES
         if not flooded and stormy < BAD_SHARE * len(steps):
             return
         window = Counter(bus.sent_by)
@@ -340,9 +343,8 @@ class CanBus(Component):
         if flooded and total:
             who, n = window.most_common(1)[0]
             what = (f"flooded: over {span:.3g} s from t = {first[0]:.6g} s the bus was busy "
-                    f"{load:.0%} of the time and {starving} of {len(steps)} steps had a frame "
-                    f"lose {STARVED} arbitrations; participant '{who}' sent {n} of the {total} "
-                    f"frames")
+                    f"{load:.0%} of the time and {starved} frames lost {STARVED} arbitrations "
+                    f"in a row; participant '{who}' sent {n} of the {total} frames")
         else:
             last = bus.last_error
             what = (f"an error storm: over {span:.3g} s from t = {first[0]:.6g} s, {stormy} of "
