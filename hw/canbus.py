@@ -190,10 +190,10 @@ class BusRunner(BusCore):
         """Queue `frame` of `sender` now (or at run time `at` [s], for a participant stepped in
         simulated time); '' or why the bus refuses it."""
         with self._cond:
-            now = time.monotonic()
+            queued = now = time.monotonic()
             if at is not None and not math.isnan(self.offset):
                 now = at - self.offset
-            problem = self.model.submit(sender, frame, now)
+            problem = self.model.submit(sender, frame, now, queued)
             if problem:
                 self._record(BusEvent("bus_error", now, frame, sender, problem))
             self._cond.notify_all()

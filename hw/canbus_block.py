@@ -45,16 +45,12 @@ from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import bus_options, describe, interface_problem
 from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
-from twmr.hw.cansim import STARVED, STUFFING, CanBusModel
+from twmr.hw.cansim import STUFFING, CanBusModel
 from twmr.hw.lsbus_node import LsBusNode, frame_of
 from twmr.hw.steppedbus import SteppedBus
 
 log = logging.getLogger(__name__)
 
-#: the share of its time the bus is busy over `flood_time` from which it counts as flooded
-FLOODED = 0.9
-#: frames starved over `flood_time` from which the bus counts as flooded (a healthy bench: none)
-STARVED_FRAMES = 8
 #: the share of the steps over `flood_time` with a bus error from which it is an error storm
 BAD_SHARE = 0.8
 
@@ -117,11 +113,9 @@ class CanBus(Component):
     log_file = Parameter("auto", type=STRING, description="frame log (.arrows) in the results "
                          "folder; 'auto' = <name>_frames.arrows, '' = none")
     flood_time = Parameter(0.1, unit="s", min=0.0, description="a bus on the wall clock (drives, "
-                           f"hardware) stops the run when over this long it was busy "
-                           f"{FLOODED:.0%} of the time or {STARVED_FRAMES} frames lost "
-                           f"{STARVED} arbitrations in a row (a flood), or {BAD_SHARE:.0%} of "
-                           "the steps had a bus error (an error storm); a simulated bus notes it "
-                           "once; 0: never")
+                           f"hardware) stops the run when a frame waits this long for the bus (a "
+                           f"flood), or {BAD_SHARE:.0%} of the steps over this long had a bus "
+                           "error (an error storm); a simulated bus notes it once; 0: never")
 
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
@@ -245,10 +239,9 @@ class CanBus(Component):
         self._start = 0.0
         self._busy = 0.0
         self._set_by = ()
-        #: the steps of the last flood_time: (t, frames starved so far, a bus error in it, bus
-        #: time, busy time, frames sent by whom so far), and the bus errors so far
-        self._flood: tuple[deque[tuple[float, int, bool, float, float, Counter[str]]], int] = \
-            (deque(), 0)
+        #: the steps of the last flood_time: (t, a bus error in it, frames sent by whom so far),
+        #: and the bus errors so far
+        self._flood: tuple[deque[tuple[float, bool, Counter[str]]], int] = (deque(), 0)
         self._flood_told = False
         self.gateway: Gateway | None = None
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
@@ -315,36 +308,34 @@ class CanBus(Component):
         self._watch_flood(bus, t, h)
 
     def _watch_flood(self, bus: BusRunner | SteppedBus, t: float, h: float) -> None:
-        """HardwareError once, over the last `flood_time`, the bus was busy `FLOODED` of its
-        time or `STARVED_FRAMES` frames starved (each lost `STARVED` arbitrations in a row): a
-        flood, naming who sent most in that time; or `BAD_SHARE` of the steps had a bus error:
-        an error storm, naming the last."""
+        """HardwareError once a frame has waited `flood_time` for the bus (in the bus's own
+        time, so a stalled process does not count: a flood, naming who sent most over the last
+        `flood_time`), or `BAD_SHARE` of the steps over it had a bus error (an error storm,
+        naming the last)."""
         steps, errors_before = self._flood
         errors = bus.counts["bus_error"]
-        clock = t + h if isinstance(bus, SteppedBus) else bus.now()  # bus time
-        steps.append((t, bus.model.starved, errors > errors_before, clock, bus.model.busy_time,
-                      Counter(bus.sent_by)))
+        with bus_lock(bus):
+            waited, bus.model.longest_wait = bus.model.longest_wait, 0.0
+        steps.append((t, errors > errors_before, Counter(bus.sent_by)))
         self._flood = (steps, errors)
         while len(steps) > 1 and steps[1][0] <= t + h - self.flood_time + 1e-9 * h:
             steps.popleft()
+        if self.flood_time <= 0:
+            return
         span = t + h - steps[0][0]
-        if self.flood_time <= 0 or span < self.flood_time - 1e-9 * h:
+        flooded = waited >= self.flood_time
+        stormy = sum(s[1] for s in steps)
+        if not flooded and (span < self.flood_time - 1e-9 * h or
+                            stormy < BAD_SHARE * len(steps)):
             return
         first = steps[0]
-        load = (bus.model.busy_time - first[4]) / max(clock - first[3], 1e-12)
-        starved = bus.model.starved - first[1]
-        stormy = sum(s[2] for s in steps)
-        flooded = load >= FLOODED or starved >= STARVED_FRAMES
-        if not flooded and stormy < BAD_SHARE * len(steps):
-            return
         window = Counter(bus.sent_by)
-        window.subtract(first[5])
+        window.subtract(first[2])
         total = sum(window.values())
         if flooded and total:
             who, n = window.most_common(1)[0]
-            what = (f"flooded: over {span:.3g} s from t = {first[0]:.6g} s the bus was busy "
-                    f"{load:.0%} of the time and {starved} frames lost {STARVED} arbitrations "
-                    f"in a row; participant '{who}' sent {n} of the {total} frames")
+            what = (f"flooded: a frame waited {waited:.3g} s for the bus; over the last "
+                    f"{span:.3g} s participant '{who}' sent {n} of the {total} frames")
         else:
             last = bus.last_error
             what = (f"an error storm: over {span:.3g} s from t = {first[0]:.6g} s, {stormy} of "

@@ -235,11 +235,7 @@ class _Pending:
     sender: str
     time: float
     seq: int
-    losses: int = 0  # arbitrations it lost
-
-
-#: arbitrations a frame loses before it counts as starved (`CanBusModel.starved`)
-STARVED = 16
+    queued: float = -math.inf  # bus time it was handed over (later than `time` for one late)
 
 
 @dataclass
@@ -254,8 +250,10 @@ class CanBusModel:
     stuffing: str = "exact"
     members: set[str] = field(default_factory=set)
     busy_time: float = 0.0  # [s] of bus time carrying frames (intermission included)
-    #: frames that lost `STARVED` arbitrations (a higher priority floods the bus), so far
-    starved: int = 0
+    #: the longest a frame waited for the bus since the owner last set it to 0 [s of bus time,
+    #: the model's own]: from when it was due (or handed over, if later) to its start, or to
+    #: the end of the last frame for one still waiting (a flood makes it grow)
+    longest_wait: float = 0.0
     live: bool = True  # False while the bus comes up or winds down: no ACK errors then
     #: participants whose frames that lose arbitration are dropped, not sent again
     discarding: set[str] = field(default_factory=set)
@@ -285,15 +283,18 @@ class CanBusModel:
         wire = self._on_wire is not None and self._on_wire[0].sender == name
         return len(self._queues.get(name, ())) + int(wire)
 
-    def submit(self, sender: str, frame: can.Message, t: float) -> str:
-        """Queue `frame` of `sender` at bus time `t` [s]; '' or why it is refused (then a
-        `bus_error` for the sender comes with the next `advance`)."""
+    def submit(self, sender: str, frame: can.Message, t: float,
+               queued: float | None = None) -> str:
+        """Queue `frame` of `sender` at bus time `t` [s], handed over at bus time `queued`
+        (default `t`); '' or why it is refused (then a `bus_error` for the sender comes with
+        the next `advance`)."""
         problem = frame_problem(frame, self.fd)
         if problem:
             self._now.append(BusEvent("bus_error", t, frame, sender, problem))
             return problem
         self._seq += 1
-        self._queues.setdefault(sender, deque()).append(_Pending(frame, sender, t, self._seq))
+        self._queues.setdefault(sender, deque()).append(
+            _Pending(frame, sender, t, self._seq, t if queued is None else queued))
         return ""
 
     def next_time(self) -> float | None:
@@ -339,15 +340,17 @@ class CanBusModel:
                 break
             contenders = [h for h in heads if h.time <= start + SAME_INSTANT]
             winner = min(contenders, key=lambda h: (priority(h.frame), h.seq))
+            self.longest_wait = max(self.longest_wait, start - max(winner.time, winner.queued))
             self._queues[winner.sender].popleft()
             for lost in contenders:
                 if lost is not winner:
-                    lost.losses += 1
-                    self.starved += lost.losses == STARVED
                     if lost.sender in self.discarding:
                         self._queues[lost.sender].popleft()
                     events.append(BusEvent("arbitration_lost", start, lost.frame, lost.sender,
                                            f"lost to 0x{winner.frame.arbitration_id:x}"))
             self._on_wire = (winner, start, frame_timing(winner.frame, self.bitrate,
                                                          self.data_bitrate, self.stuffing))
+        for head in (q[0] for q in self._queues.values() if q):  # waiting still
+            self.longest_wait = max(self.longest_wait,
+                                    self._free_at - max(head.time, head.queued))
         return events
