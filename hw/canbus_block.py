@@ -312,6 +312,8 @@ class CanBus(Component):
         time, so a stalled process does not count: a flood, naming who sent most over the last
         `flood_time`), or `BAD_SHARE` of the steps over it had a bus error (an error storm,
         naming the last)."""
+        if self.flood_time <= 0:
+            return
         steps, errors_before = self._flood
         errors = bus.counts["bus_error"]
         with bus_lock(bus):
@@ -320,8 +322,6 @@ class CanBus(Component):
         self._flood = (steps, errors)
         while len(steps) > 1 and steps[1][0] <= t + h - self.flood_time + 1e-9 * h:
             steps.popleft()
-        if self.flood_time <= 0:
-            return
         span = t + h - steps[0][0]
         flooded = waited >= self.flood_time
         stormy = sum(s[1] for s in steps)
@@ -486,7 +486,12 @@ class CanBus(Component):
         sent: list[str] = []
         for terminal, node in self._nodes.items():
             host = self._hosts.get(terminal)
-            raw = host.last_sent(node.terminal) if host is not None else b""
+            try:
+                raw = host.last_sent(node.terminal) if host is not None else b""
+            except Exception as err:  # noqa: BLE001 - the bus closes whatever a node does
+                bus.failures.append(f"bus '{self.name}': terminal '{node.name}': last_sent "
+                                    f"failed ({type(err).__name__}: {err})")
+                raw = b""
             with bus_lock(bus):
                 bus.model.drop(node.name)
             try:
