@@ -13,16 +13,21 @@ from pathlib import Path
 from twmr.core.errors import CosimError
 from twmr.core.port import Parameter
 from twmr.fmi.cexport.busnode import CNode
+from twmr.hw import cia402
 from twmr.hw import protocol as p
 from twmr.hw.drive import CanMotorDrive
+from twmr.hw.link import option_parameters
 
 C = Path(__file__).parent / "c"
 
 
-def _drive_parameters(*names: str) -> dict[str, Parameter]:
+def _drive_parameters(options: type, *names: str) -> dict[str, Parameter]:
+    """The `can_drive` block's parameters `names`, its own or those of the protocol's
+    `options`."""
+    own = option_parameters(options)
     out = {}
     for name in names:
-        var = replace(getattr(CanMotorDrive, name))
+        var = replace(own[name] if name in own else getattr(CanMotorDrive, name))
         var.name = name
         out[name] = var
     return out
@@ -39,11 +44,12 @@ def _odrive_options(texts: Mapping[str, str]) -> dict[str, int]:
 
 
 ODRIVE = CNode(source=C / "odrive_node.c", codec=(C / "odrive.c", C / "odrive.h"),
-               parameters=_drive_parameters("node_ids", "gear", "torque_limit", "speed_limit",
-                                            "torque_constant", "watchdog_periods"),
-               texts={"firmware": CanMotorDrive.firmware.start}, options=_odrive_options,
+               parameters=_drive_parameters(p.OdriveOptions, "node_ids", "gear", "torque_limit",
+                                            "speed_limit", "torque_constant",
+                                            "watchdog_periods"),
+               texts={"firmware": p.OdriveOptions().firmware}, options=_odrive_options,
                state=2)
 CIA402 = CNode(source=C / "cia402_node.c", codec=(C / "cia402.c", C / "cia402.h"),
-               parameters=_drive_parameters("node_ids", "gear", "torque_limit", "rated_torque",
-                                            "watchdog_periods"),
+               parameters=_drive_parameters(cia402.Cia402Options, "node_ids", "gear",
+                                            "torque_limit", "rated_torque", "watchdog_periods"),
                state=6)

@@ -12,7 +12,23 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import dataclass
 from enum import Enum
+
+from twmr.hw.link import option
+
+
+@dataclass(frozen=True)
+class Cia402Options:
+    """What a CiA 402 link, its decoder and its emulator read beyond `DriveSpec`."""
+
+    eds: str = option("", file=True, description="EDS/DCF of the drives ('' = the shipped "
+                      "maxon EPOS4 EDS)")
+    rated_torque: int = option(100_000, min=1, description="rated torque [mN.m] used when the "
+                               "drive reports 0 in 0x6076")
+    increments_per_rev: int = option(4096, min=1, description="encoder increments per motor "
+                                     "revolution")
+
 
 CONTROLWORD, STATUSWORD, MODES_OF_OPERATION = 0x6040, 0x6041, 0x6060
 TARGET_TORQUE, MAX_TORQUE, MOTOR_RATED_TORQUE = 0x6071, 0x6072, 0x6076

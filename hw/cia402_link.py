@@ -41,8 +41,8 @@ SHIPPED_EDS = "maxon_epos4_module_50-5.eds"
 
 
 def eds_path(spec: DriveSpec) -> str:
-    """The drives' EDS/DCF: `spec.eds`, or the shipped maxon EPOS4 EDS."""
-    return spec.eds or str(resources.files("twmr.hw") / "data" / SHIPPED_EDS)
+    """The drives' EDS/DCF: `spec.options.eds`, or the shipped maxon EPOS4 EDS."""
+    return spec.options.eds or str(resources.files("twmr.hw") / "data" / SHIPPED_EDS)
 
 
 class Cia402Link(Link):
@@ -52,8 +52,7 @@ class Cia402Link(Link):
     #: CANopen nodes are 1..127 (0 is the NMT broadcast); the host's heartbeat takes 127
     node_range: ClassVar[range] = range(1, 127)
     default_nodes: ClassVar[tuple[int, int]] = (1, 2)
-    own_parameters: ClassVar[frozenset[str]] = frozenset(
-        {"eds", "rated_torque", "increments_per_rev"})
+    Options: ClassVar[type] = c.Cia402Options
     c_node: ClassVar[Any] = c_nodes.CIA402
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
@@ -62,8 +61,8 @@ class Cia402Link(Link):
             raise LinkError(Fault(None, problems[0][1].rstrip("."), problems[0][2]))
         self.spec = spec
         self.nodes, self.gear = tuple(spec.nodes), spec.gear
-        self.increments_per_rev = spec.increments_per_rev
-        self.default_rated = spec.rated_torque
+        self.increments_per_rev = spec.options.increments_per_rev
+        self.default_rated = spec.options.rated_torque
         eds = eds_path(spec)
         self.log = log
         self.lock = threading.Lock()
@@ -112,13 +111,13 @@ class Cia402Link(Link):
     @classmethod
     def check(cls, spec: DriveSpec) -> list[tuple[str, str, str]]:
         """The EDS/DCF exists; rated torque and encoder resolution are positive."""
-        if spec.eds and not Path(spec.eds).is_file():
-            return [("eds", f"the EDS/DCF {spec.eds} does not exist.",
+        if spec.options.eds and not Path(spec.options.eds).is_file():
+            return [("eds", f"the EDS/DCF {spec.options.eds} does not exist.",
                      "give the drive's description file (relative paths are against the "
                      "scenario's folder), or leave eds: out for the shipped maxon EPOS4 EDS.")]
         for key in ("rated_torque", "increments_per_rev"):
-            if getattr(spec, key) <= 0:
-                return [(key, f"{key} is {getattr(spec, key)}; it scales every torque or "
+            if getattr(spec.options, key) <= 0:
+                return [(key, f"{key} is {getattr(spec.options, key)}; it scales every torque or "
                          f"position frame and must be positive.",
                          "give the motor's rated torque in mN.m (0x6076) and the encoder's "
                          "increments per motor turn.")]
@@ -135,13 +134,14 @@ class Cia402Link(Link):
         if base == c.RPDO1:
             word, permille = c.decode_rpdo1(data)
             return [(node, "controlword", word), (node, "torque_command",
-                    c.permille_to_torque(permille, spec.gear, spec.rated_torque))]
+                    c.permille_to_torque(permille, spec.gear, spec.options.rated_torque))]
         if base == c.TPDO1:
             word, rpm = c.decode_tpdo1(data)
             return [(node, "statusword", word), (node, "speed", c.velocity_to_si(rpm, spec.gear))]
         if base == 0x280:
             (inc,) = struct.unpack_from("<i", data)
-            return [(node, "angle", c.position_to_si(inc, spec.gear, spec.increments_per_rev))]
+            return [(node, "angle",
+                     c.position_to_si(inc, spec.gear, spec.options.increments_per_rev))]
         if base == 0x080 and node:
             return [(node, "emcy", struct.unpack_from("<H", data)[0])]
         if base == 0x700:
@@ -153,8 +153,9 @@ class Cia402Link(Link):
         from twmr.hw.cia402_emulator import Cia402Emulator
 
         eds = eds_path(spec)
-        return Cia402Emulator(spec.nodes, eds, options, spec.gear, spec.rated_torque,
-                              spec.increments_per_rev), replace(spec, eds=eds)
+        emulator = Cia402Emulator(spec.nodes, eds, options, spec.gear, spec.options.rated_torque,
+                                  spec.options.increments_per_rev)
+        return emulator, replace(spec, options=replace(spec.options, eds=eds))
 
     # -- bus ------------------------------------------------------------------------------------
     def _on_frame(self, msg: can.Message) -> None:

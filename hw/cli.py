@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
-from twmr.hw.link import DriveSpec, protocols
+from twmr.hw.link import protocols
 
 
 def emulate_drive(args: argparse.Namespace) -> int:
@@ -27,20 +27,17 @@ def emulate_drive(args: argparse.Namespace) -> int:
         raise CosimError(f"emulate-drive: {problem}. Fix: give --node ids the protocol can "
                          f"address ({link.node_range.start}..{link.node_range.stop - 1}), each "
                          f"once.")
-    if args.eds and "eds" not in link.own_parameters:
-        raise CosimError(f"emulate-drive: --eds {args.eds} is not an option of protocol "
-                         f"{args.protocol}. Fix: choose the protocol whose drives read an "
-                         f"EDS/DCF (--protocol cia402), or leave --eds out.")
-    spec = DriveSpec.of(args, nodes=nodes, eds=args.eds or "")
+    given = protocol_options("emulate-drive", args.protocol, args.option)
+    spec = DriveSpec.of(link, args, nodes=nodes, **given)
     for key, what, fix in link.check(spec):
-        raise CosimError(f"emulate-drive: --{key.replace('_', '-')}: {what} Fix: {fix}")
+        raise CosimError(f"emulate-drive: {_flag(key, given)}: {what} Fix: {fix}")
     try:
         options = bus_options(args.interface, args.channel, args.bitrate, args.can_config or "",
                               args.can_context)
         emu, _ = link.emulate(spec, options)
     except (OSError, ValueError, ImportError, can.CanError) as err:
         raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
-                         f"--interface/--channel, --can-config and --eds.") from None
+                         f"--interface/--channel, --can-config and --option.") from None
     print(f"emulating {args.protocol} drives {list(nodes)} on {describe(options)}; Ctrl-C "
           f"stops", file=sys.stderr)
     try:
@@ -74,9 +71,10 @@ def replay(args: argparse.Namespace) -> int:
                              f"--can-config.") from None
         print(f"{n} frames of {log} sent on {describe(options)}", file=sys.stderr)
         return 0
-    decoder = Decoder(args.protocol, args.firmware, args.gear, args.rated_torque)
+    given = protocol_options("replay", args.protocol, args.option)
+    decoder = Decoder(args.protocol, args.gear, tuple(given.items()))
     for key, what, fix in decoder.problems():
-        raise CosimError(f"replay: --{key.replace('_', '-')}: {what} Fix: {fix}")
+        raise CosimError(f"replay: {_flag(key, given)}: {what} Fix: {fix}")
     bad: list[str] = []
     try:
         decoded = decode_log(log, decoder, bad)
@@ -88,7 +86,8 @@ def replay(args: argparse.Namespace) -> int:
         extra = f" ({_frames(len(bad))} too short for {args.protocol}, e.g. {bad[0]})" \
             if bad else ""
         raise CosimError(f"{log}: no {args.protocol} frames found in it{extra}. Fix: check "
-                         f"--protocol (one of {', '.join(protocols())}) and --firmware, "
+                         f"--protocol (one of {', '.join(protocols())}) and its --option "
+                         f"values, "
                          f"and that this is a bench run's frame log.")
     if bad:
         print(f"{log}: {_frames(len(bad))} of the log too short for {args.protocol}, skipped "
@@ -109,6 +108,43 @@ def replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def protocol_options(command: str, name: str, pairs: list[str]) -> dict[str, Any]:
+    """`--option NAME=VALUE` pairs as values of protocol `name`'s own options (its
+    `Link.Options`), each converted to the option's type; CosimError naming the pair at fault
+    and the protocol's options otherwise."""
+    from twmr.hw.link import option_parameters, protocol
+
+    known = option_parameters(protocol(name).Options)
+    values: dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        key = key.strip()
+        if not sep or key not in known:
+            listed = ", ".join(known) or "none"
+            raise CosimError(f"{command}: --option {pair}: "
+                             f"{'not NAME=VALUE' if not sep else f'{key} is not an option'} "
+                             f"of protocol {name}. Fix: give NAME=VALUE with a NAME of its "
+                             f"options ({listed}).")
+        var = known[key]
+        try:
+            value: Any = text if var.type == "String" else \
+                (text.strip().lower() in ("1", "true", "yes") if var.type == "Boolean"
+                 else (int(text) if var.type == "Integer" else float(text)))
+            values[key] = var.coerce(value)
+        except (TypeError, ValueError) as err:
+            raise CosimError(f"{command}: --option {pair}: {err}. Fix: give {key} as "
+                             f"{var.type.lower()}{f' [{var.unit}]' if var.unit else ''}."
+                             ) from None
+    return values
+
+
+def _flag(key: str, given: dict[str, Any]) -> str:
+    """How the command line named parameter `key`: --option key=VALUE, or its own flag."""
+    if key in ("gear", "node", "nodes"):
+        return f"--{key}"
+    return f"--option {key}={given[key]}" if key in given else f"--option {key}"
+
+
 def _frames(n: int) -> str:
     return f"{n} frame" if n == 1 else f"{n} frames"
 
@@ -117,6 +153,10 @@ def _axis_text(axis: Any) -> str:
     state = getattr(axis.state, "value", axis.state)
     error = f" err 0x{axis.error:x}" if getattr(axis, "error", 0) else ""
     return f"state {state}{error} torque {axis.torque:.3g} N.m"
+
+
+OPTION_HELP = ("an option of --protocol, repeatable (e.g. firmware=0.6.10 for odrive, eds=FILE for "
+               "cia402; a NAME it does not have lists the ones it has)")
 
 
 def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
@@ -129,11 +169,8 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     em.add_argument("--bitrate", type=int, default=1_000_000)
     em.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
     em.add_argument("--can-context", default="default", help="section of --can-config")
-    em.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
-    em.add_argument("--encoder-period", type=float, default=1e-3,
-                    help="ODrive: cyclic encoder estimates period [s] (0: only on request)")
-    em.add_argument("--torque-constant", type=float, default=0.04, help="ODrive: N.m/A")
-    em.add_argument("--eds", help="CiA 402: EDS/DCF of the drives (default: shipped EPOS4)")
+    em.add_argument("-o", "--option", action="append", default=[], metavar="NAME=VALUE",
+                    help=OPTION_HELP)
     em.add_argument("--gear", type=float, default=1.0)
     em.add_argument("--node", type=int, action="append", default=None,
                     help="axis node id (repeatable; default: the protocol's, ODrive 0 and 1, "
@@ -143,10 +180,9 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
                                help="decode a run's CAN frame log to CSV, or play it onto a bus")
     rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
     rp.add_argument("--protocol", choices=protocols(), default="odrive")
-    rp.add_argument("--firmware", default="0.6.10", help="ODrive firmware (0.5.x | 0.6.x)")
     rp.add_argument("--gear", type=float, default=1.0, help="motor turns per wheel turn")
-    rp.add_argument("--rated-torque", type=int, default=DriveSpec.rated_torque,
-                    help="CiA 402 0x6076 [mN.m]")
+    rp.add_argument("-o", "--option", action="append", default=[], metavar="NAME=VALUE",
+                    help=OPTION_HELP)
     rp.add_argument("--out", help="CSV file (default: standard output)")
     rp.add_argument("--play", action="store_true", help="send the frames onto a bus instead")
     rp.add_argument("--fast", action="store_true", help="with --play: no original timing")

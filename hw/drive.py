@@ -46,7 +46,14 @@ from twmr.core import (
 )
 from twmr.core.run import RunContext
 from twmr.hw.bus import FrameLog, bus_options, interface_problem
-from twmr.hw.link import DriveSpec, Link, foreign_parameters, protocol, protocols
+from twmr.hw.link import (
+    DriveSpec,
+    Link,
+    option_files,
+    option_parameters,
+    protocol,
+    protocols,
+)
 from twmr.hw.safety import Fault, LinkError, clamp, stale
 
 log = logging.getLogger("twmr.hw")
@@ -58,7 +65,8 @@ class CanMotorDrive(Component):
     kind = "can_drive"
     needs_realtime: ClassVar[bool] = True
     can_get_and_set_state = False  # hardware cannot be rolled back
-    construction_parameters = ("eds", "can_config", "endpoints")
+    base_dir: Path  # the scenario's folder (file options resolve against it)
+    construction_parameters = ("protocol", "can_config")
 
     protocol = Parameter("odrive", type=STRING, description="a registered CAN protocol "
                          "(twmr.can_protocols): odrive | cia402")
@@ -74,26 +82,8 @@ class CanMotorDrive(Component):
     gear = Parameter(1.0, min=1e-9, description="motor turns per wheel turn")
     torque_limit = Parameter(50.0, unit="N.m", min=0.0, description="|wheel torque| limit, "
                              "host and drive")
-    speed_limit = Parameter(200.0, unit="rad/s", min=0.0, description="ODrive: wheel speed "
-                            "limit (Set_Limits)")
-    torque_constant = Parameter(0.04, unit="N.m/A", min=1e-9, description="ODrive: motor torque "
-                                "constant; current limit = torque_limit / (gear K_t)")
     max_current = Parameter(0.0, unit="A", min=0.0, description="the drive's rated maximum "
                             "motor current (0: not stated; required with emulate: false)")
-    firmware = Parameter("0.6.10", type=STRING, description="ODrive firmware (0.5.x | 0.6.x)")
-    drive_watchdog = Parameter(0.1, unit="s", min=0.0, description="ODrive 0.6.x: the axis "
-                               "watchdog timeout the host sets and reads back (0: not set)")
-    endpoints = Parameter("", type=STRING, description="ODrive 0.6.x: flat_endpoints.json of "
-                          "the firmware build (endpoint ids of the watchdog)")
-    encoder = Parameter("cyclic", type=STRING, description="ODrive: cyclic | polled estimates")
-    eds = Parameter("", type=STRING, description="CiA 402: EDS/DCF of the drives ('' = the "
-                    "shipped maxon EPOS4 EDS)")
-    rated_torque = Parameter(DriveSpec.rated_torque, type="Integer", min=1,
-                             description="CiA 402: rated torque [mN.m] used when the drive "
-                             "reports 0 in 0x6076")
-    increments_per_rev = Parameter(DriveSpec.increments_per_rev, type="Integer", min=1,
-                                   description="CiA 402: encoder increments per motor "
-                                   "revolution")
     watchdog_periods = Parameter(10, type="Integer", min=1, description="host watchdog: steps "
                                  "without fresh feedback before the drives are disabled")
     heartbeat_timeout = Parameter(0.5, unit="s", min=0.0, description="heartbeat loss")
@@ -111,24 +101,37 @@ class CanMotorDrive(Component):
     measured_speed = Output(size=2, unit="rad/s", description="encoder speed (latest frame)")
     angle = Output(size=2, unit="rad", description="encoder angle (latest frame)")
 
+    def __init__(self, name: str = "", **parameters: Any):
+        """The protocol's own options (`Link.Options`) are parameters of this instance."""
+        super().__init__(name)
+        with_options(self, parameters)
+
     @classmethod
     def create(cls, name: str, base_dir: Path, **construction: Any) -> CanMotorDrive:
-        """Relative `eds` and `can_config` paths resolve against the scenario's folder."""
-        files = {k: str(base_dir / v) if v and not Path(str(v)).is_absolute() else v
-                 for k, v in construction.items()}
-        return cls(name, **files)
+        """A relative `can_config` path, and the protocol's file options (`eds`, `endpoints`),
+        resolve against the scenario's folder."""
+        config = construction.pop("can_config", "")
+        if config and not Path(str(config)).is_absolute():
+            config = str(base_dir / config)
+        drive = cls(name, can_config=config, **construction)
+        drive.base_dir = base_dir
+        return drive
+
+    def unknown_parameter(self, name: str) -> tuple[str, str] | None:
+        return other_protocols_option(self, name)
+
+    @classmethod
+    def added_parameters(cls) -> dict[str, dict[str, Any]]:
+        """Each registered protocol's own options."""
+        return {f"protocol: {n}": option_parameters(protocol(n).Options) for n in protocols()}
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
-        """The drives' problems (`drive_problems`), parameters of another protocol, the log
-        file; with real drives (emulate: false) explicit torque and speed limits within the
-        drive's rating (max_current x torque_constant x gear)."""
+        """The drives' problems (`drive_problems`), the log file; with real drives (emulate:
+        false) explicit torque and speed limits within the drive's rating (max_current x
+        torque_constant x gear, where the protocol knows its torque constant)."""
         problems = self.drive_problems()
         if problems and problems[0][0] == "protocol":
             return problems
-        link = protocol(self.protocol)
-        for name in sorted(given & foreign_parameters(link) if given else ()):
-            problems.append((name, f"{name} is not a parameter of protocol {self.protocol}.",
-                             f"remove {name}:, or set the protocol it belongs to."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() not in (".blf", ".asc")):
@@ -139,15 +142,15 @@ class CanMotorDrive(Component):
         problems += self._bus_problems(given)
         if not self.emulate:
             missing = [k for k in ("torque_limit", "speed_limit", "max_current")
-                       if k not in given]
+                       if k in self.variables and k not in given]
             if missing:
                 problems.append((missing[0], f"with real drives (emulate: false) "
                                  f"{', '.join(missing)} must be given explicitly.",
                                  "state the drive's rated current (max_current [A]) and the "
                                  "limits the bench may use (torque_limit [N.m], speed_limit "
                                  "[rad/s]) for these motors."))
-            elif self.max_current > 0:
-                rating = self.max_current * self.torque_constant * self.gear
+            elif self.max_current > 0 and "torque_constant" in self.variables:
+                rating = self.max_current * self.get("torque_constant") * self.gear
                 if self.torque_limit > rating:
                     problems.append(("torque_limit", f"torque_limit {self.torque_limit:g} N.m "
                                      f"is above the drive's rating max_current x "
@@ -269,8 +272,9 @@ class CanMotorDrive(Component):
                            self.can_context)
 
     def spec(self) -> DriveSpec:
-        """The drives as every protocol sees them (each reads its own fields)."""
-        return DriveSpec.of(self, nodes=self.node_ids)
+        """The drives as their protocol sees them, its file options against the scenario's
+        folder."""
+        return drive_spec(self, nodes=self.node_ids)
 
     def prepare(self, run: RunContext) -> None:
         self._run_folder = run.folder
@@ -422,3 +426,44 @@ class ZeroTorque:
     def stop(self) -> None:
         self._stop.set()
         self._thread.join(timeout=5.0)
+
+
+def with_options(block: Component, parameters: dict[str, Any],
+                 taken: frozenset[str] = frozenset()) -> None:
+    """Set a drive block's `protocol` (from `parameters`, else its default), add its protocol's
+    own options (`Link.Options`, but those in `taken`, which the block sets itself) as
+    parameters of this instance, then set `parameters`. `block.base_dir`, the scenario's
+    folder, is the working directory until `create` says otherwise."""
+    block.set_parameter("protocol", parameters.pop("protocol", block.get("protocol")))
+    block.base_dir = Path.cwd()  # type: ignore[attr-defined]
+    if block.get("protocol") in protocols():  # an unknown one is reported by `check`
+        for key, var in option_parameters(protocol(block.get("protocol")).Options).items():
+            if key not in taken:
+                block.variables[key] = var
+                block.__dict__[key] = var.start
+    for key, value in parameters.items():
+        block.set_parameter(key, value)
+
+
+def other_protocols_option(block: Component, name: str) -> tuple[str, str] | None:
+    """`name` as an option of registered protocols other than the block's: what it is and the
+    fix; None when no protocol has it."""
+    mine = block.get("protocol")
+    owners = [n for n in protocols()
+              if n != mine and name in option_parameters(protocol(n).Options)]
+    if not owners:
+        return None
+    return (f"'{name}' is an option of protocol {' and '.join(owners)}, not of {mine} (the "
+            f"protocol: of this block).", f"remove {name}:, or set protocol: {owners[0]}.")
+
+
+def drive_spec(block: Any, **given: Any) -> DriveSpec:
+    """The `DriveSpec` of a drive block (`protocol` and its parameters), the protocol's file
+    options resolved against the block's scenario folder."""
+    link = protocol(block.protocol)
+    base = block.base_dir
+    for name in option_files(link.Options):
+        value = str(given.get(name, getattr(block, name, "")))
+        if value and not Path(value).is_absolute():
+            given[name] = str(base / value)
+    return DriveSpec.of(link, block, **given)

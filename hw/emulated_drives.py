@@ -15,14 +15,15 @@ be rolled back.
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 from typing import Any, ClassVar
 
 import can
 
 from twmr.core import STRING, Component, HardwareError, Input, Output, Parameter
 from twmr.core.run import RunContext
-from twmr.hw.drive import CanMotorDrive
-from twmr.hw.link import DriveSpec, Emulator, protocol, protocols
+from twmr.hw.drive import CanMotorDrive, drive_spec, other_protocols_option, with_options
+from twmr.hw.link import DriveSpec, Emulator, option_parameters, protocol, protocols
 
 
 def _drive(name: str) -> Any:
@@ -34,28 +35,43 @@ class EmulatedDrives(Component):
 
     kind = "emulated_drives"
     needs_realtime: ClassVar[bool] = True
+    base_dir: Path  # the scenario's folder (file options resolve against it)
     terminate_stage = 2  # after the bus has carried its host's last frames
     can_get_and_set_state = False  # the emulators run on the wall clock
-    construction_parameters = ("eds",)
+    construction_parameters = ("protocol",)
 
     protocol = _drive("protocol")
     bus = Parameter("", type=STRING, description="the can_bus block of the scenario the drives "
                     "join")
     node_ids = _drive("node_ids")
     gear = _drive("gear")
-    torque_constant = _drive("torque_constant")
-    firmware = _drive("firmware")
-    encoder_period = Parameter(1e-3, unit="s", min=0.0, description="ODrive: period of the "
-                               "cyclic encoder estimates (0: only when asked)")
     watchdog = Parameter(0.1, unit="s", min=0.0, description="ODrive: the axis watchdog each "
                          "drive arms itself, as saved with odrivetool: no torque command for "
                          "this long -> IDLE (0: off). CiA 402: the drives watch SYNC (0.25 s)")
-    eds = _drive("eds")
-    rated_torque = _drive("rated_torque")
-    increments_per_rev = _drive("increments_per_rev")
 
     wheel_speed = Input(size=2, unit="rad/s", description="load speed of each axis (the plant's)")
     torque = Output(size=2, unit="N.m", description="wheel torque the axes apply")
+
+    def __init__(self, name: str = "", **parameters: Any):
+        """The protocol's own options are parameters of this instance (the saved watchdog is
+        `watchdog`)."""
+        super().__init__(name)
+        with_options(self, parameters, taken=frozenset({"saved_watchdog"}))
+
+    @classmethod
+    def create(cls, name: str, base_dir: Path, **construction: Any) -> EmulatedDrives:
+        """The protocol's file options (`eds`) resolve against the scenario's folder."""
+        drives = cls(name, **construction)
+        drives.base_dir = base_dir
+        return drives
+
+    def unknown_parameter(self, name: str) -> tuple[str, str] | None:
+        return other_protocols_option(self, name)
+
+    @classmethod
+    def added_parameters(cls) -> dict[str, dict[str, Any]]:
+        """Each registered protocol's own options."""
+        return {f"protocol: {n}": option_parameters(protocol(n).Options) for n in protocols()}
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         """A registered protocol, its own parameters and node ids; a `bus:`."""
@@ -80,8 +96,8 @@ class EmulatedDrives(Component):
         return [("bus", what + ".", "name a component of kind can_bus.")] if what else []
 
     def _spec(self) -> DriveSpec:
-        return DriveSpec.of(self, nodes=tuple(int(n) for n in self.node_ids),
-                            saved_watchdog=float(self.watchdog))
+        return drive_spec(self, nodes=tuple(int(n) for n in self.node_ids),
+                          saved_watchdog=float(self.watchdog))
 
     def prepare(self, run: RunContext) -> None:
         self._run = run

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import Field, dataclass, field, fields
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+from twmr.core.port import BOOLEAN, INTEGER, REAL, STRING, Parameter
 
 if TYPE_CHECKING:
     import can
@@ -27,44 +29,73 @@ if TYPE_CHECKING:
 Signals = list[tuple[int | None, str, float]]
 
 
+def option(default: Any, *, unit: str = "", description: str = "", min: float | None = None,
+           file: bool = False) -> Any:
+    """A field of a protocol's `Link.Options`: its default, unit, description and minimum
+    (the drive blocks offer it as a parameter with these); `file`: a path that resolves against
+    the scenario's folder."""
+    return field(default=default, metadata={"unit": unit, "description": description,
+                                            "min": min, "file": file})
+
+
+@dataclass(frozen=True)
+class NoOptions:
+    """A protocol without options of its own."""
+
+
 @dataclass(frozen=True)
 class DriveSpec:
-    """What a link, its decoder and its emulator need to know of the drives; each protocol
-    reads its own fields (`Link.own_parameters`). SI units at the wheel."""
+    """What every drive has, whatever its protocol (SI units at the wheel), and the protocol's
+    own options (`options`, an instance of its `Link.Options`)."""
 
     nodes: tuple[int, ...] = (0, 1)
     gear: float = 1.0  # motor turns per wheel turn
     torque_limit: float = 50.0  # |wheel torque| [N.m]
-    speed_limit: float = 200.0  # wheel speed [rad/s]
     heartbeat_timeout: float = 0.5  # [s]
-    firmware: str = "0.6.10"  # ODrive
-    encoder: str = "cyclic"  # ODrive: cyclic | polled
-    torque_constant: float = 0.04  # ODrive [N.m/A]
-    drive_watchdog: float = 0.1  # ODrive axis watchdog set by the host [s]; 0: not set
-    endpoints: str = ""  # ODrive flat_endpoints.json of the firmware build
-    encoder_period: float = 1e-3  # emulated ODrive: cyclic estimates period [s]
-    #: emulated ODrive: its axis watchdog on from power-up [s], as set and saved with odrivetool
-    #: (0: off, as from the factory)
-    saved_watchdog: float = 0.0
+    options: Any = NoOptions()
 
     @classmethod
-    def of(cls, source: Any, **given: Any) -> DriveSpec:
-        """The spec from the attributes of `source` named as its fields (a drive block's
-        parameters, a command's arguments, a decoder's settings: the one place a spec is
-        built), each converted to its field's type; `given` overrides or adds fields. Fields
-        `source` lacks keep their defaults."""
-        values: dict[str, Any] = {}
-        for f in fields(cls):
-            if f.name in given:
-                values[f.name] = given[f.name]
-            elif getattr(source, f.name, None) is not None:
-                value = getattr(source, f.name)
-                kind: Any = type(f.default)
-                values[f.name] = tuple(int(n) for n in value) if kind is tuple else kind(value)
-        return cls(**values)
-    eds: str = ""  # CiA 402 EDS/DCF
-    rated_torque: int = 100_000  # CiA 402 0x6076 used when the drive reports 0 [mN.m]
-    increments_per_rev: int = 4096  # CiA 402 encoder increments per motor turn
+    def of(cls, link: type[Link], source: Any, **given: Any) -> DriveSpec:
+        """The spec of `link`'s drives from the attributes of `source` named as the common
+        fields and the fields of `link.Options` (a drive block's parameters, a command's
+        arguments, a decoder's settings: the one place a spec is built), each converted to its
+        field's type; `given` overrides or adds fields. Fields `source` lacks keep their
+        defaults."""
+        common = _values([f for f in fields(cls) if f.name != "options"], source, given)
+        return cls(**common, options=link.Options(**_values(fields(link.Options), source, given)))
+
+
+def _values(wanted: Sequence[Field[Any]], source: Any, given: Mapping[str, Any]
+            ) -> dict[str, Any]:
+    values: dict[str, Any] = {}
+    for f in wanted:
+        if f.name in given:
+            values[f.name] = given[f.name]
+        elif getattr(source, f.name, None) is not None:
+            value = getattr(source, f.name)
+            kind: Any = type(f.default)
+            values[f.name] = tuple(int(n) for n in value) if kind is tuple else kind(value)
+    return values
+
+
+def option_parameters(options: type) -> dict[str, Parameter]:
+    """A protocol's `Options` as drive-block parameters (type from the default, unit,
+    description, minimum), by name."""
+    out: dict[str, Parameter] = {}
+    for f in fields(options):
+        meta = f.metadata
+        kind = {bool: BOOLEAN, int: INTEGER, str: STRING}.get(type(f.default), REAL)
+        var = Parameter(f.default, type=kind, unit=meta.get("unit", ""),
+                        min=meta.get("min"), description=meta.get("description", ""))
+        var.name = f.name
+        out[f.name] = var
+    return out
+
+
+def option_files(options: type) -> tuple[str, ...]:
+    """The fields of a protocol's `Options` that name files (resolved against the scenario's
+    folder)."""
+    return tuple(f.name for f in fields(options) if f.metadata.get("file"))
 
 
 class Emulator(Protocol):
@@ -87,8 +118,9 @@ class Link(ABC):
     #: node ids the protocol can address, and the ids `twmr emulate-drive` uses by default
     node_range: ClassVar[range]
     default_nodes: ClassVar[tuple[int, int]]
-    #: drive-block parameters that only this protocol reads
-    own_parameters: ClassVar[frozenset[str]] = frozenset()
+    #: the protocol's own options (a frozen dataclass whose fields are made with `option`):
+    #: parameters of the drive blocks that use it, `DriveSpec.options` of its links
+    Options: ClassVar[type] = NoOptions
     #: the protocol's host side in C for a controller FMU on a CAN terminal (`twmr export KIND
     #: --fmi 3 --can NAME`, twmr.fmi.cexport.busnode.CNode), or None
     c_node: ClassVar[Any] = None
@@ -167,12 +199,6 @@ def protocols() -> list[str]:
     from twmr.registry import CAN_PROTOCOLS, plugins
 
     return sorted(plugins(CAN_PROTOCOLS))
-
-
-def foreign_parameters(link: type[Link]) -> frozenset[str]:
-    """Drive-block parameters that other registered protocols read and `link` does not."""
-    others = {key for name in protocols() for key in protocol(name).own_parameters}
-    return frozenset(others - link.own_parameters)
 
 
 def protocol(name: str) -> type[Link]:

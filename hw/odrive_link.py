@@ -40,8 +40,7 @@ class OdriveLink(Link):
 
     node_range: ClassVar[range] = range(0, 64)  # 6 bits of node id in the 11-bit identifier
     default_nodes: ClassVar[tuple[int, int]] = (0, 1)
-    own_parameters: ClassVar[frozenset[str]] = frozenset(
-        {"firmware", "encoder", "drive_watchdog", "endpoints"})
+    Options: ClassVar[type] = p.OdriveOptions
     c_node: ClassVar[Any] = c_nodes.ODRIVE
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
@@ -49,8 +48,8 @@ class OdriveLink(Link):
         if problems:
             raise LinkError(Fault(None, problems[0][1].rstrip("."), problems[0][2]))
         self.spec, self.options = spec, options
-        self.nodes, self.firmware, self.gear = tuple(spec.nodes), spec.firmware, spec.gear
-        self.polled = spec.encoder == "polled"
+        self.nodes, self.firmware, self.gear = tuple(spec.nodes), spec.options.firmware, spec.gear
+        self.polled = spec.options.encoder == "polled"
         self.log = log
         self.lock = threading.Lock()
         self.estimates = {n: (0.0, 0.0, 0.0) for n in self.nodes}  # angle, speed, stamp
@@ -83,29 +82,29 @@ class OdriveLink(Link):
     def check(cls, spec: DriveSpec) -> list[tuple[str, str, str]]:
         """Firmware line (and its DBC against our layouts), encoder mode, endpoint table."""
         try:
-            p.check_layout(spec.firmware)
+            p.check_layout(spec.options.firmware)
         except ValueError as err:
             return [("firmware", f"{err}.", "give the firmware the drives run, 0.5.x or 0.6.x "
                      "(e.g. 0.6.10), as odrivetool reports it.")]
-        if spec.encoder not in ENCODERS:
-            return [("encoder", f"encoder '{spec.encoder}' is unknown.",
+        if spec.options.encoder not in ENCODERS:
+            return [("encoder", f"encoder '{spec.options.encoder}' is unknown.",
                      f"use one of: {', '.join(ENCODERS)}.")]
-        if spec.endpoints:
+        if spec.options.endpoints:
             try:
-                table = p.load_endpoints(spec.endpoints)
+                table = p.load_endpoints(spec.options.endpoints)
             except ValueError as err:
                 return [("endpoints", f"{err}.", "give the flat_endpoints.json of the drives' "
                          "firmware build (odrivetool keeps it; ODrive publishes one per "
                          "release), or endpoints: ''.")]
             missing = [k for k in (p.WATCHDOG_TIMEOUT, p.ENABLE_WATCHDOG) if k not in table]
             if missing:
-                return [("endpoints", f"{spec.endpoints} has no endpoint {missing[0]}.",
+                return [("endpoints", f"{spec.options.endpoints} has no endpoint {missing[0]}.",
                          "give the flat_endpoints.json of the drives' own firmware build.")]
         return []
 
     @classmethod
     def decode(cls, msg: can.Message, spec: DriveSpec) -> Signals:
-        """CAN Simple frames of `spec.firmware`, scaled with `spec.gear`."""
+        """CAN Simple frames of `spec.options.firmware`, scaled with `spec.gear`."""
         node, cmd = p.split_id(msg.arbitration_id)
         data = bytes(msg.data)
         if msg.is_remote_frame:
@@ -116,14 +115,14 @@ class OdriveLink(Link):
             angle, speed = p.decode_encoder(data, spec.gear)
             return [(node, "angle", angle), (node, "speed", speed)]
         if cmd == p.HEARTBEAT:
-            beat = p.decode_heartbeat(data, spec.firmware)
+            beat = p.decode_heartbeat(data, spec.options.firmware)
             return [(node, "axis_error", beat.axis_error), (node, "axis_state", beat.axis_state)]
         if cmd == p.SET_AXIS_STATE:
             return [(node, "requested_state", int.from_bytes(data[:4], "little"))]
         if cmd == p.SET_LIMITS:
             speed, current = p.decode_limits(data, spec.gear)
             return [(node, "speed_limit", speed), (node, "current_limit", current)]
-        if cmd in (p.RX_SDO, p.TX_SDO) and p.has_sdo(spec.firmware):
+        if cmd in (p.RX_SDO, p.TX_SDO) and p.has_sdo(spec.options.firmware):
             opcode, endpoint, raw = p.decode_sdo(data)
             what = "sdo_answer" if cmd == p.TX_SDO else ("sdo_write" if opcode else "sdo_read")
             return [(node, f"{what}_{endpoint}", int.from_bytes(raw, "little"))]
@@ -134,15 +133,16 @@ class OdriveLink(Link):
     @classmethod
     def emulate(cls, spec: DriveSpec, options: dict[str, Any]) -> tuple[Emulator, DriveSpec]:
         """Emulated ODrives; the host reaches them with the emulator's endpoint table unless
-        `spec.endpoints` names one."""
+        `spec.options.endpoints` names one."""
         from twmr.hw.emulator import OdriveEmulator
 
-        endpoints = spec.endpoints or str(p.emulated_endpoints())
-        return OdriveEmulator(spec.nodes, options, spec.firmware, spec.gear,
-                              encoder_period=spec.encoder_period,
-                              torque_constant=spec.torque_constant,
-                              watchdog_timeout=spec.saved_watchdog,
-                              endpoints=endpoints), replace(spec, endpoints=endpoints)
+        endpoints = spec.options.endpoints or str(p.emulated_endpoints())
+        return OdriveEmulator(spec.nodes, options, spec.options.firmware, spec.gear,
+                              encoder_period=spec.options.encoder_period,
+                              torque_constant=spec.options.torque_constant,
+                              watchdog_timeout=spec.options.saved_watchdog,
+                              endpoints=endpoints), \
+            replace(spec, options=replace(spec.options, endpoints=endpoints))
 
     # -- bus -----------------------------------------------------------------------------------
     def _send(self, ident: int, data: bytes) -> None:
@@ -219,17 +219,17 @@ class OdriveLink(Link):
                                  "the axis watchdog with odrivetool (docs/bench.md)")
                              for n in self.nodes}
             return
-        if spec.drive_watchdog <= 0:
+        if spec.options.drive_watchdog <= 0:
             self.watchdog = {n: (False, "not set by the host (drive_watchdog: 0)")
                              for n in self.nodes}
             return
-        if not spec.endpoints:
+        if not spec.options.endpoints:
             self.watchdog = {n: (False, "endpoint ids unknown: give endpoints: (the "
                                  "flat_endpoints.json of the firmware build)")
                              for n in self.nodes}
             return
-        table = p.load_endpoints(spec.endpoints)
-        wanted = {p.WATCHDOG_TIMEOUT: spec.drive_watchdog, p.ENABLE_WATCHDOG: True}
+        table = p.load_endpoints(spec.options.endpoints)
+        wanted = {p.WATCHDOG_TIMEOUT: spec.options.drive_watchdog, p.ENABLE_WATCHDOG: True}
         for n in self.nodes:
             for name, value in wanted.items():
                 endpoint, kind = table[name]
@@ -250,10 +250,10 @@ class OdriveLink(Link):
                 continue
             seen = {name: p.sdo_value(raw, table[name][1]) for name, raw in back.items()
                     if raw is not None}
-            expect = p.wire_value(table[p.WATCHDOG_TIMEOUT][1], spec.drive_watchdog)
+            expect = p.wire_value(table[p.WATCHDOG_TIMEOUT][1], spec.options.drive_watchdog)
             if seen[p.ENABLE_WATCHDOG] and seen[p.WATCHDOG_TIMEOUT] == expect:
-                self.watchdog[n] = (True, f"axis watchdog {spec.drive_watchdog:g} s, set and "
-                                    "read back")
+                self.watchdog[n] = (True, f"axis watchdog {spec.options.drive_watchdog:g} s, "
+                                    "set and read back")
             else:
                 self.watchdog[n] = (False, f"read back enable_watchdog="
                                     f"{bool(seen[p.ENABLE_WATCHDOG])}, watchdog_timeout="
@@ -263,8 +263,8 @@ class OdriveLink(Link):
         """The axis watchdogs (where the firmware allows), then every axis to closed-loop torque
         control; `LinkError` when one is not there in time."""
         self._set_watchdogs(min(timeout, 0.5))
-        wheel_speed_limit = self.spec.speed_limit
-        current_limit = self.spec.torque_limit / (self.gear * self.spec.torque_constant)
+        wheel_speed_limit = self.spec.options.speed_limit
+        current_limit = self.spec.torque_limit / (self.gear * self.spec.options.torque_constant)
         for n in self.nodes:
             self._send(*p.encode_clear_errors(n, self.firmware))
             self._send(*p.encode_limits(n, wheel_speed_limit, current_limit, self.gear))

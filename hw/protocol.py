@@ -17,6 +17,30 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from twmr.hw.link import option
+
+
+@dataclass(frozen=True)
+class OdriveOptions:
+    """What an ODrive link, its decoder and its emulator read beyond `DriveSpec`."""
+
+    firmware: str = option("0.6.10", description="ODrive firmware (0.5.x | 0.6.x)")
+    encoder: str = option("cyclic", description="cyclic | polled estimates")
+    speed_limit: float = option(200.0, unit="rad/s", min=0.0,
+                                description="wheel speed limit (Set_Limits)")
+    torque_constant: float = option(0.04, unit="N.m/A", min=1e-9, description="motor torque "
+                                     "constant; current limit = torque_limit / (gear K_t)")
+    drive_watchdog: float = option(0.1, unit="s", min=0.0, description="0.6.x: the axis "
+                                   "watchdog timeout the host sets and reads back (0: not set)")
+    endpoints: str = option("", file=True, description="0.6.x: flat_endpoints.json of the "
+                            "firmware build (endpoint ids of the watchdog)")
+    encoder_period: float = option(1e-3, unit="s", min=0.0, description="emulated drives: "
+                                   "period of the cyclic encoder estimates (0: only when asked)")
+    saved_watchdog: float = option(0.0, unit="s", min=0.0, description="emulated drives: the "
+                                   "axis watchdog each arms from power-up, as saved with "
+                                   "odrivetool (0: off, as from the factory)")
+
+
 # command ids (both firmware lines)
 HEARTBEAT, ESTOP, SET_AXIS_STATE, GET_ENCODER_ESTIMATES = 0x01, 0x02, 0x07, 0x09
 SET_CONTROLLER_MODE, SET_INPUT_TORQUE, SET_LIMITS, CLEAR_ERRORS = 0x0B, 0x0E, 0x0F, 0x18

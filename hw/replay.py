@@ -32,13 +32,13 @@ class Decoded:
 
 @dataclass(frozen=True)
 class Decoder:
-    """How to read the frames of a run: protocol, ODrive firmware, gear, CiA 402 scaling."""
+    """How to read the frames of a run: protocol, gear, and the protocol's own options
+    (name, value) it decodes with (ODrive: firmware; CiA 402: rated_torque,
+    increments_per_rev)."""
 
     protocol: str = "odrive"
-    firmware: str = "0.6.10"
     gear: float = 1.0
-    rated_torque: int = DriveSpec.rated_torque  # CiA 402 0x6076 [mN.m]
-    increments_per_rev: int = DriveSpec.increments_per_rev
+    options: tuple[tuple[str, Any], ...] = ()
 
     @cached_property
     def _link(self) -> type[Link]:
@@ -46,7 +46,7 @@ class Decoder:
 
     @cached_property
     def _spec(self) -> DriveSpec:
-        return DriveSpec.of(self)
+        return DriveSpec.of(self._link, None, gear=self.gear, **dict(self.options))
 
     def problems(self) -> list[tuple[str, str, str]]:
         """What is wrong with the decoding parameters (parameter, what, fix)."""

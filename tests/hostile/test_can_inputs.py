@@ -56,8 +56,8 @@ def test_bad_drive_parameter_is_one_paragraph_at_check_and_run(case: str, cwd: P
 
 
 def test_emulate_drive_with_an_unknown_firmware_is_refused(cwd: Path) -> None:
-    o = run_cli(["emulate-drive", "--firmware", "9.9"], cwd, timeout=10)
-    assert_clean_error(o, mentions=("--firmware", "9.9"))
+    o = run_cli(["emulate-drive", "--option", "firmware=9.9"], cwd, timeout=10)
+    assert_clean_error(o, mentions=("--option firmware=9.9", "9.9"))
 
 
 @pytest.fixture
@@ -87,8 +87,8 @@ def test_replay_skips_and_counts_a_frame_too_short_to_decode(log_with_a_short_fr
 
 @pytest.mark.parametrize("args, mentions", [
     (["--gear", "0"], ("--gear", "gear 0")),
-    (["--firmware", "9.9"], ("--firmware", "9.9")),
-    (["--protocol", "cia402", "--rated-torque", "0"], ("--rated-torque",)),
+    (["--option", "firmware=9.9"], ("--option firmware=9.9",)),
+    (["--protocol", "cia402", "-o", "rated_torque=0"], ("--option rated_torque=0",)),
     (["--protocol", "cia402"], ("no cia402 frames",)),
     (["--play", "--interface", "bogus"], ("bogus", "--interface")),
 ], ids=["gear-0", "firmware-9.9", "rated-torque-0", "wrong-protocol", "play-bogus-interface"])

@@ -35,7 +35,7 @@ def bench_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[np.ndarray, Pat
 def test_log_is_beside_the_results_and_decodes_to_the_recorded_values(bench_run) -> None:
     data, log = bench_run
     assert log.is_file()
-    decoded = decode_log(log, Decoder("odrive", "0.6.10", 1.0))
+    decoded = decode_log(log, Decoder("odrive", 1.0, (("firmware", "0.6.10"),)))
     for col, node in (("motor.torque[1]", 0), ("motor.torque[2]", 1)):
         sent = [d.value for d in decoded if d.direction == "Tx" and d.node == node
                 and d.signal == "torque_command"]

@@ -78,7 +78,8 @@ def test_cia402_frames_decode_to_si() -> None:
     rpdo = od[c.CONTROLWORD].encode_raw(0x0F) + od[c.TARGET_TORQUE].encode_raw(-250)
     tpdo1 = od[c.STATUSWORD].encode_raw(0x0627) + od[c.VELOCITY_ACTUAL].encode_raw(600)
     tpdo2 = od[c.POSITION_ACTUAL].encode_raw(8192)
-    dec = Decoder("cia402", gear=10.0, rated_torque=2000, increments_per_rev=4096)
+    dec = Decoder("cia402", gear=10.0,
+                  options=(("rated_torque", 2000), ("increments_per_rev", 4096)))
     frame = lambda ident, data: can.Message(arbitration_id=ident, data=data)  # noqa: E731
     assert dec(frame(0x203, rpdo)) == [(3, "controlword", 0x0F), (3, "torque_command",
                                                                   pytest.approx(-5.0))]

@@ -61,7 +61,8 @@ def test_sdo_frames_follow_the_0_6_10_dbc() -> None:
 
 
 def test_odrive_decoder_reads_sdo_frames_and_refuses_short_ones() -> None:
-    link, spec = protocol("odrive"), DriveSpec()
+    link = protocol("odrive")
+    spec = DriveSpec.of(link, None)
     ident, data = p.encode_sdo(1, p.SDO_READ, 200, "float")
     msg = can.Message(arbitration_id=ident, data=data, is_extended_id=False)
     assert link.decode(msg, spec) == [(1, "sdo_read_200", 0)]

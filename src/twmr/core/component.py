@@ -321,6 +321,12 @@ class Component:
                     found[key] = value
         return found
 
+    @classmethod
+    def added_parameters(cls) -> dict[str, dict[str, Variable]]:
+        """Parameters an instance has beyond the declared ones, by the setting that adds them
+        (e.g. 'protocol: odrive' -> its options), for listings."""
+        return {}
+
     def _of(self, kind: str) -> dict[str, Variable]:
         return {n: v for n, v in self.variables.items() if v.kind == kind}
 
@@ -365,6 +371,11 @@ class Component:
         terminal `name`: the members (member -> port) of the terminal this block opens for it
         (a bus block opens one per participant), or None (it opens none). ValueError says why
         it refuses."""
+        return None
+
+    def unknown_parameter(self, name: str) -> tuple[str, str] | None:
+        """What `name`, which this component does not have, is instead, and the fix (e.g. an
+        option of another protocol); None: nothing to say beyond the known names."""
         return None
 
     def check_step(self, h: float) -> list[tuple[str, str, str]]:

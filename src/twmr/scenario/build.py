@@ -325,6 +325,12 @@ class _Builder:
                                              f"set '{base}' only (and drop '{key}')."))
                 continue
             if var is None:
+                known_as = comp.unknown_parameter(str(key))
+                if known_as is not None:
+                    self.problems.append(Problem(loc, f"component '{name}' "
+                                                 f"({type(comp).__name__}): {known_as[0]}",
+                                                 known_as[1]))
+                    continue
                 names = [n for n, v in comp.variables.items() if v.kind in allowed]
                 what = "parameter" if section == "parameters" else "state or input"
                 self.problems.append(Problem(loc, f"component '{name}' ({type(comp).__name__}) "

@@ -2,9 +2,11 @@
 known kinds)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 from twmr.core.component import Component
+from twmr.core.port import Variable
 from twmr.registry import kinds, lookup
 from twmr.scenario.graph import Loop, evaluation_plan, find_loops
 from twmr.scenario.kinds import KindError
@@ -109,7 +111,16 @@ def _exposed(e: Exposure) -> str:
 def _kind_text(name: str, cls: type[Component]) -> list[str]:
     doc = (cls.__doc__ or "").strip().splitlines()
     out = [f"{name}: {cls.__module__}.{cls.__name__} — {doc[0] if doc else ''}"]
-    for var in cls.declared().values():
+    out += _variable_lines(cls.declared().values(), "    ")
+    for setting, added in cls.added_parameters().items():
+        out.append(f"    with {setting}:")
+        out += _variable_lines(added.values(), "      ")
+    return out
+
+
+def _variable_lines(variables: Iterable[Variable], indent: str) -> list[str]:
+    out: list[str] = []
+    for var in variables:
         size = "" if var.size is None else f"[{var.size or 'n'}]"
         rng = ""
         if var.min is not None or var.max is not None:
@@ -117,7 +128,7 @@ def _kind_text(name: str, cls: type[Component]) -> list[str]:
         deps = getattr(var, "depends_on", ())
         dep = f" depends_on {', '.join(deps)}" if deps else ""
         desc = f" — {var.description}" if var.description else ""
-        out.append(f"    {var.kind:9s} {var.name}{size} [{var.unit_text}] {var.type} "
+        out.append(f"{indent}{var.kind:9s} {var.name}{size} [{var.unit_text}] {var.type} "
                    f"= {var.start!r}{rng}{dep}{desc}")
     return out
 
