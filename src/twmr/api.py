@@ -378,7 +378,7 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
 def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective: str, *,
          vary: dict[str, str] | Sequence[str] = (), realisations: int = 1, trials: int = 30,
          seed: int = 0, aggregate: str = "mean", constraints: Sequence[str] = (),
-         metrics: Sequence[str] = ("tracking",), overrides: Sequence[str] = (),
+         metrics: Sequence[str] = (), overrides: Sequence[str] = (),
          method: str = "random", out: str | Path | None = None, workers: int | None = 1,
          scheduler: str | None = None, batch: int | None = None,
          baseline: str | Path | None = None, start: Sequence[dict[str, Any]] = (),
@@ -402,9 +402,14 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     def texts(given: dict[str, str] | Sequence[str]) -> list[str]:
         return [f"{k}={v}" for k, v in given.items()] if isinstance(given, dict) else list(given)
 
+    goal, limits = Expression(objective), [parse_constraint(c) for c in constraints]
+    if not metrics:
+        from twmr.metricset import sets_giving
+
+        metrics = sets_giving(goal.names + [n for c in limits for n in c.expression.names])
     spec = TuneSpec(str(scenario), [parse_param(t) for t in texts(params)],
-                    Expression(objective), [parse_vary(t) for t in texts(vary)], realisations,
-                    trials, seed, aggregate, [parse_constraint(c) for c in constraints],
+                    goal, [parse_vary(t) for t in texts(vary)], realisations,
+                    trials, seed, aggregate, limits,
                     list(metrics), list(overrides), method,
                     str(baseline) if baseline is not None else None,
                     [dict(p) for p in start])

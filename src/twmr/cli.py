@@ -381,7 +381,7 @@ def _start_point(text: str) -> dict[str, object]:
 def cmd_tune(args: argparse.Namespace) -> int:
     from twmr import api
 
-    metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()] or ["tracking"]
+    metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
     outcome = api.tune(args.scenario, args.param, args.objective, vary=args.vary,
                        realisations=args.realisations, trials=args.trials, seed=args.seed,
                        aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
@@ -557,7 +557,8 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="trials of the study in all (a folder holding fewer continues)")
     tu.add_argument("--seed", type=int, default=0, help="seed of the draws and the sampler")
     tu.add_argument("--metrics", action="append", default=[], metavar="NAME",
-                    help="metric sets per run (default tracking; e.g. signals); repeatable")
+                    help="metric sets per run (default: the registered sets that give the "
+                         "figures of --objective and --constraint); repeatable")
     tune_where = tu.add_mutually_exclusive_group()
     tune_where.add_argument("--workers", type=int, default=1,
                             help="1 (default): runs in this process; more: local Dask workers")

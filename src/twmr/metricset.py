@@ -24,9 +24,15 @@ class MetricSet:
     compute: Callable[[Any], dict[str, Any]]
     needs: Callable[[list[str]], str] = _nothing_needed
     units: Mapping[str, str] = field(default_factory=dict)
+    #: figures it gives beyond `units`' (a regular expression of their names; '' none)
+    pattern: str = ""
 
     def __call__(self, result: Any) -> dict[str, Any]:
         return self.compute(result)
+
+    def gives(self, figure: str) -> bool:
+        """Whether `figure` is one of this set's figures (by `units` or `pattern`)."""
+        return figure in self.units or bool(self.pattern and re.fullmatch(self.pattern, figure))
 
 
 def metric_set(registered: Any) -> MetricSet:
@@ -54,4 +60,24 @@ def _signals(result: Any) -> dict[str, Any]:
 
 #: for every recorded column c (time excepted): ms_c (mean of c^2 over the recorded samples),
 #: peak_c (largest |c|) and final_c (its last value); c as `figure_name` writes it
-signals = MetricSet(_signals)
+signals = MetricSet(_signals, pattern=r"(ms|peak|final)_\w+")
+
+
+def sets_giving(figures: list[str]) -> list[str]:
+    """The registered metric sets (by name, sorted) that give at least one of `figures` (a
+    `base_` prefix, a baseline's figure, stripped), each figure by the first set that gives
+    it."""
+    from twmr.core.errors import CosimError
+    from twmr.registry import metric, metrics
+
+    wanted = [f.removeprefix("base_") for f in figures]
+    chosen: list[str] = []
+    for name in sorted(metrics()):
+        try:
+            found = metric_set(metric(name))
+        except (CosimError, ImportError):
+            continue
+        if any(found.gives(f) for f in wanted):
+            chosen.append(name)
+            wanted = [f for f in wanted if not found.gives(f)]
+    return chosen

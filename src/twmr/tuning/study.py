@@ -108,7 +108,13 @@ class TuneSpec:
                             f"realisation would be the same run. Fix: give --vary NAME=SPEC "
                             f"(what differs between realisations), or --realisations 1.")
         if not self.metrics:
-            raise TuneError("no metric set. Fix: give --metrics NAME (e.g. tracking, signals).")
+            from twmr.registry import metrics
+
+            raise TuneError(f"no registered metric set gives "
+                            f"{', '.join(self.objective.names) or 'a figure of the objective'}. "
+                            f"Fix: give --metrics NAME (one of: "
+                            f"{', '.join(sorted(metrics())) or 'none installed'}), or name "
+                            f"the figures of one in --objective.")
         check_aggregate(self.aggregate)
         by_name = {p.name: p for p in self.params}
         for i, point in enumerate(self.start, 1):
