@@ -1,9 +1,9 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
-`twmr.load`, `twmr.simulate`, `twmr.build`, `twmr.read_result`, `twmr.sweep`, `twmr.tune` (see
-`twmr.api`), and all a block of your own needs: `Component`, `Input`, `Output`, `Parameter`,
-`State`, `Kernel` and `CosimError` (`docs/components.md`). Imported on first use, so `import
-twmr` stays light.
+`twmr.load`, `twmr.simulate` (how a run goes: `twmr.Options`), `twmr.build`, `twmr.read_result`,
+`twmr.sweep`, `twmr.tune` (see `twmr.api`), and all a block of your own needs: `Component`,
+`Input`, `Output`, `Parameter`, `State`, `Kernel` and `CosimError` (`docs/components.md`).
+Imported on first use, so `import twmr` stays light.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ _FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", 
                           "sweep", "tune"), "twmr.api"),
          **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
                          "twmr.core"),
-         "Kernel": "twmr.core.kernel"}
+         "Kernel": "twmr.core.kernel", "Options": "twmr.core.run"}
 __all__ = sorted([*_FROM, "__version__"])
 
 

@@ -15,6 +15,7 @@ reads either.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import shutil
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from twmr.core.errors import CosimError
+from twmr.core.run import Options
 from twmr.metricset import MetricSet
 from twmr.observers.base import Observer
 from twmr.result import Result, read_result
@@ -126,15 +128,16 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
              *, formats: Sequence[str] = (), observers: Sequence[Observer] = (),
              metrics: Sequence[str] = (), progress: bool = False,
              header: dict[str, Any] | None = None, live: str | None = None,
-             compiled: str | None = None) -> Result:
+             compiled: str | None = None, options: Options | None = None) -> Result:
     """Run a scenario to its stop time and return its `Result`.
 
     `out`: the run's folder (crash-consistent `result.arrows`, `summary.json`, the asked export
     `formats` of 'csv' / 'mat' / 'parquet'); None keeps the rows in memory. `metrics` names
     registered metric functions (e.g. 'tracking') whose figures go into `summary['metrics']`.
     `live`: '[HOST:]PORT' of a live view of the run in the browser (`docs/live.md`; its URL is
-    logged), closed when the run ends. `compiled`: 'auto' | 'on' | 'off', the compiled loop
-    (docs/components.md; None: `TWMR_COMPILED`, default 'auto').
+    logged), closed when the run ends. `options`: how the run goes (`twmr.Options`: the compiled
+    loop, time per block, every FMU message); `compiled`: 'auto' | 'on' | 'off' sets
+    `options.compiled` (docs/components.md; None: `TWMR_COMPILED`, default 'auto').
     Raises a `CosimError` (or `KeyboardInterrupt`) after every component is terminated; the
     results so far are in `<out>.incomplete` (see the module's docstring)."""
     from twmr.master.algorithm import algorithm_for
@@ -147,7 +150,10 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     metric_fns = _metric_functions(metrics)
     system = scenario.fresh_system()
     _check_metrics(metric_fns, system)
-    algorithm = algorithm_for(system, compiled)
+    options = options or Options()
+    if compiled is not None:
+        options = dataclasses.replace(options, compiled=compiled)
+    algorithm = algorithm_for(system, options.compiled)
     store = ResultStore()
     summary = SignalSummary({"scenario": scenario.source, "overrides": list(scenario.overrides),
                              "algorithm": system.experiment.algorithm,
@@ -163,7 +169,8 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
 
         extra.append(LiveView(live))
     if out is None:
-        ex = Execution(system, [store, summary, *extra, *observers], algorithm=algorithm)
+        ex = Execution(system, [store, summary, *extra, *observers], algorithm=algorithm,
+                       options=options)
         ex.run()
         result = Result(ex.columns, ex.units, store.data(), summary.document,
                         ticks=store.tick_table())
@@ -176,7 +183,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     try:
         stage = _stage(final)
         ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage,
-                       algorithm=algorithm)
+                       algorithm=algorithm, options=options)
         error: BaseException | None = None
         try:
             ex.run()

@@ -22,7 +22,6 @@ try:
     import argparse
     import contextlib
     import logging
-    import os
     import time
     from collections.abc import Sequence
     from pathlib import Path
@@ -61,16 +60,13 @@ def _formats(text: str) -> tuple[str, ...]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from twmr import api
-    from twmr.master.stats import TIMING_ENV, lines
+    from twmr.core.run import Options
+    from twmr.master.stats import lines
 
     scenario_path = Path(args.scenario)
-    if args.fmu_log:
-        from twmr.fmi import log as fmu_log
-
-        fmu_log.show_all = True
     overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
-    if getattr(args, "verbose", False):
-        os.environ[TIMING_ENV] = "1"  # the time spent per block, in summary.json and below
+    options = Options(compiled=args.compiled or None, fmu_log=args.fmu_log,
+                      timing=getattr(args, "verbose", False))  # time per block, in summary.json
     formats = _formats(args.format)
     metrics = [m.strip() for m in ",".join(args.metrics).split(",") if m.strip()]
     scenario = api.load(scenario_path, overrides)
@@ -82,7 +78,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     foxglove = _foxglove_server(args)
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
-                              progress=not args.quiet, compiled=args.compiled or None,
+                              progress=not args.quiet, options=options,
                               observers=[o for o in (live, foxglove) if o is not None])
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)

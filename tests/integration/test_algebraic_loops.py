@@ -289,11 +289,10 @@ def test_compiled_loop_refuses_loops_solve_and_auto_keeps_python() -> None:
     np.testing.assert_allclose(store.data()[:, 1], 3.0, rtol=0, atol=1e-8)
 
 
-def test_adaptive_master_solves_the_loop_at_every_point(monkeypatch: pytest.MonkeyPatch
-                                                        ) -> None:
+def test_adaptive_master_solves_the_loop_at_every_point() -> None:
     """u = integral of 1 = t (exact for any step), s = u + 0.5 s = 2 t at every accepted
     point, however long the steps (loose tolerances let them grow). The counts per block are
-    the same whether each call is timed (TWMR_TIMING) or the master's points and steps are
+    the same whether each call is timed (`Options.timing`) or the master's points and steps are
     counted."""
     text = """
 components:
@@ -322,8 +321,8 @@ record: {signals: [u.y, s.y]}
     assert stats["loops"]["loop1"]["points"] > len(data)  # the half steps solve it too
     assert stats["blocks"]["u"]["steps"] >= len(data) - 1  # whole and half steps
     assert stats["blocks"]["s"]["evaluations"] == stats["loops"]["loop1"]["evaluations"]
-    monkeypatch.setenv("TWMR_TIMING", "1")
-    timed = Execution(loads(text, source="adaptive_loop.yaml"), [ResultStore()])
+    timed = Execution(loads(text, source="adaptive_loop.yaml"), [ResultStore()],
+                      options=twmr.Options(timing=True))
     timed.run()
     blocks = timed.outcome.statistics["blocks"]
     assert all(b.pop("time_s") > 0.0 for b in blocks.values())
@@ -343,17 +342,16 @@ experiment: {stop: 0.2, step: 0.01, loops: solve, loop_solver: {relaxation: 0.5}
 """
 
 
-@pytest.mark.parametrize("timing", ["", "1"])
-def test_statistics_in_summary_json_are_the_predicted_counts(tmp_path: Path, timing: str,
-                                                             monkeypatch: pytest.MonkeyPatch
-                                                             ) -> None:
+@pytest.mark.parametrize("timing", [False, True])
+def test_statistics_in_summary_json_are_the_predicted_counts(tmp_path: Path,
+                                                             timing: bool) -> None:
     """s = u - s, torn at s.u2 = x: g(x) = u - x, and one fixed-point update with relaxation
     0.5 from any x gives x = u / 2, the solution; so every one of the 21 points (20 steps and
     the final point; the input changes at each) takes one iteration and two passes, each
-    evaluating s and g once. Counted while running (TWMR_TIMING, with the time per block) or
+    evaluating s and g once. Counted while running (`Options.timing`, with the time per block) or
     from the plan, the figures are the same."""
-    monkeypatch.setenv("TWMR_TIMING", timing)
-    result = twmr.simulate(twmr.load(SINE), tmp_path / "run")
+    result = twmr.simulate(twmr.load(SINE), tmp_path / "run",
+                           options=twmr.Options(timing=timing))
     summary = json.loads((result.folder / "summary.json").read_text())
     stats = summary["statistics"]
     loop = stats["loops"]["loop1"]
@@ -366,7 +364,7 @@ def test_statistics_in_summary_json_are_the_predicted_counts(tmp_path: Path, tim
         assert blocks[name]["steps"] == 20
     assert (blocks["src"]["evaluations"], blocks["s"]["evaluations"],
             blocks["g"]["evaluations"]) == (0, 42, 42)
-    assert ("time_s" in blocks["s"]) == bool(timing) == ("time_s" in loop)
+    assert ("time_s" in blocks["s"]) == timing == ("time_s" in loop)
     np.testing.assert_allclose(result.to_pandas()["s.y"],
                                result.to_pandas()["src.y"] / 2.0, rtol=0, atol=1e-9)
 

@@ -302,6 +302,7 @@ class FmuComponent(Component):
         # outputs passed on as they are after the step (Jacobi): the feedthrough ones too are
         # got after doStep (at t + h with the inputs held, as the native blocks leave them)
         self._after_step_all = run.outputs_as_stepped
+        self.log.show_all = run.fmu_log
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)

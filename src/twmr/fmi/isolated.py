@@ -109,10 +109,7 @@ class IsolatedFmu(Component):
         self._tmp = tempfile.mkdtemp(prefix="twmr-isolated-")
         ours, theirs = socket.socketpair()
         # the worker imports as this process does; its temporary files go where they are removed
-        from twmr.fmi import log as fmu_log
-
-        env = dict(os.environ, TMPDIR=self._tmp, PYTHONPATH=os.pathsep.join(sys.path),
-                   TWMR_FMU_LOG="all" if fmu_log.show_all else "")
+        env = dict(os.environ, TMPDIR=self._tmp, PYTHONPATH=os.pathsep.join(sys.path))
         try:
             self._proc = subprocess.Popen(
                 [sys.executable, "-u", "-m", "twmr.fmi.worker", str(theirs.fileno()),
@@ -218,7 +215,7 @@ class IsolatedFmu(Component):
         if self._conn is None:
             self._start()
         self._call("prepare", (run.folder, run.step, run.paced, wired, read,
-                               run.outputs_as_stepped, run.steps_retaken))
+                               run.outputs_as_stepped, run.steps_retaken, run.fmu_log))
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)

@@ -18,9 +18,6 @@ log = logging.getLogger("twmr.fmu")
 _STATUS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
 #: lines kept for error messages
 KEEP = 20
-#: set by `twmr run --fmu-log`: every FMU message is shown (logged at INFO)
-show_all = False
-
 
 _keys = itertools.count(1)
 _by_key: dict[int, weakref.ref[FmuLog]] = {}
@@ -78,6 +75,7 @@ class FmuLog:
         self.lines: collections.deque[str] = collections.deque(maxlen=KEEP)
         self._keep: list[Any] = []  # ctypes callbacks must outlive the instance
         self.probing = False  # a call whose refusal is expected: its messages at DEBUG
+        self.show_all = False  # every message at INFO (`Options.fmu_log`)
 
     @contextlib.contextmanager
     def probe(self) -> Iterator[None]:
@@ -92,8 +90,8 @@ class FmuLog:
         label = _STATUS[status] if 0 <= status < len(_STATUS) else str(status)
         line = f"[{label}] {category + ': ' if category else ''}{message.rstrip()}"
         self.lines.append(line)
-        level = logging.INFO if show_all else (logging.WARNING if 0 < status < 5 and status != 2
-                                               and not self.probing else logging.DEBUG)
+        warns = 0 < status < 5 and status != 2 and not self.probing
+        level = logging.INFO if self.show_all else (logging.WARNING if warns else logging.DEBUG)
         log.log(level, "FMU '%s' %s", self.instance, line)
 
     def tail(self) -> list[str]:

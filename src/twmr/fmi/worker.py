@@ -64,14 +64,14 @@ class _Server:
 
     def prepare(self, folder: Any, step: float, paced: bool, wired: set[str] | None,
                 read: set[str] | None, outputs_as_stepped: bool = False,
-                steps_retaken: bool = False) -> None:
+                steps_retaken: bool = False, fmu_log: bool = False) -> None:
         """The parent's `RunContext`, narrowed to this instance's wired inputs and read outputs."""
         def pairs(ports: set[str] | None) -> frozenset[tuple[str, str]] | None:
             return None if ports is None else frozenset((self.fmu.name, p) for p in ports)
 
         self.fmu.prepare(RunContext(folder, step, paced, wired=pairs(wired), read=pairs(read),
                                     outputs_as_stepped=outputs_as_stepped,
-                                    steps_retaken=steps_retaken))
+                                    steps_retaken=steps_retaken, fmu_log=fmu_log))
 
     def setup(self, start: float, stop: float | None) -> None:
         self.fmu.setup(start, stop)
@@ -229,18 +229,15 @@ def serve(conn: Connection) -> None:
 
 
 def _log_to_stderr() -> None:
-    """The FMU's messages to stderr, as the parent's `twmr.fmu` logger would show them
-    (TWMR_FMU_LOG=all: `twmr run --fmu-log`, every message)."""
+    """The FMU's messages to stderr, as the parent's `twmr.fmu` logger would show them (the
+    FmuLog chooses each message's level: INFO for all of them with `Options.fmu_log`)."""
     import logging
 
-    from twmr.fmi import log as fmu_log
-
-    fmu_log.show_all = os.environ.get("TWMR_FMU_LOG") == "all"
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("%(message)s"))
     logger = logging.getLogger("twmr.fmu")
     logger.addHandler(handler)
-    logger.setLevel(logging.INFO if fmu_log.show_all else logging.WARNING)
+    logger.setLevel(logging.INFO)
     logger.propagate = False
 
 

@@ -158,7 +158,7 @@ class Adaptive(Algorithm):
         linecache.cache[self.filename] = (len(self.source), None,
                                           self.source.splitlines(True), self.filename)
         exec(compile(self.source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        timing = stats.timing_wanted()
+        timing = self.timing
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
             self.probe.wrap(env, plan.order)

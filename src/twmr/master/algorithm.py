@@ -29,6 +29,9 @@ class Algorithm(ABC):
     #: the outputs a component leaves after `do_step` are passed on as they are, without
     #: another `evaluate` at t + h (Jacobi); told to the components (`RunContext`)
     outputs_as_stepped: bool = False
+    #: measure the wall time spent in each block (`Options.timing`), set by the run before
+    #: `prepare`
+    timing: bool = False
     #: the generated source, if any, for tracebacks and `twmr check --schedule`
     source: str = ""
 

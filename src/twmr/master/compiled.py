@@ -193,6 +193,7 @@ class CompiledStep(Algorithm):
 
     def prepare(self, system: System, record: list[tuple[str, str]], decimation: int,
                 check_finite: bool = True) -> None:
+        self.python.timing = self.timing
         self.python.prepare(system, record, decimation, check_finite)
         held = system.__dict__.get(_HELD_LOOP)
         if held is not None:  # a lock on compiling it that a run took and did not compile under

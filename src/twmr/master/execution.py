@@ -28,7 +28,7 @@ import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError, FmuTerminated
 from twmr.core.port import BINARY
-from twmr.core.run import RunContext
+from twmr.core.run import Options, RunContext
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
 from twmr.master.jacobi_start import propagate_start_values
@@ -204,20 +204,22 @@ class Execution:
 
     def __init__(self, system: System, observers: Sequence[Observer] = (),
                  folder: str | Path | None = None, check_finite: bool = True,
-                 algorithm: Algorithm | None = None):
+                 algorithm: Algorithm | None = None, options: Options | None = None):
         self.system = system
+        self.options = options or Options()
         self.observers = list(observers)
         self.folder = Path(folder) if folder is not None else None
         exp = system.experiment
         self.pacer = Pacer(exp.step) if system.paced else None
         if algorithm is None:
-            self.algorithm = algorithm_for(system)
+            self.algorithm = algorithm_for(system, self.options.compiled)
         else:
             admit(system, algorithm)
             self.algorithm = algorithm
         self.signals = list(system.record.signals)
         self.columns, self.units = columns_of(system, self.signals)
         self.ticks = TickEvents(system, binary_signals(system, self.signals))
+        self.algorithm.timing = self.options.timing
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
         self.outcome = Outcome(n_steps=exp.n_steps)
         self._relay: _Relay | None = None
@@ -248,7 +250,8 @@ class Execution:
                 frozenset([(c.src, c.src_port) for c in self.system.connections]
                           + list(self.signals)),
                 outputs_as_stepped=self.algorithm.outputs_as_stepped,
-                steps_retaken=self.algorithm.needs_state_rollback)
+                steps_retaken=self.algorithm.needs_state_rollback,
+                fmu_log=self.options.fmu_log)
             if paced:
                 # collect now, before hardware starts (a full collection stalls every thread
                 # for tens of ms), and freeze: a collection during the paced run scans only

@@ -130,7 +130,7 @@ class FixedStep(Algorithm):
         (its solver reaches the blocks through their values and methods) nor when every block's
         calls are timed (`twmr.master.stats`)."""
         assert self.plan is not None
-        return not stats.timing_wanted() and not self.plan.loops
+        return not self.timing and not self.plan.loops
 
     def start(self) -> None:
         """Generate the loop now, before the clock runs, and call each block's kernel once on
@@ -158,7 +158,7 @@ class FixedStep(Algorithm):
         linecache.cache[self.filename] = (len(self._source), None,
                                           self._source.splitlines(True), self.filename)
         exec(compile(self._source, self.filename, "exec"), env)  # noqa: S102 - generated here
-        timing = stats.timing_wanted()
+        timing = self.timing
         self.probe = stats.Probe(timing) if timing else None
         if self.probe is not None:
             self.probe.wrap(env, plan.order)

@@ -7,27 +7,18 @@ loop: the points solved, the iterations (total and the most at one point) and th
 through it (`twmr.master.loops`). The fixed-step schedule counts nothing while it runs: its
 calls follow from the steps done and the plan; the adaptive master counts the calls of its
 generated `point` and `step` (every block steps in each), not each block's. The wall
-time spent in each block (`time_s`) is measured only when `TWMR_TIMING` is set (`twmr run -v`
-sets it): each call is then wrapped in a timer.
+time spent in each block (`time_s`) is measured only when the run asks for it (`Options.timing`,
+`twmr run -v`): each call is then wrapped in a timer.
 """
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from twmr.master.loops import LoopSolver
 from twmr.master.plan import Evaluate, Plan, Solve
-
-#: set (not '' or '0') to measure the time spent in each block
-TIMING_ENV = "TWMR_TIMING"
-
-
-def timing_wanted() -> bool:
-    """Whether `TWMR_TIMING` asks for the time per block."""
-    return os.environ.get(TIMING_ENV, "").strip() not in ("", "0")
 
 
 class Probe:
