@@ -411,7 +411,7 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
 
     goal, limits = Expression(objective), [parse_constraint(c) for c in constraints]
     if not metrics:
-        from twmr.metricset import sets_giving
+        from twmr.registry import sets_giving
 
         metrics = sets_giving(goal.names + [n for c in limits for n in c.expression.names])
     spec = TuneSpec(str(scenario), [parse_param(t) for t in texts(params)],

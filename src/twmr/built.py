@@ -127,7 +127,7 @@ class Built:
         #: the stepping time of the system's runs [s] and their count: once what a loop
         #: compiled for it would save (`OWN_LOOP_SAVING`) of these runs, and of the runs still
         #: expected (`expect`) at their mean, covers compiling that loop, the system runs by it
-        #: (a ski-rental rule, `twmr.master.compiled.own_loop`)
+        #: (a ski-rental rule, `twmr.master.scenario_loop.own_loop`)
         self._stepped_s = 0.0
         self._runs = 0
         self._expected = 0
@@ -151,7 +151,7 @@ class Built:
         result = simulate(scenario, out, formats=formats, metrics=metrics,
                           observers=observers, header=header)
         if system is self.system:
-            from twmr.master.compiled import OWN_LOOP_SAVING
+            from twmr.master.scenario_loop import OWN_LOOP_SAVING
 
             self._stepped_s += float(result.summary.get("wall_time_s") or 0.0)
             self._runs += 1

@@ -62,22 +62,3 @@ def _signals(result: Any) -> dict[str, Any]:
 #: peak_c (largest |c|) and final_c (its last value); c as `figure_name` writes it
 signals = MetricSet(_signals, pattern=r"(ms|peak|final)_\w+")
 
-
-def sets_giving(figures: list[str]) -> list[str]:
-    """The registered metric sets (by name, sorted) that give at least one of `figures` (a
-    `base_` prefix, a baseline's figure, stripped), each figure by the first set that gives
-    it."""
-    from twmr.core.errors import CosimError
-    from twmr.registry import metric, metrics
-
-    wanted = [f.removeprefix("base_") for f in figures]
-    chosen: list[str] = []
-    for name in sorted(metrics()):
-        try:
-            found = metric_set(metric(name))
-        except (CosimError, ImportError):
-            continue
-        if any(found.gives(f) for f in wanted):
-            chosen.append(name)
-            wanted = [f for f in wanted if not found.gives(f)]
-    return chosen

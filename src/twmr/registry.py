@@ -180,6 +180,26 @@ def metric_units(names: list[str]) -> dict[str, str]:
     return units
 
 
+def sets_giving(figures: list[str]) -> list[str]:
+    """The registered metric sets (by name, sorted) that give at least one of `figures` (a
+    `base_` prefix, a baseline's figure, stripped), each figure by the first set that gives
+    it."""
+    from twmr.core.errors import CosimError
+    from twmr.metricset import metric_set
+
+    wanted = [f.removeprefix("base_") for f in figures]
+    chosen: list[str] = []
+    for name in sorted(metrics()):
+        try:
+            found = metric_set(metric(name))
+        except (CosimError, ImportError):
+            continue
+        if any(found.gives(f) for f in wanted):
+            chosen.append(name)
+            wanted = [f for f in wanted if not found.gives(f)]
+    return chosen
+
+
 def metric(name: str) -> Callable[..., dict[str, Any]]:
     """The metric function registered as `name`; CosimError naming the known ones."""
     from twmr.core.errors import CosimError

@@ -140,13 +140,13 @@ def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
     the loop generated for it from numba's cache, when the cache holds it, or compiling it;
     then that loop runs it, with the driver's rows. A built system raises the budget as its
     runs step."""
-    from twmr.master import compiled
+    from twmr.master import compiled, scenario_loop
     from twmr.master.execution import Execution
     from twmr.observers.store import ResultStore
     from twmr.scenario import load
 
     monkeypatch.setenv("TWMR_COMPILED", "on")
-    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)  # no loop cached yet
+    monkeypatch.setattr(scenario_loop, "cache_dir", lambda: tmp_path)  # no loop cached yet
     path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"  # whose loop no other test makes
 
     def run(budget: float) -> tuple[np.ndarray, bool]:
@@ -158,15 +158,16 @@ def test_a_system_takes_its_own_loop_once_its_runs_repay_compiling_it(
 
     rows, by_driver = run(0.0)
     assert by_driver
-    assert run(compiled.OWN_LOOP_LOAD_S)[1]  # enough to load the loop, which is not cached
-    for budget in (compiled.OWN_LOOP_COMPILE_S, compiled.OWN_LOOP_LOAD_S):  # compiled, cached
+    assert run(scenario_loop.OWN_LOOP_LOAD_S)[1]  # enough to load the loop, which is not cached
+    # compiled, then cached
+    for budget in (scenario_loop.OWN_LOOP_COMPILE_S, scenario_loop.OWN_LOOP_LOAD_S):
         own, by_driver = run(budget)
         assert not by_driver and np.array_equal(own, rows), budget
 
-    monkeypatch.setattr(compiled, "OWN_LOOP_SAVING", 1e9)  # the first run repays the compile
+    monkeypatch.setattr(scenario_loop, "OWN_LOOP_SAVING", 1e9)  # the first run repays the compile
     built = twmr.build(path, SHORT)
     built.run()
-    assert built.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
+    assert built.system.own_loop_budget_s >= scenario_loop.OWN_LOOP_COMPILE_S
     assert np.array_equal(built.run().values, fresh(path, []))
     assert built.system.__dict__["_twmr_held_loop"].typed
 
@@ -184,7 +185,7 @@ def test_a_built_system_expecting_runs_takes_its_loop_when_they_repay_it() -> No
     """`Built.expect`: the runs still to come count in the budget, at the mean stepping time of
     those made, so a sweep worker's system takes its loop after its first run when its share
     of the sweep repays compiling it, and not when it does not."""
-    from twmr.master import compiled
+    from twmr.master import scenario_loop
 
     path = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
     few, many = twmr.build(path, SHORT), twmr.build(path, SHORT)
@@ -192,10 +193,11 @@ def test_a_built_system_expecting_runs_takes_its_loop_when_they_repay_it() -> No
     for built in (few, many):
         built.run()
     per_run = many._stepped_s  # a later run may step several times faster on a busy machine
-    many.expect(100 * int(compiled.OWN_LOOP_COMPILE_S / (per_run * compiled.OWN_LOOP_SAVING)))
+    many.expect(100 * int(scenario_loop.OWN_LOOP_COMPILE_S /
+                          (per_run * scenario_loop.OWN_LOOP_SAVING)))
     many.run()
-    assert few.system.own_loop_budget_s < compiled.OWN_LOOP_COMPILE_S
-    assert many.system.own_loop_budget_s >= compiled.OWN_LOOP_COMPILE_S
+    assert few.system.own_loop_budget_s < scenario_loop.OWN_LOOP_COMPILE_S
+    assert many.system.own_loop_budget_s >= scenario_loop.OWN_LOOP_COMPILE_S
     task = RunTask("r", 0, {}, [], str(path), path.read_text(), str(path.parent), share=7,
                    built_with=SHORT)
     assert built_for(task)._expected == 7  # a sweep tells its workers their share
@@ -207,7 +209,7 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
     process holds the lock on compiling that loop, and one that did not find the loop in
     numba's cache asks again after `RECHECK_S`: once another process has compiled it, the
     system takes it, with the driver's rows. A lock a run took is let go by the next run."""
-    from twmr.master import compiled, schedule_cache
+    from twmr.master import compiled, scenario_loop, schedule_cache
     from twmr.master.execution import Execution
     from twmr.observers.store import ResultStore
     from twmr.scenario import load
@@ -222,9 +224,9 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
         return seen.extra["algorithm.driver"], result.values
 
     monkeypatch.setenv("TWMR_COMPILED", "on")
-    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)  # no loop cached yet
-    monkeypatch.setattr(compiled, "OWN_LOOP_SAVING", 1e9)  # every budget covers compiling
-    monkeypatch.setattr(compiled, "RECHECK_S", 1e9)
+    monkeypatch.setattr(scenario_loop, "cache_dir", lambda: tmp_path)  # no loop cached yet
+    monkeypatch.setattr(scenario_loop, "OWN_LOOP_SAVING", 1e9)  # every budget covers compiling
+    monkeypatch.setattr(scenario_loop, "RECHECK_S", 1e9)
     # a loop of its own (its recorded signals), which no other test's process has compiled
     given = ROOT / "scenarios" / "paper_trajectory1_smc.yaml"
     text = given.read_text(encoding="utf-8")
@@ -233,23 +235,23 @@ def test_one_process_compiles_a_loop_and_the_others_load_it_when_it_is_there(
     path.write_text(text.replace(", ctrl.error]", "]"), encoding="utf-8")
     built = twmr.build(path, SHORT)
     built.run()
-    held = compiled.OWN_LOOP_COMPILE_S
-    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", 1e12)  # asks the cache only
+    held = scenario_loop.OWN_LOOP_COMPILE_S
+    monkeypatch.setattr(scenario_loop, "OWN_LOOP_COMPILE_S", 1e12)  # asks the cache only
     assert by_driver()[0]
     loop = built.system.__dict__["_twmr_held_loop"]
     other = schedule_cache.claim(loop.source, loop.names, tmp_path)  # another process compiles
     assert other is not None
-    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", held)
+    monkeypatch.setattr(scenario_loop, "OWN_LOOP_COMPILE_S", held)
     assert by_driver()[0]
     other.close()
-    monkeypatch.setattr(compiled, "OWN_LOOP_COMPILE_S", 1e12)
+    monkeypatch.setattr(scenario_loop, "OWN_LOOP_COMPILE_S", 1e12)
     # that process puts the loop in the cache
     algorithm = compiled.CompiledStep("gauss_seidel", "on", use_driver=False)
     assert Execution(load(path, SHORT), [ResultStore()], algorithm=algorithm).run().status == \
         "completed"
     rows = by_driver()
     assert rows[0]  # the answer "not in the cache" held until RECHECK_S
-    monkeypatch.setattr(compiled, "RECHECK_S", 0.0)
+    monkeypatch.setattr(scenario_loop, "RECHECK_S", 0.0)
     own = by_driver()
     assert not own[0] and np.array_equal(own[1], rows[1])
     assert loop.claim()  # as a run that took the lock and then did not compile

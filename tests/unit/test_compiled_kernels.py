@@ -1,11 +1,11 @@
-"""What `twmr.master.compiled._kernels` refuses before anything compiles, and how it says so
+"""What `twmr.master.scenario_loop.kernels_of` refuses before anything compiles, and how it says so
 (no numba here)."""
 from __future__ import annotations
 
 from tests.helpers import system
 from twmr.blocks.linear import Gain
 from twmr.core.port import INTEGER, Input
-from twmr.master.compiled import _kernels
+from twmr.master.scenario_loop import kernels_of as _kernels
 
 
 class CountedGain(Gain):

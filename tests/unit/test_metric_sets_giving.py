@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import twmr
-from twmr.metricset import sets_giving
+from twmr.registry import sets_giving
 from twmr.tuning import TuneError
 
 GAIN = """components:

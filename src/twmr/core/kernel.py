@@ -26,6 +26,7 @@ import sys
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any
 
@@ -295,3 +296,13 @@ def _field_read(node: ast.expr, table: Any, parents: dict[ast.AST, ast.AST], bou
 
 __all__ = ["AUTO_MIN_STEPS", "Kernel", "KernelFunction",
            "compiled_pays", "kernel_function", "python_params"]
+
+
+class Carriage(str, Enum):
+    """How the compiled loop holds a port's value."""
+
+    FLOAT = "f"  # float64
+    INT = "i"  # int64
+    UINT = "u"  # uint64, wrapped into its range
+    BOOL = "b"  # an int64 that is a bool in Python (an FMI 3.0 Boolean)
+    NONE = "x"  # not at all: a String, Binary or Clock port the run neither sets nor reads

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from twmr.core.kernel import Kernel
+from twmr.core.kernel import Carriage, Kernel
 
 
 @dataclass(frozen=True)
@@ -80,15 +80,14 @@ class NotCompilable(Exception):
     """An FMU the generated loop cannot call (the message says which port and why)."""
 
 
-def carried(fmi_type: str, fmi3: bool) -> str:
-    """How the loop carries a value of FMI type `fmi_type`: 'f' float64, 'i' int64, 'u' uint64
-    or 'b' an int64 that is a bool in Python (an FMI 3.0 Boolean; fmpy gives an FMI 2.0 one as
-    the int the FMU returned)."""
+def carried(fmi_type: str, fmi3: bool) -> Carriage:
+    """How the loop carries a value of FMI type `fmi_type` (a Boolean is BOOL for FMI 3.0 only:
+    fmpy gives an FMI 2.0 one as the int the FMU returned)."""
     if fmi_type in ("Real", "Float64", "Float32"):
-        return "f"
+        return Carriage.FLOAT
     if fmi_type == "Boolean" and fmi3:
-        return "b"
-    return "u" if fmi_type == "UInt64" else "i"
+        return Carriage.BOOL
+    return Carriage.UINT if fmi_type == "UInt64" else Carriage.INT
 
 
 def compiled_form(component: Any, fmu: Any, fmi3: bool, plans: list[list[Any]],

@@ -56,7 +56,8 @@ from twmr.core.errors import CosimError, Location, Problem
 from twmr.master import loops, stats
 from twmr.master.algorithm import Algorithm
 from twmr.master.plan import Plan, build
-from twmr.master.schedule import _finite_check, _nonfinite, _point, _record, _Writer, locate_in
+from twmr.master.render import Writer, finite_check, nonfinite, point, record
+from twmr.master.schedule import locate_in
 from twmr.master.ticks import Tick
 from twmr.scenario.system import System
 
@@ -395,7 +396,7 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
     NaN/Inf check), `record(t, rows)`, `step(t, H)` (every acting component steps by H),
     `outputs()` (the `watched` port values) and `discrete()` (the `discrete` ones)."""
     ids = {name: i for i, name in enumerate(plan.order)}
-    env: dict[str, Any] = {"nonfinite": _nonfinite, "Tick": Tick}
+    env: dict[str, Any] = {"nonfinite": nonfinite, "Tick": Tick}
     for name, comp in system.components.items():
         i = ids[name]
         env.update({f"d{i}": comp.__dict__, f"ev{i}": comp.evaluate, f"st{i}": comp.do_step})
@@ -403,14 +404,14 @@ def _generate(system: System, plan: Plan, watched: list[tuple[str, str]],
     def ref(name: str, port: str) -> str:
         return f"d{ids[name]}[{port!r}]"
 
-    w = _Writer()
+    w = Writer()
     w.add(0, "def point(t):")
     w.add(1, "pass")
-    _point(w, 1, plan, ids, ref, final=True)
-    _finite_check(w, 1, plan, ref)
+    point(w, 1, plan, ids, ref, final=True)
+    finite_check(w, 1, plan, ref)
     w.add(0, "def record(t, rows):")
     w.add(1, "pass")
-    _record(w, 1, plan, ref, final=True)
+    record(w, 1, plan, ref, final=True)
     w.add(0, "def step(t, H):")
     w.add(1, "pass")
     for s in plan.steps:

@@ -9,6 +9,7 @@ states what it needs through the capability flags.
 from __future__ import annotations
 
 import logging
+import os
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
@@ -17,6 +18,23 @@ from twmr.registry import ALGORITHMS, plugin, plugins
 from twmr.scenario.system import System
 
 log = logging.getLogger("twmr")
+
+
+#: the modes of the compiled loop (`twmr.master.compiled`)
+MODES = ("auto", "on", "off")
+
+
+class CompileError(CosimError):
+    """`TWMR_COMPILED=on` but the system cannot run compiled (a block without a kernel...)."""
+
+
+def compiled_mode() -> str:
+    """The selection from `TWMR_COMPILED` ('auto' unless set)."""
+    mode = os.environ.get("TWMR_COMPILED", "auto").strip().lower() or "auto"
+    if mode not in MODES:
+        raise CompileError(f"TWMR_COMPILED is '{mode}', which is not a mode of the compiled "
+                           f"loop. Fix: set it to one of {', '.join(MODES)}, or unset it.")
+    return mode
 
 
 class Algorithm(ABC):
@@ -94,8 +112,6 @@ def make_algorithm(name: str, compiled: str | None = None) -> Algorithm:
     'gauss_seidel', 'jacobi', 'adaptive'): its factory called with `compiled` 'auto' | 'on' |
     'off' (None: `TWMR_COMPILED`, default 'auto'; see `twmr.master.compiled`). `CosimError`
     naming the known algorithms when `name` is not one."""
-    from twmr.master.compiled import MODES, compiled_mode
-
     if compiled is not None and compiled not in MODES:
         raise CosimError(f"compiled={compiled!r} is not a mode of the compiled loop. Fix: give "
                          f"one of {', '.join(MODES)} (or None: TWMR_COMPILED, else auto).")

@@ -45,34 +45,16 @@ from twmr.core.component import (
 )
 from twmr.core.errors import CosimError
 from twmr.master import loops, stats
-from twmr.master.algorithm import Algorithm, NonFinite
+from twmr.master.algorithm import Algorithm
 from twmr.master.plan import (
     METHODS,
     Plan,
-    Ref,
-    Signal,
-    Solve,
-    Write,
     advancing,
-    chunks,
-    guard,
     held_build,
 )
+from twmr.master.render import Writer, finite_check, nonfinite, point, record, tuple_of
 from twmr.master.ticks import Tick
 from twmr.scenario.system import System
-
-
-class _Writer:
-    """Collects generated lines and the instance (and call) each line belongs to."""
-
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-        self.owner: dict[int, tuple[str, str]] = {}
-
-    def add(self, indent: int, text: str, owner: tuple[str, str] | None = None) -> None:
-        self.lines.append("    " * indent + text)
-        if owner is not None:
-            self.owner[len(self.lines)] = owner
 
 
 class FixedStep(Algorithm):
@@ -269,7 +251,7 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
             env[f"st{i}"] = comp.do_step
     kern = _Kernels(system, ids, kernels)
 
-    w = _Writer()
+    w = Writer()
     for name in plan.order:
         i = ids[name]
         what = "kernel (x, p, ev, st; ports y_k, u_k)" if name in kernels else \
@@ -280,9 +262,9 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     w.add(1, "try:")
     w.add(2, "for n in range(n0, n1):")
     w.add(3, "t = start + n * h")
-    _point(w, 3, plan, ids, kern.ref, final=False, evaluate=kern.evaluate)
-    _finite_check(w, 3, plan, kern.ref, kern.kernels.__contains__)
-    _record(w, 3, plan, kern.ref, final=False)
+    point(w, 3, plan, ids, kern.ref, final=False, evaluate=kern.evaluate)
+    finite_check(w, 3, plan, kern.ref, kern.kernels.__contains__)
+    record(w, 3, plan, kern.ref, final=False)
     lean = {n for n in advancing(system, plan) if n in kernels and kernels[n].advance}
     if lean:  # the last step of a call whole, as the compiled driver's chunks end
         w.add(3, "if n != n1 - 1:")
@@ -294,17 +276,17 @@ def _generate(system: System, plan: Plan, kernels: Mapping[str, Shape]
     kern.prologue(w, 1)
     w.add(1, "try:")
     w.add(2, "t = start + n * h")
-    _point(w, 2, plan, ids, kern.ref, final=True, evaluate=kern.evaluate)
-    _finite_check(w, 2, plan, kern.ref, kern.kernels.__contains__)
-    _record(w, 2, plan, kern.ref, final=True)
+    point(w, 2, plan, ids, kern.ref, final=True, evaluate=kern.evaluate)
+    finite_check(w, 2, plan, kern.ref, kern.kernels.__contains__)
+    record(w, 2, plan, kern.ref, final=True)
     kern.epilogue(w, 1)
     loops.render(w, plan, ids, kern.ref)
-    env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=_nonfinite,
+    env.update(start=system.experiment.start, h=system.experiment.step, nonfinite=nonfinite,
                Tick=Tick)
     return "\n".join(w.lines) + "\n", w.owner, env
 
 
-def _steps(w: _Writer, ind: int, system: System, plan: Plan, ids: dict[str, int],
+def _steps(w: Writer, ind: int, system: System, plan: Plan, ids: dict[str, int],
            kern: _Kernels, env: dict[str, Any], lean: set[str]) -> None:
     """The lines of the steps after a point; the blocks in `lean` by their kernels' advance."""
     for s in plan.steps:
@@ -341,16 +323,16 @@ class _Kernels:
         """(port, local) of every port of kernel block `name`."""
         return [(p, self.ref(name, p)) for p in self.outs[name] + self.ins[name]]
 
-    def prologue(self, w: _Writer, ind: int) -> None:
+    def prologue(self, w: Writer, ind: int) -> None:
         for name in self.kernels:
             i = self.ids[name]
             w.add(ind, f"p{i}, ev{i}, st{i}, ad{i}, sync{i} = bind{i}()", (name, "its kernel"))
             ports = [(_X, f"x{i}"), *self._ports(name)]
             w.add(ind, ", ".join(v for _, v in ports) + " = " +
                   ", ".join(f"d{i}[{p!r}]" for p, _ in ports))
-            w.add(ind, f"Y{i} = {_tuple([self.ref(name, p) for p in self.outs[name]])}")
+            w.add(ind, f"Y{i} = {tuple_of([self.ref(name, p) for p in self.outs[name]])}")
 
-    def epilogue(self, w: _Writer, ind: int) -> None:
+    def epilogue(self, w: Writer, ind: int) -> None:
         w.add(ind, "finally:")
         for name in self.kernels:
             i = self.ids[name]
@@ -367,7 +349,7 @@ class _Kernels:
         tuple of outputs the kernel returned, goes back to it as it is."""
         i = self.ids[name]
         ys = [self.ref(name, p) for p in self.outs[name]]
-        us = _tuple([self.ref(name, p) for p in self.ins[name]])
+        us = tuple_of([self.ref(name, p) for p in self.ins[name]])
         line = f"x{i}, Y{i} = {fn}{i}({args}, x{i}, Y{i}, {us}, p{i})"
         return f"{line}; {', '.join(ys)}{',' if len(ys) == 1 else ''} = Y{i}" if ys else line
 
@@ -386,89 +368,3 @@ class _Kernels:
         return self._call(name, "ad" if lean and shape.advance else "st", f"{time}, h{i}")
 
 
-def _tuple(items: list[str]) -> str:
-    return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
-
-
-def _point(w: _Writer, ind: int, plan: Plan, ids: dict[str, int], ref: Ref,
-           final: bool, evaluate: Callable[[str], str | None] | None = None) -> None:
-    """Lines of one communication point: the Jacobi snapshot, then the plan's input writes and
-    evaluations, each guarded by its component's step multiple (not at the final point);
-    `evaluate(name)` writes an evaluation (default: ``ev<i>(t)``; None: no line)."""
-    for k, (src, port) in enumerate(plan.snapshot):
-        w.add(ind, f"s{k} = {ref(src, port)}")
-    for action in plan.point:
-        if isinstance(action, Write):
-            line, owner = plan.assignment(action, ref), (action.name, "input")
-        elif isinstance(action, Solve):
-            line, owner = loops.call(action), (", ".join(action.components), "the loop solver")
-        else:
-            call = f"ev{ids[action.name]}(t)" if evaluate is None else evaluate(action.name)
-            if call is None:
-                continue
-            line, owner = call, (action.name, "evaluate")
-        cond = None if final else guard(action)
-        w.add(ind, line if cond is None else f"if {cond}: {line}", owner)
-
-
-#: a vector port held in a local of at most this many elements is summed element by element
-#: in the check (shorter than a call of `sum`; the same association)
-INLINE_SUM = 4
-
-
-def _finite_check(w: _Writer, ind: int, plan: Plan, ref: Ref,
-                  local: Callable[[str], bool] = lambda name: False) -> None:
-    """One sum over the watched Real outputs; a NaN or Inf in any makes `x - x` non-zero.
-    `local(name)`: the ports of component `name` are local variables."""
-    if not plan.check:
-        return
-
-    def term(s: Signal) -> str:
-        r = ref(s.name, s.port)
-        if s.size is None:
-            return r
-        if s.size <= INLINE_SUM and local(s.name):
-            return "(" + " + ".join(f"{r}[{k}]" for k in range(s.size)) + ")"
-        return f"sum({r})"
-
-    sums = [" + ".join(term(s) for s in chunk) for chunk in plan.check]
-    w.add(ind, "x = " + (sums[0] if len(sums) == 1 else _sum_of(sums, "0.0")))
-    w.add(ind, "if x - x != 0.0: nonfinite(t)")
-
-
-def _sum_of(sums: list[str], zero: str) -> str:
-    """`sum(((a + b), (c + d),), zero)`: chunks summed without one deep chained expression."""
-    return f"sum(({', '.join(f'({c})' for c in sums)},), {zero})"
-
-
-def _record(w: _Writer, ind: int, plan: Plan, ref: Ref, final: bool) -> None:
-    """`rows.append(...)` of one flat tuple (t, the recorded values), every `decimation` steps
-    (at the final point always); a `Tick` of each recorded Binary port whose clock is True
-    (with no clock: always), at every point."""
-    for k, b in enumerate(plan.ticks):
-        line = f"rows.append(Tick(t, {k}, {ref(b.name, b.port)}))"
-        w.add(ind, line if b.clock is None else f"if {ref(*b.clock)}: {line}")
-    if not plan.record:
-        return
-    parts: list[str] = []
-    scalars = ["t"]  # consecutive scalars go into one tuple literal
-    for s in plan.record:
-        if s.size is None:
-            scalars.append(ref(s.name, s.port))
-            continue
-        if scalars:
-            parts.append("(" + ", ".join(scalars) + ",)")
-            scalars = []
-        parts.append(ref(s.name, s.port))
-    if scalars:
-        parts.append("(" + ", ".join(scalars) + ",)")
-    pieces = [" + ".join(c) for c in chunks(parts)]
-    line = f"rows.append({pieces[0] if len(pieces) == 1 else _sum_of(pieces, '()')})"
-    if final or plan.decimation == 1:
-        w.add(ind, line)
-    else:
-        w.add(ind, f"if n % {plan.decimation} == 0: {line}")
-
-
-def _nonfinite(t: float) -> None:
-    raise NonFinite(t)

@@ -98,7 +98,7 @@ class System:
     step_multiples: dict[str, int] = field(default_factory=dict)
     source: str = "<scenario>"
     #: what compiling the loop generated for this system may cost [s] (its steps are faster
-    #: than the driver's; `twmr.master.compiled.own_loop`): raised by `twmr.built.Built`
+    #: than the driver's; `twmr.master.scenario_loop.own_loop`): raised by `twmr.built.Built`
     #: as the system's runs step
     own_loop_budget_s: float = 0.0
 
