@@ -15,9 +15,7 @@ PACKAGES = {"twmr": ROOT / "src" / "twmr", "twmr.components": ROOT / "components
 KNOWN_LAZY = {
     frozenset({"twmr.registry", "twmr.scenario.kinds"}),
     frozenset({"twmr.scenario.include", "twmr.scenario.loaders", "twmr.scenario.overrides"}),
-    frozenset({"twmr.scenario.flatten", "twmr.scenario.graph"}),
-    frozenset({"twmr.fmi.clocks", "twmr.fmi.fmu", "twmr.fmi.guard", "twmr.fmi.isolated",
-               "twmr.fmi.worker"}),
+    frozenset({"twmr.fmi.fmu", "twmr.fmi.guard", "twmr.fmi.isolated", "twmr.fmi.worker"}),
     frozenset({"twmr.api", "twmr.built", "twmr.sweeps", "twmr.sweeps.engine", "twmr.sweeps.run",
                "twmr.tuning", "twmr.tuning.report", "twmr.tuning.study"}),
 }
