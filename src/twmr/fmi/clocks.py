@@ -32,7 +32,7 @@ from twmr.fmi.lsbus.ticks import TickedData
 
 if TYPE_CHECKING:
     from twmr.fmi.description import FmuPort
-    from twmr.fmi.fmu import FmuComponent
+    from twmr.fmi.fmu import EventHost
 
 #: how many fmi3UpdateDiscreteStates calls one event may take before it is called a loop
 MAX_ITERATIONS = 100
@@ -42,7 +42,7 @@ _QUALIFIER_CHANGED = 2
 class EventMode:
     """The event-mode part of one FMI 3.0 co-simulation FMU (see the module docstring)."""
 
-    def __init__(self, comp: FmuComponent):
+    def __init__(self, comp: EventHost):
         self.comp = comp
         ports = comp.ports
         self.in_clocks = [p for p in ports if p.clock and p.kind == "input"]
@@ -67,15 +67,15 @@ class EventMode:
 
     # -- times -------------------------------------------------------------------------------
     def due(self) -> dict[str, float]:
-        return dict(self.comp._clock_due)
+        return dict(self.comp.clock_due)
 
     def _set_due(self, due: dict[str, float]) -> None:
-        self.comp._clock_due = tuple(sorted(due.items()))
+        self.comp.clock_due = tuple(sorted(due.items()))
 
     def next_time(self) -> float:
         """The first scheduled tick or time event [s] (inf: none)."""
-        times = [t for _, t in self.comp._clock_due]
-        return min([*times, self.comp._time_event])
+        times = [t for _, t in self.comp.clock_due]
+        return min([*times, self.comp.time_event])
 
     def due_at(self, t: float) -> list[FmuPort]:
         tol = _tol(t)
@@ -85,8 +85,8 @@ class EventMode:
     # -- one communication step --------------------------------------------------------------
     def step(self, t: float, h: float) -> None:
         """doStep from t to t + h [s], with every event on the way handled at its own time."""
-        c, f = self.comp, self.comp._fmu
-        d = c.__dict__
+        c, f = self.comp, self.comp.instance
+        d = c.values
         for p in self.clock_ports:
             if p.kind == "output":
                 d[p.name] = False
@@ -100,8 +100,8 @@ class EventMode:
             stop = min(end, self.next_time())
             if stop <= now + _tol(now):
                 stop = end
-            c._t = now
-            needed, terminate, early, last = c._call("fmi3DoStep", f.doStep, now, stop - now)
+            c.now = now
+            needed, terminate, early, last = c.call("fmi3DoStep", f.doStep, now, stop - now)
             if terminate:
                 raise FmuError(c.name, last if early else stop, f"FMU '{c.path.name}' asked to "
                                f"terminate the simulation (fmi3DoStep terminateSimulation).",
@@ -117,19 +117,19 @@ class EventMode:
             if early and self.early is None and reached < end - _tol(end):
                 self.early = reached
             now = max(now, reached)
-            c._t = now
+            c.now = now
             due = self.due_at(now)
-            timed = c._time_event <= now + _tol(now)
+            timed = c.time_event <= now + _tol(now)
             if needed or early or due or timed:
                 self._handle(now, [], due)
 
     def _handle(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
         """Event mode at t [s]: one event, then one more for every clock that became due at
         that instant (a countdown of 0 s), then back to step mode."""
-        c, f = self.comp, self.comp._fmu
-        c._call("fmi3EnterEventMode", f.enterEventMode)
+        c, f = self.comp, self.comp.instance
+        c.call("fmi3EnterEventMode", f.enterEventMode)
         self._instant(t, ticked, scheduled)
-        c._call("fmi3EnterStepMode", f.enterStepMode)
+        c.call("fmi3EnterStepMode", f.enterStepMode)
 
     def _instant(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
         self.event(t, ticked, scheduled)
@@ -143,20 +143,20 @@ class EventMode:
         """One event at t [s], the FMU in event mode: activate the `ticked` input clocks and the
         `scheduled` ones, set the clocked inputs of the ticked ones, get the output clocks and
         what they clock, update the discrete states until they settle, read the new intervals."""
-        c, f = self.comp, self.comp._fmu
-        d = c.__dict__
-        c._t = t
+        c, f = self.comp, self.comp.instance
+        d = c.values
+        c.now = t
         activate = [*ticked, *scheduled]
         if activate:
-            c._call(f"fmi3SetClock of {', '.join(p.name for p in activate)}", f.setClock,
+            c.call(f"fmi3SetClock of {', '.join(p.name for p in activate)}", f.setClock,
                     [p.vrs[0] for p in activate], [True] * len(activate))
         vrs = {p.vrs[0] for p in ticked}
         clocked = [p for p in self.clocked_in if vrs & set(p.clocked_by)]
         if clocked:
-            c._write(clocked)
+            c.write(clocked)
         active = {p.vrs[0] for p in activate}
         if self.out_clocks:
-            values = c._call(f"fmi3GetClock of {', '.join(p.name for p in self.out_clocks)}",
+            values = c.call(f"fmi3GetClock of {', '.join(p.name for p in self.out_clocks)}",
                              f.getClock, [p.vrs[0] for p in self.out_clocks])
             active.update(p.vrs[0] for p, v in zip(self.out_clocks, values, strict=True) if v)
         for p in self.out_clocks + scheduled:
@@ -177,19 +177,19 @@ class EventMode:
 
     def settle(self, t: float) -> None:
         """fmi3UpdateDiscreteStates until the discrete states settle, then the intervals."""
-        c, f = self.comp, self.comp._fmu
+        c, f = self.comp, self.comp.instance
         for _ in range(MAX_ITERATIONS):
-            need, terminate, _, _, defined, next_time = c._call("fmi3UpdateDiscreteStates",
+            need, terminate, _, _, defined, next_time = c.call("fmi3UpdateDiscreteStates",
                                                                 f.updateDiscreteStates)
             if terminate:
-                raise c._terminated(t, "(fmi3UpdateDiscreteStates terminateSimulation)")
+                raise c.terminated(t, "(fmi3UpdateDiscreteStates terminateSimulation)")
             if not need:
                 break
         else:
             raise FmuError(c.name, t, f"FMU '{c.path.name}': its discrete states did not settle "
                            f"in {MAX_ITERATIONS} calls of fmi3UpdateDiscreteStates (an event "
                            f"loop). Fix: see the FMU's log.", c.log.tail())
-        c._time_event = float(next_time) if defined and next_time > t else math.inf
+        c.time_event = float(next_time) if defined and next_time > t else math.inf
         self._intervals(t)
 
     def start(self, t: float) -> None:
@@ -206,12 +206,12 @@ class EventMode:
         asked = [p for p in self.scheduled if p.name not in self._periodic]
         if not asked:
             return
-        c, f = self.comp, self.comp._fmu
+        c, f = self.comp, self.comp.instance
         n = len(asked)
         vrs = (ctypes.c_uint32 * n)(*(p.vrs[0] for p in asked))
         intervals = (ctypes.c_double * n)()
         qualifiers = (ctypes.c_int * n)()
-        c._call(f"fmi3GetIntervalDecimal of {', '.join(p.name for p in asked)}",
+        c.call(f"fmi3GetIntervalDecimal of {', '.join(p.name for p in asked)}",
                 f.getIntervalDecimal, vrs, intervals, qualifiers)
         due = self.due()
         for p, interval, qualifier in zip(asked, intervals, qualifiers, strict=True):
@@ -233,10 +233,10 @@ class EventMode:
         if not ports:
             return
         c = self.comp
-        d = c.__dict__
+        d = c.values
         before = {p.name: d[p.name] for p in ports}
-        for getter, vrs, count, names, _ in c._plan(ports, 0):
-            values = c._call(f"{getter.__name__} of {', '.join(n for n, _, _ in names)}",
+        for getter, vrs, count, names, _ in c.plan(ports, 0):
+            values = c.call(f"{getter.__name__} of {', '.join(n for n, _, _ in names)}",
                              getter, vrs, count)
             k = 0
             for name, scalar, n in names:

@@ -24,6 +24,21 @@ _FMI3: dict[str, Any] = {
     "UInt64": ctypes.c_uint64, "Boolean": ctypes.c_bool}
 
 
+def c_function(fmu: Any, name: str) -> Any:
+    """fmpy's instantiated `fmu`'s C function `name` with the argument and result types fmpy
+    gave it (its shared library `fmu.dll` hands out the function it configured), or None when
+    fmpy did not configure it (fmpy's own methods are then used)."""
+    dll = getattr(fmu, "dll", None)
+    fn = getattr(dll, name, None) if dll is not None else None
+    return fn if getattr(fn, "argtypes", None) is not None else None
+
+
+def direct_calls(fmu: Any) -> bool:
+    """Whether `fmu`'s C functions can be called straight (fmpy configured them)."""
+    return c_function(fmu, "fmi3DoStep" if hasattr(fmu, "fmi3DoStep") else "fmi2DoStep") \
+        is not None
+
+
 def supports(suffix: str, fmi3: bool) -> bool:
     """Whether values of FMI call suffix `suffix` ('Real', 'Int8', ...) have a direct
     accessor (not String nor Binary)."""
@@ -38,7 +53,7 @@ def accessor(fmu: Any, fmi3: bool, suffix: str, which: int, vrs: list[int],
 
     version = "fmi3" if fmi3 else "fmi2"
     name = f"{version}{'Set' if which else 'Get'}{suffix}"
-    fn = fmu._functions[name]  # fmpy's ctypes function, its argtypes set
+    fn = c_function(fmu, name)
     inst = fmu.component
     vr = (ctypes.c_uint * len(vrs))(*vrs)
     nvr = len(vrs)
@@ -72,7 +87,7 @@ def stepper(fmu: Any, fmi3: bool) -> Callable[[float, float], bool]:
     from fmpy.fmi1 import FMICallException
 
     if not fmi3:
-        fn2 = fmu._functions["fmi2DoStep"]
+        fn2 = c_function(fmu, "fmi2DoStep")
         inst2 = fmu.component
 
         def step2(t: float, h: float) -> bool:
@@ -82,7 +97,7 @@ def stepper(fmu: Any, fmi3: bool) -> Callable[[float, float], bool]:
             return False
 
         return step2
-    fn = fmu._functions["fmi3DoStep"]
+    fn = c_function(fmu, "fmi3DoStep")
     inst = fmu.component
     flags = [ctypes.c_bool() for _ in range(3)]
     last = ctypes.c_double()

@@ -30,7 +30,7 @@ from twmr.core.run import RunContext
 from twmr.fmi import guard
 from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
-from twmr.fmi.direct import accessor, stepper, supports
+from twmr.fmi.direct import accessor, direct_calls, stepper, supports
 from twmr.fmi.exchange import SOLVERS, Integrator, Terminated
 from twmr.fmi.log import FmuLog
 from twmr.fmi.sources import DEFAULT_TIMEOUT, runnable
@@ -430,10 +430,10 @@ class FmuComponent(Component):
             self._sets = [(setter, vrs, gather) for setter, vrs, _, _, gather in self._set_all]
         self._sent = None
         if not self.me and not self.event_mode:
-            self._step = stepper(f, self.fmi3) if hasattr(f, "_functions") and \
+            self._step = stepper(f, self.fmi3) if direct_calls(f) and \
                 not self._pythonfmu else self._fmpy_step
         if self.event_mode:  # initialization ended in event mode
-            self._events = EventMode(self)
+            self._events = EventMode(EventHost(self))
             self._events.start(self.start_time)
             self._call("fmi3EnterStepMode", f.enterStepMode)
         try:
@@ -488,7 +488,7 @@ class FmuComponent(Component):
         for p in ports:
             by.setdefault((_call_suffix(p.fmi_type, self.fmi3), p.display), []).append(p)
         plan = []
-        direct = not self._pythonfmu and hasattr(self._fmu, "_functions")
+        direct = not self._pythonfmu and direct_calls(self._fmu)
         for (suffix, display), ps in by.items():
             vrs = [vr for p in ps for vr in p.vrs]
             count = sum(p.count for p in ps)
@@ -842,3 +842,54 @@ class FmuComponent(Component):
         if self._guarded:
             self._guarded = False
             guard.leave()
+
+
+class EventHost:
+    """What the event mode of an FMI 3.0 FMU (`twmr.fmi.clocks.EventMode`) may use of its
+    `FmuComponent`, and nothing more: the instance, its ports and values, the calls that report
+    failures with the FMU's log, and the clock state the component saves with its own state.
+    (A separate object, so no name of it can clash with a variable of the FMU.)"""
+
+    def __init__(self, comp: FmuComponent):
+        self._c = comp
+        self.name, self.path, self.log = comp.name, comp.path, comp.log
+        self.ports, self.source_path = comp.ports, comp.source_path
+        #: the component's variable values, by port name
+        self.values: dict[str, Any] = comp.__dict__
+        self.bus_data = comp.bus_data
+        self.check_bus_data = comp.check_bus_data
+        self.call, self.write, self.plan = comp._call, comp._write, comp._plan
+        self.terminated = comp._terminated
+
+    @property
+    def instance(self) -> Any:
+        """fmpy's instance of the FMU."""
+        return self._c._fmu
+
+    @property
+    def now(self) -> float:
+        """The time [s] the FMU's calls are made at (for their errors)."""
+        return self._c._t
+
+    @now.setter
+    def now(self, t: float) -> None:
+        self._c._t = t
+
+    @property
+    def clock_due(self) -> tuple[tuple[str, float], ...]:
+        """The scheduled clocks' next ticks: (clock port, time [s]), by name."""
+        return self._c._clock_due
+
+    @clock_due.setter
+    def clock_due(self, due: tuple[tuple[str, float], ...]) -> None:
+        self._c._clock_due = due
+
+    @property
+    def time_event(self) -> float:
+        """The FMU's next time event [s] (inf: none)."""
+        return self._c._time_event
+
+    @time_event.setter
+    def time_event(self, t: float) -> None:
+        self._c._time_event = t
+

@@ -59,12 +59,16 @@ class Param:
         return FloatDistribution(self.args[0], self.args[1], log=self.kind == "log")
 
     def contains(self, value: Any) -> bool:
-        """Whether `value` lies in this range (is one of its values)."""
-        dist = self.distribution()
-        try:
-            return bool(dist._contains(dist.to_internal_repr(value)))
-        except (ValueError, TypeError):
+        """Whether `value` lies in this range (is one of its values; True is not 1)."""
+        if self.kind == "values":
+            return any(value == a and isinstance(value, bool) == isinstance(a, bool)
+                       for a in self.args)
+        if isinstance(value, bool) or not isinstance(value, int | float):
             return False
+        if self.kind == "int" and not (isinstance(value, int) or float(value).is_integer()):
+            return False
+        low, high = self.args[0], self.args[1]
+        return math.isfinite(value) and low <= value <= high
 
     def as_vary(self) -> Vary:
         """The same NAME as a sweep's Vary (for the scenario's name check)."""
