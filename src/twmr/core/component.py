@@ -53,8 +53,9 @@ def _frozen(value: Any) -> Any:
     return value.copy() if type(value).__name__ == "ndarray" else value
 
 
-#: attributes of a component that runs a kernel: its private state x, and its `_Calls`
-_X, _CALLS = "_kernel_x", "_kernel_calls"
+#: attributes of a component that runs a kernel: its private state x (`KERNEL_STATE`, which the
+#: schedule reads), and its `_Calls`
+KERNEL_STATE, _CALLS = "_kernel_x", "_kernel_calls"
 
 
 def _python(fn: Any, long: bool = False) -> Any:
@@ -102,13 +103,13 @@ class _Calls:
             lines += [f"def {name}({args}):",
                       "    if H is None: load(0.0)" if fn == "ev" else "    if h != H: load(h)",
                       f"    if {fn} is None: return",
-                      f"    x0 = d[{_X!r}]",
+                      f"    x0 = d[{KERNEL_STATE!r}]",
                       f"    x, {ys} = {fn}({args}, x0, {ys}, {us}, p)",
                       "    if x is x0: return",
-                      f"    d[{_X!r}] = x",
+                      f"    d[{KERNEL_STATE!r}] = x",
                       "    if report is not None: report(x)"]
         lines += ["def sync(x):",
-                  f"    d[{_X!r}] = x",
+                  f"    d[{KERNEL_STATE!r}] = x",
                   "    if report is not None: report(x)"]
         exec("\n".join(lines), env)  # noqa: S102 - generated here from port names
         self.functions: dict[str, Callable[..., None]] = {"evaluate": env["evaluate"],
@@ -126,7 +127,7 @@ class _Calls:
         k = make(h) if make is not None else None
         if k is None or k.fmu is not None:
             return None
-        comp.__dict__.setdefault(_X, k.state)
+        comp.__dict__.setdefault(KERNEL_STATE, k.state)
         p = python_params(k.params, (k.evaluate, k.step, k.advance))
         long = h > 0.0 and compiled_pays(_steps(comp, h))
         ev, st, ad = _python(k.evaluate, long), _python(k.step, long), _python(k.advance, long)
@@ -241,11 +242,11 @@ def _holding(make: Callable[[Any, float], Kernel | None]) -> Callable[[Any, floa
         if k is None or k.fmu is not None:
             return k
         d = self.__dict__
-        x = d.setdefault(_X, k.state)
+        x = d.setdefault(KERNEL_STATE, k.state)
         report = k.sync
 
         def sync(x: tuple) -> None:
-            d[_X] = x
+            d[KERNEL_STATE] = x
             if report is not None:
                 report(x)
         sync.__wrapped__ = report  # type: ignore[attr-defined]
@@ -434,7 +435,8 @@ class Component:
         """Called once before `initialize()` with the experiment's start and stop times [s]."""
         self.start_time = start
         self.stop_time = stop
-        self.__dict__.pop(_X, None)  # a kernel's private state starts again from its `state`
+        # a kernel's private state starts again from its `state`
+        self.__dict__.pop(KERNEL_STATE, None)
         calls = self.__dict__.get(_CALLS)
         if calls is not None:
             calls.reset()  # the kernel made again from the parameters of this run
@@ -520,9 +522,10 @@ class Component:
             raise self.no_state("restore")
         names = tuple(n for n, _ in state) if isinstance(state, tuple) else None
         d = self.__dict__
-        if names is not None and _X in d and _CALLS in d and names == self._state_names()[:-1]:
+        if names is not None and KERNEL_STATE in d and _CALLS in d and \
+                names == self._state_names()[:-1]:
             # saved before the kernel's first step: it starts again from the kernel's own state
-            del d[_X]
+            del d[KERNEL_STATE]
             d[_CALLS].reset()
         elif names != self._state_names():
             raise ComponentError(self.name, None, f"the state given to set_state was not "
@@ -535,7 +538,7 @@ class Component:
         """What a saved state holds: the ports and states, the `state_attributes`, and the
         private state of the kernel the block runs (when it runs one)."""
         names = [n for n, v in self.variables.items() if v.kind != "parameter"]
-        kernel = (_X,) if _X in self.__dict__ else ()
+        kernel = (KERNEL_STATE,) if KERNEL_STATE in self.__dict__ else ()
         return (*names, *self.state_attributes, *kernel)
 
     def release_state(self, state: Any) -> None:

@@ -36,7 +36,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
 from twmr.core.component import (
-    _X,
+    KERNEL_STATE,
     Component,
     PythonKernel,
     bound_kernel,
@@ -208,7 +208,7 @@ def _warm(comp: Component, h: float, t: float) -> None:
     if k is None:
         return
     d = comp.__dict__
-    args = (d[_X], tuple(d[p] for p in comp.outputs), tuple(d[p] for p in comp.inputs),
+    args = (d[KERNEL_STATE], tuple(d[p] for p in comp.outputs), tuple(d[p] for p in comp.inputs),
             k.params)
     with contextlib.suppress(Exception):
         if k.evaluate is not None:
@@ -327,7 +327,7 @@ class _Kernels:
         for name in self.kernels:
             i = self.ids[name]
             w.add(ind, f"p{i}, ev{i}, st{i}, ad{i}, sync{i} = bind{i}()", (name, "its kernel"))
-            ports = [(_X, f"x{i}"), *self._ports(name)]
+            ports = [(KERNEL_STATE, f"x{i}"), *self._ports(name)]
             w.add(ind, ", ".join(v for _, v in ports) + " = " +
                   ", ".join(f"d{i}[{p!r}]" for p, _ in ports))
             w.add(ind, f"Y{i} = {tuple_of([self.ref(name, p) for p in self.outs[name]])}")
