@@ -11,8 +11,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from twmr.components._tracking import LawParams, TrackingController, TrackingState, limited_law
+from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
+from twmr.components.ctwins import C as TWINS
 from twmr.core import BOOLEAN, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import Choice, CTwin
 
 
 class AsmcParams(NamedTuple):
@@ -80,3 +83,10 @@ class AsmcController(TrackingController):
                                         1.0 if self.hold_saturated else 0.0),
                       state=TrackingState(0.0), evaluate=asmc_evaluate, step=asmc_step,
                       advance=asmc_advance)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+AsmcController.c_twin = CTwin(
+    TWINS / "tracking.c", headers=(INERTIA,), tunable=frozenset((*GAINS, "eta", "d_hat_limit")),
+    choices={**TRACKING, "hold_saturated": Choice("HOLD_SATURATED", {True: 1, False: 0})},
+    defines={**DRIVES, "ADAPTIVE": 1}, work=lambda comp: 4)

@@ -18,8 +18,11 @@ from typing import NamedTuple
 import numpy as np
 
 from twmr.components._sampled import sample_due
+from twmr.components.ctwins import SAMPLED
+from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import CTwin
 
 
 class EncoderParams(NamedTuple):
@@ -98,3 +101,8 @@ class Encoder(Component):
         return Kernel(params=EncoderParams(float(self.cpr), float(self.sample_period)),
                       state=EncoderState(0.0, 0.0, math.nan),
                       evaluate=encoder_evaluate, step=encoder_step)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+Encoder.c_twin = CTwin(TWINS / "encoder.c", headers=(SAMPLED,),
+                       tunable=frozenset({"sample_period"}), work=lambda comp: 3)

@@ -19,8 +19,11 @@ from typing import NamedTuple
 
 from twmr.blocks.philox import standard_normal
 from twmr.components._sampled import sample_due
+from twmr.components.ctwins import PHILOX, SAMPLED
+from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import CTwin
 
 #: largest seed: seeds are whole numbers an FMU's Real parameter holds exactly
 SEED_MAX = 2.0 ** 53 - 1.0
@@ -100,3 +103,8 @@ class Imu(Component):
         """The gyro's definition (sample 0's heading not taken yet: the first step takes it)."""
         return Kernel(params=self._params(), state=ImuState(0.0, math.nan, 0.0),
                       evaluate=imu_evaluate, step=imu_step)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+Imu.c_twin = CTwin(TWINS / "imu.c", headers=(SAMPLED, PHILOX),
+                   tunable=frozenset({"bias", "noise_std", "sample_period"}), work=lambda comp: 3)

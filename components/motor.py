@@ -29,8 +29,10 @@ import logging
 import math
 from typing import NamedTuple
 
+from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Input, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: modes, name -> code (`MotorParams.dc`)
 MODES = {"ideal": 0, "dc": 1}
@@ -179,3 +181,8 @@ class MotorDriver(Component):
             "drive's limit of %.4g N.m%s. Fix: check the controller's gains and the start "
             "(this warning is given once per run).", self.name, x.c_R, x.c_L, x.t_implausible,
             self._limit, "; it is applied as is (mode ideal)" if self.mode == "ideal" else "")
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+MotorDriver.c_twin = CTwin(TWINS / "motor.c", work=lambda comp: 9,
+                           choices={"mode": Choice("MODE_DC", {"ideal": 0, "dc": 1})})

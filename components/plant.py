@@ -20,8 +20,11 @@ import math
 from typing import NamedTuple
 
 from twmr.components._model import DESCRIPTOR, inertia, rk4
+from twmr.components.ctwins import INERTIA, SLIP_DEFINES, SLIP_PROFILE
+from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter, State
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import CTwin
 
 
 class PlantParams(NamedTuple):
@@ -103,3 +106,8 @@ class TwmrPlant(Component):
     def kernel(self, h: float) -> Kernel:
         """The plant's definition, for steps of h [s]."""
         return Kernel(params=self.params(h), step=plant_step)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+TwmrPlant.c_twin = CTwin(TWINS / "plant.c", headers=(INERTIA, SLIP_PROFILE),
+                         defines=SLIP_DEFINES, work=lambda comp: 8)

@@ -26,8 +26,12 @@ from typing import Any
 import numpy as np
 
 from twmr.components._model import DESCRIPTOR, HELD, PROFILES, SlipProfile, slip_at
+from twmr.components.ctwins import PROFILES as C_PROFILES
+from twmr.components.ctwins import SLIP_DEFINES, SLIP_PROFILE
+from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Input, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: every profile name the block takes
 NAMES = (*PROFILES, "random")
@@ -158,3 +162,9 @@ class SlipDisturbance(Component):
             bits.state = {"bit_generator": "PCG64", "state": {"state": value, "inc": inc},
                           "has_uint32": has_uint32, "uinteger": uinteger}
             self._rng = np.random.Generator(bits)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+SlipDisturbance.c_twin = CTwin(TWINS / "slip.c", headers=(SLIP_PROFILE,), defines=SLIP_DEFINES,
+                               choices={"profile": Choice("PROFILE", C_PROFILES)},
+                               hidden=frozenset({"bandwidth", "seed"}))

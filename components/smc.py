@@ -8,9 +8,17 @@ isolates the adaptation.
 from __future__ import annotations
 
 from twmr.components._tracking import TrackingController
+from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
+from twmr.components.ctwins import C as TWINS
+from twmr.fmi.cexport.twin import CTwin
 
 
 class SmcController(TrackingController):
     """Sliding-mode controller without adaptation: eq. (32) with d_hat = 0."""
 
     kind = "smc"
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+SmcController.c_twin = CTwin(TWINS / "tracking.c", headers=(INERTIA,), tunable=frozenset(GAINS),
+                             choices=TRACKING, defines=DRIVES, work=lambda comp: 4)

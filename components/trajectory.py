@@ -12,8 +12,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Output, Parameter
 from twmr.core.kernel import Kernel, kernel_function
+from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: kernel codes of the analytic shapes, name -> code (`waypoints` runs in Python only)
 PAPER1, CIRCLE, LEMNISCATE = 0, 1, 2
@@ -122,3 +124,13 @@ class Trajectory(Component):
             self.kernel_do_step(t, h)
             return
         self.position, self.velocity, self.acceleration = self.sample(t + h)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+#: the analytic shapes the C twin draws (`waypoints` is a scipy spline: Python only)
+C_SHAPES = {"paper1": PAPER1, "circle": CIRCLE, "lemniscate": LEMNISCATE}
+Trajectory.c_twin = CTwin(
+    TWINS / "trajectory.c", tunable=frozenset({"radius", "omega", "phase", "center"}),
+    choices={"shape": Choice("SHAPE", {k: int(v) for k, v in C_SHAPES.items()})},
+    defines={f"SHAPE_{k.upper()}": int(v) for k, v in C_SHAPES.items()},
+    hidden=frozenset({"waypoints", "times"}))

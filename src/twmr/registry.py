@@ -7,9 +7,9 @@ scenario or command needs them. A kind may also name a class directly ('my_block
 ``twmr.metrics`` (a `twmr.metricset.MetricSet`, or a function `Result -> dict[str, float]`),
 ``twmr.commands`` (a function
 `register(subparsers)` adding one or more subcommands), ``twmr.formats`` (result writers),
-``twmr.algorithms`` (master algorithms), ``twmr.can_protocols`` (CAN drive links),
-``twmr.c_kernels`` (the C twins of blocks, for FMU export) and ``twmr.loaders`` (scenario file
-formats, by suffix). `plugins(group)` lists any group and
+``twmr.algorithms`` (master algorithms), ``twmr.can_protocols`` (CAN drive links) and
+``twmr.loaders`` (scenario file formats, by suffix); a block's C twin, for FMU export, is its
+class's `c_twin`. `plugins(group)` lists any group and
 `plugin(group, name, what)` loads one entry.
 """
 from __future__ import annotations
@@ -30,13 +30,11 @@ COMMANDS = "twmr.commands"
 FORMATS = "twmr.formats"
 ALGORITHMS = "twmr.algorithms"
 CAN_PROTOCOLS = "twmr.can_protocols"
-C_KERNELS = "twmr.c_kernels"
 #: readers of logs beside a run's results that a result format can add as channels, by suffix
 FRAME_LOGS = "twmr.frame_logs"
 #: scenario file formats by suffix without its dot: a function `Path -> ScenarioSpec`
 LOADERS = "twmr.loaders"
-GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, C_KERNELS, FRAME_LOGS,
-          LOADERS)
+GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, FRAME_LOGS, LOADERS)
 
 
 @cache

@@ -1,5 +1,5 @@
-"""Every registered block's three forms are one definition: for each kind with a C twin (entry-point
-group `twmr.c_kernels`) and each kind of `twmr.components` that offers a compiled kernel,
+"""Every registered block's three forms are one definition: for each kind with a C twin (its
+class's `c_twin`) and each kind of `twmr.components` that offers a compiled kernel,
 hypothesis draws the variant (each compiled-in choice the twin supports, the order of a
 variable-size block, the size of an element-wise one), the Real parameters within their declared
 min/max, the initial states, the start time, the step size and a sequence of inputs, and drives

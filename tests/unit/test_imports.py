@@ -10,8 +10,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-from twmr.registry import plugin
-
 ROOT = Path(__file__).resolve().parents[2]
 HEAVY = ("scipy.signal", "scipy.interpolate", "control", "pandas", "matplotlib", "numba", "can",
          "fmpy", "twmr.components.compare", "twmr.components.metrics", "twmr.hw.drive")
@@ -103,16 +101,16 @@ def _code_strings(tree: ast.AST) -> set[str]:
 
 
 def test_engine_ships_no_robot_code() -> None:
-    from twmr.registry import C_KERNELS, kinds, plugins
+    from twmr.fmi.cexport.twin import twin_of, twins
+    from twmr.registry import kinds
 
-    robot = _foreign(kinds()) | _foreign(plugins(C_KERNELS))
+    robot = _foreign(kinds())
     assert {"twmr_plant", "asmc", "slip_disturbance"} <= robot
     engine = ROOT / "src" / "twmr"
     for path in engine.rglob("*.py"):
         named = robot & _code_strings(ast.parse(path.read_text(encoding="utf-8")))
         assert not named, f"{path.relative_to(ROOT)} names the robot's kinds {sorted(named)}"
-    engine_twins = {Path(plugin(C_KERNELS, k, "C twin").source).resolve()
-                    for k in set(plugins(C_KERNELS)) - robot}
+    engine_twins = {Path(twin_of(k).source).resolve() for k in set(twins()) - robot}
     defines_kernel = re.compile(r"^void kernel_step\(", re.MULTILINE)
     for path in engine.rglob("*.c"):
         if defines_kernel.search(path.read_text(encoding="utf-8")):

@@ -4,6 +4,7 @@ discretisation, a number of steps) are made in `kernel(h)`, once per step size."
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -15,6 +16,7 @@ from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import BOOLEAN, INTEGER, STRING, Input, Output, Parameter
 from twmr.core.run import RunContext
+from twmr.fmi.cexport.twin import Choice, CTwin, checked
 
 #: how a `transfer_function` is discretised (or that its coefficients are already in z)
 TF_METHODS = {"zoh": 0, "tustin": 1, "discrete": 2}
@@ -366,3 +368,40 @@ def _refuse(comp: Component, problems: list[tuple[str, str, str]]) -> None:
     if problems:
         _, message, fix = problems[0]
         raise ComponentError(comp.name, None, f"parameter {message} Fix: {fix}")
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+
+
+def _tf_order(comp: Component) -> int:
+    return len(checked(comp).get("den")) - 1
+
+
+def _tf_work(comp: Component) -> int:
+    n = _tf_order(comp)
+    return 2 * n * n + 4 * n + 2
+
+
+def _pid_pinned(comp: Component) -> frozenset[str]:
+    """kp = kd = 0 exports a block without feedthrough, so they stay 0."""
+    return frozenset() if comp.has_feedthrough else frozenset({"kp", "kd"})
+
+
+TransferFunction.c_twin = CTwin(
+    C / "transfer_function.c", headers=(C / "expm.h",), order=_tf_order, order_define="TF_N",
+    choices={"method": Choice("TF_METHOD", {m: TF_METHODS[m] for m in ("zoh", "discrete")})},
+    sizes=lambda comp: {"NUM_LEN": len(comp.get("num"))}, work=_tf_work)
+Pid.c_twin = CTwin(C / "pid.c", tunable=frozenset({"kp", "ki", "kd", "N", "kb", "y_min", "y_max"}),
+                   choices={"antiwindup": Choice("PID_AW", dk.ANTIWINDUP),
+                            "limit_output": Choice("PID_LIMIT", {False: 0, True: 1})},
+                   work=lambda comp: 4, pinned=_pid_pinned)
+TransportDelay.c_twin = CTwin(
+    C / "transport_delay.c",
+    sizes=lambda comp: {"TD_N": comp.get("n"), "TD_B": comp.get("buffer"),
+                        "TD_STEPS": comp.get("steps")},
+    work=lambda comp: comp.get("buffer") * comp.get("n") + 2)
+ZeroOrderHold.c_twin = CTwin(C / "zero_order_hold.c", tunable=frozenset({"sample_period"}),
+                             sizes=lambda comp: {"N_EL": comp.get("n")})
+FirstOrder.c_twin = CTwin(C / "first_order.c", tunable=frozenset({"K", "T"}),
+                          sizes=lambda comp: {"N_EL": comp.get("n")})

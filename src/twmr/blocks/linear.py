@@ -3,6 +3,7 @@ delay. Each is defined by its kernel (`twmr.blocks.kernels`, `twmr.blocks.routin
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -12,8 +13,10 @@ from twmr.blocks import kernels
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.routing import Nary
 from twmr.core.component import Component
+from twmr.core.errors import CosimError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
+from twmr.fmi.cexport.twin import CTwin, checked, nary_sizes
 
 #: discretisations a state-space block keeps, one per step size [s]
 DISCRETE_CACHE = 256
@@ -227,3 +230,45 @@ class StateSpace(Component):
                           np.ascontiguousarray(self._d, dtype=float)),
                       state=x, evaluate=dk.state_space_mimo_evaluate,
                       step=dk.state_space_mimo_step)
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+#: the length of each matrix of a single-input single-output `state_space` block of n states (x0
+#: may also be empty: zeros)
+SS_LENGTHS = {"A": lambda n: n * n, "B": lambda n: n, "C": lambda n: n, "x0": lambda n: n}
+
+
+def state_space_size(comp: Component) -> int:
+    """Number of states n of a `state_space` block, its matrices checked (`StateSpace.order`)."""
+    try:
+        return int(comp.order())  # type: ignore[attr-defined]
+    except ValueError as err:
+        raise CosimError(f"export state_space: {err}") from None
+
+
+def _ss_work(comp: Component) -> int:
+    n = state_space_size(comp)
+    return n * n + n * comp.get("n_in") + n + 1
+
+
+def _ss_pinned(comp: Component) -> frozenset[str]:
+    """D = 0 exports a block without feedthrough (y does not depend on u), so D stays 0."""
+    return frozenset() if comp.has_feedthrough else frozenset({"D"})
+
+
+def _gain(comp: Component) -> dict[str, int | str]:
+    checked(comp)
+    return {"GAIN_MATRIX": int(bool(comp.get("K"))), "N_IN": comp.get("n_in"),
+            "N_OUT": comp.get("n_out")}
+
+
+Gain.c_twin = CTwin(C / "gain.c", tunable=frozenset({"k", "K"}), sizes=_gain)
+Sum.c_twin = CTwin(C / "sum.c", tunable=frozenset({"k1", "k2"}),
+                   sizes=nary_sizes("SUM", "signs", "+-"))
+Integrator.c_twin = CTwin(C / "integrator.c", tunable=frozenset({"k"}))
+Delay.c_twin = CTwin(C / "delay.c")
+StateSpace.c_twin = CTwin(
+    C / "state_space.c", order=state_space_size, order_define="N_SS", lengths=SS_LENGTHS,
+    orders=(1, 2, 3), work=_ss_work, pinned=_ss_pinned, headers=(C / "expm.h",),
+    sizes=lambda comp: {"N_IN": comp.get("n_in"), "N_OUT": comp.get("n_out")})

@@ -8,6 +8,7 @@ breakpoints are given in that unit. docs/blocks.md gives the equations."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Any, ClassVar
 
 from twmr.blocks import nonlinear_kernels as nk
@@ -17,6 +18,7 @@ from twmr.core.component import Component
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 from twmr.core.units import parse_unit
+from twmr.fmi.cexport.twin import Choice, elements, elementwise, table_sizes
 
 
 class ElementBlock(Component):
@@ -261,3 +263,23 @@ class Lookup2D(Component):
                                               tables.array(self.values),
                                               tables.EXTRAPOLATIONS[self.extrapolation]),
                       evaluate=nk.lookup_2d_evaluate)
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+_EXTRAP = {"extrapolation": Choice("EXTRAP", {k: int(v) for k, v in
+                                              tables.EXTRAPOLATIONS.items()})}
+
+Saturation.c_twin = elementwise(C / "saturation.c", tunable=frozenset({"lower", "upper"}))
+DeadZone.c_twin = elementwise(C / "dead_zone.c", tunable=frozenset({"lower", "upper"}))
+Quantizer.c_twin = elementwise(C / "quantizer.c", tunable=frozenset({"interval"}))
+RateLimiter.c_twin = elementwise(C / "rate_limiter.c", tunable=frozenset({"rising", "falling"}))
+Backlash.c_twin = elementwise(C / "backlash.c", tunable=frozenset({"width"}), work=elements)
+Relay.c_twin = elementwise(C / "relay.c", tunable=frozenset({"on_point", "off_point", "on_value",
+                                                            "off_value"}), work=elements)
+Lookup1D.c_twin = elementwise(C / "lookup_1d.c", headers=(C / "tables.h",),
+                              defines=tables.EXTRAP_CODES, choices=_EXTRAP,
+                              sizes=table_sizes(N_BP="breakpoints"))
+Lookup2D.c_twin = elementwise(C / "lookup_2d.c", headers=(C / "tables.h",),
+                              defines=tables.EXTRAP_CODES, choices=_EXTRAP,
+                              sizes=table_sizes(N_BP1="breakpoints1", N_BP2="breakpoints2"))

@@ -3,13 +3,16 @@
 ports carry no unit (''), so a signal keeps the unit of its source."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, ClassVar
 
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.ports import numbered, resized
 from twmr.core.component import Component
+from twmr.core.errors import CosimError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
+from twmr.fmi.cexport.twin import Choice, CTwin, initialiser, nary_sizes, width_of
 
 
 def _size(n: int) -> int | None:
@@ -198,3 +201,23 @@ class Math(Component):
     def kernel(self, h: float) -> Kernel:
         return Kernel(params=rk.MathParams(float(rk.FUNCTIONS.get(self.function, 0))),
                       evaluate=rk.math_evaluate)
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+
+
+def _selector(comp: Component) -> dict[str, int | str]:
+    width, index = comp.get("width"), comp.get("indices")
+    if not index or not all(1 <= i <= width for i in index):
+        raise CosimError(f"export selector: indices {list(index)} name elements outside 1 .. "
+                         f"{width}. Fix: give indices from 1 to the input's width.")
+    return {"SEL_M": len(index), "SEL_INDEX": initialiser([i - 1 for i in index])}
+
+
+Mux.c_twin = CTwin(C / "mux.c", sizes=lambda comp: {"MUX_LEN": width_of(comp, "y")})
+Demux.c_twin = CTwin(C / "demux.c", sizes=lambda comp: {"MUX_LEN": width_of(comp, "u")})
+Selector.c_twin = CTwin(C / "selector.c", sizes=_selector)
+Product.c_twin = CTwin(C / "product.c", sizes=nary_sizes("PROD", "ops", "*/"))
+Math.c_twin = CTwin(C / "math.c", choices={"function": Choice("MATH_FN", rk.FUNCTIONS)},
+                    sizes=lambda comp: {"N_EL": comp.get("n"), "EXP_MAX": repr(rk.EXP_MAX)})

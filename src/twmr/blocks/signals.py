@@ -4,6 +4,7 @@ Their outputs are generic (unit ''): the parameters that set levels are in the u
 the output drives. docs/blocks.md gives the equations."""
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, ClassVar
 
 from twmr.blocks import signal_kernels as sk
@@ -14,6 +15,7 @@ from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Output, Parameter
 from twmr.core.run import RunContext
+from twmr.fmi.cexport.twin import Choice, CTwin, elementwise, table_sizes
 
 
 class Ramp(Component):
@@ -194,3 +196,22 @@ class Chirp(Component):
 
     def kernel(self, h: float) -> Kernel:
         return Kernel(params=self._params(), step=sk.chirp_step)
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+TABLES_H = C / "tables.h"
+_DISTRIBUTIONS = {k: int(v) for k, v in sk.DISTRIBUTIONS.items()}
+
+Ramp.c_twin = CTwin(C / "ramp.c", tunable=frozenset({"slope", "time", "offset"}))
+Pulse.c_twin = CTwin(C / "pulse.c", tunable=frozenset({"amplitude", "width", "delay", "offset"}))
+Chirp.c_twin = CTwin(C / "chirp.c", tunable=frozenset({"amplitude", "offset"}))
+Table.c_twin = CTwin(C / "table.c", headers=(TABLES_H,), defines=tables.EXTRAP_CODES,
+                     choices={"interpolation": Choice("INTERP_HOLD", {
+                         k: int(v) for k, v in tables.INTERPOLATIONS.items()})},
+                     sizes=table_sizes(N_TABLE="times"))
+Noise.c_twin = elementwise(C / "noise.c", headers=(C / "philox.h",),
+                           tunable=frozenset({"mean", "stddev"}),
+                           defines={f"DIST_{k.upper()}": v for k, v in _DISTRIBUTIONS.items()},
+                           choices={"distribution": Choice("DIST", _DISTRIBUTIONS)},
+                           sizes=lambda comp: {"SEED": int(comp.get("seed"))})

@@ -2,10 +2,13 @@
 by its kernel (`twmr.blocks.kernels`)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 from twmr.blocks import kernels
 from twmr.core.component import Component
 from twmr.core.kernel import Kernel
 from twmr.core.port import Output, Parameter
+from twmr.fmi.cexport.twin import CTwin
 
 
 class Constant(Component):
@@ -64,3 +67,10 @@ class Step(Component):
 
     def next_event(self, t: float) -> float | None:
         return float(self.time) if t < self.time else None
+
+
+# -- C twins (`twmr export KIND`: a standalone C FMU from c/<kind>.c) ------------------------------
+C = Path(__file__).parent / "c"
+Constant.c_twin = CTwin(C / "constant.c")
+Sine.c_twin = CTwin(C / "sine.c", tunable=frozenset({"amplitude", "frequency", "phase", "offset"}))
+Step.c_twin = CTwin(C / "step.c", tunable=frozenset({"height", "time", "offset"}))

@@ -15,6 +15,8 @@ EXTRAPOLATIONS = {"hold": 0.0, "linear": 1.0, "error": 2.0}
 HOLD, LINEAR, ERROR = EXTRAPOLATIONS.values()
 #: the interpolation of a time table between its points
 INTERPOLATIONS = {"linear": 0.0, "hold": 1.0}
+#: the extrapolation codes #defined for the C twins (c/tables.h)
+EXTRAP_CODES = {f"EXTRAP_{k.upper()}": int(v) for k, v in EXTRAPOLATIONS.items()}
 
 #: what `Component.check` returns: (parameter, what is wrong, how to fix it)
 Problems = list[tuple[str, str, str]]

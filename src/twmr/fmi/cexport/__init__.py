@@ -1,5 +1,5 @@
-"""Standalone C FMUs (FMI 2.0 / 3.0 co-simulation) of any block that registers a C twin
-(`twmr.c_kernels`, see `twin`): the FMI wrapper here (c/), the block's C file from beside the
+"""Standalone C FMUs (FMI 2.0 / 3.0 co-simulation) of any block that declares a C twin
+(its class's `c_twin`, see `twin`): the FMI wrapper here (c/), the block's C file from beside the
 block, a binary compiled here with the system C compiler, no Python at run time. `export_c_fmu`
 is what `twmr export KIND --fmi 2|3` calls; docs/export.md explains the design (C twins held
 equal to the blocks' kernels by tests/property/test_block_forms.py)."""

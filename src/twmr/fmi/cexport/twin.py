@@ -1,7 +1,7 @@
 """The C twin of a block: what a block brings for a standalone C FMU, found through the registry.
 
-A package registers each twin in the entry-point group `twmr.c_kernels` under the block's kind
-(e.g. `gain = "twmr.blocks.ctwins:GAIN"`); the twin's C file lives beside the block. Real
+A block declares its twin as its class attribute `c_twin`, in its own module (e.g. `Gain.c_twin =
+CTwin(C / "gain.c", tunable=frozenset({"k", "K"}), ...)`); the twin's C file lives beside it. Real
 parameters become FMI parameters (tunable when the kernel reads them at every step, else fixed);
 the choices given by text or flags (a slip profile, a trajectory shape, a motor mode...) and the
 sizes of a variable-size block are compiled into the FMU (`config.h`), so each FMU is one variant.
@@ -15,7 +15,7 @@ from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import CosimError
-from twmr.registry import C_KERNELS, plugin, plugins, suggest
+from twmr.registry import kinds, lookup, suggest
 
 
 @dataclass(frozen=True)
@@ -81,23 +81,81 @@ class CTwin:
 
 
 def twins() -> dict[str, str]:
-    """Every registered C twin: kind -> 'module:attr'."""
-    return plugins(C_KERNELS)
+    """Every kind whose block has a C twin: kind -> 'module:Class' (each kind's class is
+    imported)."""
+    found = {}
+    for kind, target in kinds().items():
+        try:
+            cls = lookup(kind)
+        except Exception:  # noqa: BLE001 - a kind that does not load has no twin to offer
+            continue
+        if isinstance(getattr(cls, "c_twin", None), CTwin):
+            found[kind] = target
+    return found
 
 
 def twin_of(kind: str) -> CTwin:
-    """The C twin registered for `kind`; CosimError naming the kinds that have one."""
-    if kind not in twins():
+    """The C twin of the block of `kind` (its `c_twin`); CosimError naming the kinds that have
+    one."""
+    try:
+        twin = getattr(lookup(kind), "c_twin", None)
+    except (KeyError, CosimError, ImportError):
+        twin = None
+    if not isinstance(twin, CTwin):
+        known = twins()
         raise CosimError(f"kind '{kind}' has no C kernel for a standalone FMU"
-                         f"{suggest(kind, twins())}; these have: {', '.join(sorted(twins()))}. "
+                         f"{suggest(kind, known)}; these have: {', '.join(sorted(known))}. "
                          f"Fix: export one of them, or use --python for a component of your own "
                          f"(a pythonfmu FMU).")
-    twin = plugin(C_KERNELS, kind, "C twin")
-    if not isinstance(twin, CTwin):
-        raise CosimError(f"the C twin registered for '{kind}' ({twins()[kind]}) is not a "
-                         f"CTwin. Fix: register a twmr.fmi.cexport.twin.CTwin in the entry-point "
-                         f"group {C_KERNELS}.")
     return twin
+
+
+# -- what twins of several blocks compute from an instance ------------------------------------
+def checked(comp: Component) -> Component:
+    """`comp`, its parameters checked as `twmr check` does (CosimError for the first problem)."""
+    for _key, message, fix in comp.check(frozenset()):
+        raise CosimError(f"export {comp.kind}: {message} Fix: {fix}")
+    return comp
+
+
+def width_of(comp: Component, name: str) -> int:
+    """The number of elements of variable `name`."""
+    return comp.variables[name].width
+
+
+def initialiser(values: list[float] | list[int]) -> str:
+    """A C array initialiser of `values`."""
+    return "{" + ", ".join(map(repr, values)) + "}"
+
+
+def nary_sizes(prefix: str, ops: str, alphabet: str
+               ) -> Callable[[Component], dict[str, int | str]]:
+    """#defines of a block combining n inputs by the signs/operations `ops` (a parameter whose
+    characters are `alphabet`'s: the first +1, the other -1): <prefix>_N, _W and the signs."""
+    def computed(comp: Component) -> dict[str, int | str]:
+        signs = [1.0 if c == alphabet[0] else -1.0 for c in comp.get(ops)]
+        return {f"{prefix}_N": len(signs), f"{prefix}_W": width_of(comp, "y"),
+                f"{prefix}_{ops.upper()}": initialiser(signs)}
+    return computed
+
+
+def table_sizes(**lengths: str) -> Callable[[Component], dict[str, int]]:
+    """#define -> the length of the table parameter named, after `comp.check` (an export of a
+    table of the wrong shape or order is refused as a scenario is)."""
+    def sizes(comp: Component) -> dict[str, int]:
+        checked(comp)
+        return {define: len(comp.get(name)) for define, name in lengths.items()}
+    return sizes
+
+
+def elements(comp: Component) -> int:
+    """The number of elements n of an element-wise block (#defined as N)."""
+    return int(comp.get("n"))
+
+
+def elementwise(source: Path, **twin: Any) -> CTwin:
+    """The twin of an element-wise block: its number of elements #defined as N."""
+    return CTwin(source, order=elements, order_define="N", orders=(1, 3), **twin)
 
 
 def options_text(comp: Component, twin: CTwin) -> dict[str, Any]:
