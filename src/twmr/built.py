@@ -89,10 +89,10 @@ def _shape(spec: ScenarioSpec, system: System, base: ScenarioSpec | None = None,
             (k, repr(c.parameters[k].value)) for k in sorted(comp.sizing_parameters)
             if k in c.parameters)
         blocks.append((name, c.kind.value, c.step_multiple.value, made, sizing))
-    experiment = known[3] if base is not None and base.experiment is e else tuple(
+    experiment = known[3] if base is not None and base.experiment is e else (*(
         None if g is None else repr(g.value) for g in (
-            e.start, e.stop, e.step, e.algorithm, e.realtime, e.rtol, e.atol, e.min_step,
-            e.max_step))
+            e.start, e.stop, e.step, e.algorithm, e.realtime)),
+        tuple(sorted((k, repr(g.value)) for k, g in e.options.items())))
     return (tuple(blocks), tuple(g.value for g in spec.connections),
             tuple(g.value for g in spec.open), experiment,
             None if r.signals is None else tuple(g.value for g in r.signals),

@@ -54,7 +54,7 @@ import numpy as np
 
 from twmr.core.errors import CosimError, Location, Problem
 from twmr.master import loops, stats
-from twmr.master.algorithm import Algorithm
+from twmr.master.algorithm import Algorithm, OptionError, WithOptions
 from twmr.master.plan import Plan, build
 from twmr.master.render import Writer, finite_check, nonfinite, point, record
 from twmr.master.schedule import locate_in
@@ -124,7 +124,7 @@ class Adaptive(Algorithm):
 
     def notes(self, system: System) -> list[str]:
         exp = system.experiment
-        longest = exp.max_step or exp.stop - exp.start
+        longest = exp.options.get("max_step", exp.stop - exp.start)
         return [f"component '{name}': {why}, so the adaptive master cannot locate them: an "
                 f"event is placed only within the step that holds it (up to max_step = "
                 f"{longest:g} s). Fix: run it as model exchange (interface: model_exchange; "
@@ -136,9 +136,11 @@ class Adaptive(Algorithm):
                 check_finite: bool = True) -> None:
         exp = system.experiment
         self.h, self.start0 = exp.step, exp.start
-        self.k_min = max(1, round((exp.min_step or exp.step) / exp.step))
-        self.k_max = max(self.k_min, round((exp.max_step or exp.stop - exp.start) / exp.step))
-        self.rtol, self.atol = exp.rtol, exp.atol
+        options = {**DEFAULTS, **exp.options}
+        self.k_min = max(1, round(options.get("min_step", exp.step) / exp.step))
+        self.k_max = max(self.k_min, round(options.get("max_step", exp.stop - exp.start)
+                                           / exp.step))
+        self.rtol, self.atol = options["rtol"], options["atol"]
         self.k, self.held = self.k_min, False
         self.wait, self.backoff = 0, 1
         self.m, self.t_off = 0, math.nan  # the grid point at or before now; now if off it
@@ -432,11 +434,48 @@ def _counted(fn: Callable[..., Any], calls: dict[str, int], key: str) -> Callabl
     return counted
 
 
-def adaptive(compiled: str = "auto") -> Algorithm:
-    """The adaptive master (registered as 'adaptive' in `twmr.algorithms`); it runs the Python
-    schedule, so `compiled` 'on' is refused."""
+#: the experiment keys of the adaptive master, with their JSON schemas (`options_schema`)
+OPTIONS: dict[str, Any] = {
+    "rtol": {"type": "number", "exclusiveMinimum": 0, "description": "relative tolerance of "
+             "the step-doubling error estimate (default 1e-4)."},
+    "atol": {"type": "number", "exclusiveMinimum": 0, "description": "absolute tolerance of "
+             "the step-doubling error estimate (default 1e-6)."},
+    "min_step": {"type": "number", "exclusiveMinimum": 0, "description": "smallest "
+                 "communication step [s], a whole multiple of step (default: step)."},
+    "max_step": {"type": "number", "exclusiveMinimum": 0, "description": "largest "
+                 "communication step [s], a whole multiple of step (default: stop - start)."},
+}
+DEFAULTS = {"rtol": 1e-4, "atol": 1e-6}
+
+
+def read_options(given: dict[str, Any], step: float, duration: float) -> dict[str, Any]:
+    """rtol, atol [1], min_step and max_step [s] as the master runs them: given or default, the
+    step bounds whole multiples of the base `step` within the run, min <= max. `OptionError`
+    otherwise."""
+    options = {**DEFAULTS, "min_step": step, "max_step": duration,
+               **{k: float(v) for k, v in given.items()}}
+    for key in ("min_step", "max_step"):
+        n = options[key] / step
+        if not (round(n) >= 1 and math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9)):
+            raise OptionError(key, f"{key} = {options[key]:g} s is not a whole multiple of the "
+                              f"base step {step:g} s.", f"give {key} as n * step, n >= 1 (the "
+                              f"adaptive master steps on the base grid).")
+        options[key] = min(round(n) * step, duration)
+    if options["min_step"] > options["max_step"]:
+        key = "min_step" if "min_step" in given else "max_step"
+        raise OptionError(key, f"min_step ({options['min_step']:g} s) is larger than max_step "
+                          f"({options['max_step']:g} s).", "make min_step <= max_step.")
+    return options
+
+
+def _adaptive(compiled: str = "auto") -> Algorithm:
+    """The adaptive master; it runs the Python schedule, so `compiled` 'on' is refused."""
     if compiled == "on":
         raise CosimError("the adaptive master runs the Python schedule only (its steps change "
                          "size and are retried). Fix: run without --compiled on (or "
                          "TWMR_COMPILED=on), or use gauss_seidel.")
     return Adaptive()
+
+
+#: registered as 'adaptive' in `twmr.algorithms`, with its options
+adaptive = WithOptions(_adaptive, OPTIONS, read_options)

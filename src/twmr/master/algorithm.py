@@ -11,6 +11,8 @@ from __future__ import annotations
 import logging
 import os
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from twmr.core.errors import CosimError, Location, Problem, ScenarioError
@@ -35,6 +37,45 @@ def compiled_mode() -> str:
         raise CompileError(f"TWMR_COMPILED is '{mode}', which is not a mode of the compiled "
                            f"loop. Fix: set it to one of {', '.join(MODES)}, or unset it.")
     return mode
+
+
+class OptionError(ValueError):
+    """An algorithm's option that does not fit: the option, what is wrong, the fix."""
+
+    def __init__(self, key: str, what: str, fix: str):
+        super().__init__(what)
+        self.key, self.what, self.fix = key, what, fix
+
+
+@dataclass(frozen=True)
+class WithOptions:
+    """A registered algorithm that reads experiment keys of its own: `make(compiled)` makes it,
+    `options_schema` gives each key's JSON schema, `read_options(given, step, duration)` turns
+    the given ones into what it runs with (defaults, checks across keys; `OptionError`)."""
+
+    make: Callable[[str], Algorithm]
+    options_schema: Mapping[str, Any] = field(default_factory=dict)
+    read_options: Callable[[dict[str, Any], float, float], dict[str, Any]] | None = None
+
+    def __call__(self, compiled: str = "auto") -> Algorithm:
+        return self.make(compiled)
+
+
+def options_schema(name: str) -> dict[str, Any]:
+    """The experiment keys algorithm `name` reads beyond the common ones: key -> its JSON schema
+    (the registered factory's `options_schema`; {} when it has none). Imports the algorithm."""
+    schema = getattr(plugin(ALGORITHMS, name, "master algorithm"), "options_schema", None)
+    return dict(schema) if isinstance(schema, dict) else {}
+
+
+def read_options(name: str, given: dict[str, Any], step: float, duration: float
+                 ) -> dict[str, Any]:
+    """The experiment's options of algorithm `name` (checked by its schema already) as it runs
+    them: its factory's `read_options(given, step, duration)` when it has one (checks across
+    options, values in the run's terms), else `given`. `OptionError` for one that does not
+    fit."""
+    read = getattr(plugin(ALGORITHMS, name, "master algorithm"), "read_options", None)
+    return dict(read(given, step, duration)) if callable(read) else dict(given)
 
 
 class Algorithm(ABC):

@@ -42,9 +42,9 @@ from twmr.scenario.graph import (
     wire,
 )
 from twmr.scenario.kinds import KindError, code_failure
-from twmr.scenario.loaders import load_structure, read_structure, schema
+from twmr.scenario.loaders import load_structure, read_structure, schema, schema_problems
 from twmr.scenario.overrides import apply_overrides
-from twmr.scenario.structure import ADAPTIVE_KEYS, ComponentSpec, Given, ScenarioSpec
+from twmr.scenario.structure import EXPERIMENT_KEYS, ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
 log = logging.getLogger("twmr")
@@ -424,7 +424,7 @@ class _Builder:
                                          f"'twmr.algorithms' entry points)."))
         ending = e.fmu_terminate.value if e.fmu_terminate is not None else None
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
-                          **self.adaptive_options(step, stop - start),
+                          options=self.algorithm_options(step, stop - start),
                           fmu_terminate=ending or "error", **self.loop_options())
 
     def loop_options(self) -> dict[str, Any]:
@@ -451,47 +451,64 @@ class _Builder:
                 return {"loops": loops}
         return {"loops": loops, "loop_solver": LoopSolver(**given)}
 
-    def adaptive_options(self, step: float, duration: float) -> dict[str, Any]:
-        """The experiment's `rtol`, `atol`, `min_step`, `max_step` as given (algorithm
-        'adaptive' only; step bounds whole multiples of the base `step`, min <= max)."""
+    def algorithm_options(self, step: float, duration: float) -> dict[str, Any]:
+        """The experiment's keys beyond the common ones (`EXPERIMENT_KEYS`) as options of its
+        algorithm: each a key of the algorithm's own schema and valid by it, then read by the
+        algorithm (`twmr.master.algorithm.read_options`: defaults, checks across keys)."""
+        from twmr.master.algorithm import OptionError, options_schema, read_options
+
         e = self.spec.experiment
-        given = {k: g for k in ADAPTIVE_KEYS
-                 if (g := getattr(e, k)) is not None and g.value is not None}
-        if not given:
+        given = {k: g for k, g in e.options.items() if g.value is not None}
+        name = e.algorithm.value
+        if not given or name not in plugins(ALGORITHMS):
+            return {}
+        try:
+            schema = options_schema(name)
+        except CosimError as err:
+            self.problems.append(Problem(e.algorithm.where, str(err)))
             return {}
         for key, g in given.items():
+            if key not in schema:
+                self.problems.append(self.not_an_option(key, g.where, name, schema))
+                return {}
             if isinstance(g.value, float) and not math.isfinite(g.value):
                 self.problems.append(Problem(g.where, f"'{key}' is {g.value}; it must be a "
-                                             f"finite number.", f"give {key} as a positive "
+                                             f"finite number.", f"give {key} as a finite "
                                              f"number, or leave it out for the default."))
                 return {}
-        if e.algorithm.value != "adaptive":
-            key, g = next(iter(given.items()))
-            self.problems.append(Problem(g.where, f"'{key}' applies to algorithm: adaptive only, "
-                                         f"but the experiment's algorithm is "
-                                         f"'{e.algorithm.value}'.",
-                                         f"set 'algorithm: adaptive', or remove '{key}'."))
-            return {}
-        options = {k: float(g.value) for k, g in given.items()}
-        for key in ("min_step", "max_step"):
-            if key not in options:
-                continue
-            n = options[key] / step
-            if not (round(n) >= 1 and math.isclose(n, round(n), rel_tol=1e-9, abs_tol=1e-9)):
-                self.problems.append(Problem(given[key].where, f"{key} = {options[key]:g} s is "
-                                             f"not a whole multiple of the base step "
-                                             f"{step:g} s.", f"give {key} as n * step, n >= 1 "
-                                             f"(the adaptive master steps on the base grid)."))
+            found = schema_problems(g.value, lambda *_, w=g.where: w, ("experiment", key),
+                                    schema[key])
+            if found:
+                self.problems += found
                 return {}
-            options[key] = min(round(n) * step, duration)
-        bound = "min_step" if "min_step" in given else "max_step"
-        lo, hi = options.get("min_step", step), options.get("max_step", duration)
-        if bound in given and lo > hi:
-            self.problems.append(Problem(given[bound].where, f"min_step ({lo:g} s) is larger "
-                                         f"than max_step ({hi:g} s).",
-                                         "make min_step <= max_step."))
+        try:
+            return read_options(name, {k: g.value for k, g in given.items()}, step, duration)
+        except OptionError as err:
+            where = given[err.key].where if err.key in given else e.where
+            self.problems.append(Problem(where, err.what, err.fix))
             return {}
-        return options
+
+    @staticmethod
+    def not_an_option(key: str, where: Location, name: str, schema: dict[str, Any]) -> Problem:
+        """The problem of experiment key `key` that algorithm `name` does not read: an option of
+        other algorithms, or a misspelt key."""
+        from twmr.master.algorithm import options_schema
+
+        owners = []
+        for other in sorted(plugins(ALGORITHMS)):
+            try:
+                if other != name and key in options_schema(other):
+                    owners.append(other)
+            except (CosimError, ImportError):
+                continue
+        if owners:
+            return Problem(where, f"'{key}' applies to algorithm: {' or '.join(owners)} only, "
+                           f"but the experiment's algorithm is '{name}'.",
+                           f"set 'algorithm: {owners[0]}', or remove '{key}'.")
+        known = [*EXPERIMENT_KEYS, *schema]
+        has = f"the options {', '.join(schema)}" if schema else "no options of its own"
+        return Problem(where, f"unknown experiment key '{key}'{suggest(key, known)} (algorithm "
+                       f"'{name}' has {has}).", f"allowed here: {', '.join(known)}.")
 
     def check_exposed(self, comps: dict[str, Component]) -> None:
         """Every exposed port names an inner port of its side, with a declared unit that

@@ -20,7 +20,7 @@ from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.registry import suggest
 from twmr.scenario.schemacheck import conforms
 from twmr.scenario.structure import (
-    ADAPTIVE_KEYS,
+    EXPERIMENT_KEYS,
     ComponentSpec,
     ExperimentSpec,
     Exposure,
@@ -116,11 +116,13 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
             name, kind, parameters, initial, given(*where, "step_multiple", default=1),
             at(*where), spec.get("description", ""), inner)
     e = ("experiment",)
+    others = [k for k in data.get("experiment") or {} if k not in EXPERIMENT_KEYS]
     experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),
                                 given(*e, "step"), given(*e, "algorithm", default="gauss_seidel"),
                                 given(*e, "realtime"), at(*e),
-                                **{k: given(*e, k) for k in (*ADAPTIVE_KEYS, "fmu_terminate",
-                                                              "loops", "loop_solver")})
+                                **{k: given(*e, k) for k in ("fmu_terminate", "loops",
+                                                              "loop_solver")},
+                                options={str(k): given(*e, k) for k in others})
     exposed = {side: {n: _exposure(n, data[side][n], at, side) for n in data.get(side) or {}}
                for side in ("inputs", "outputs")}
     rec = data.get("record") or {}

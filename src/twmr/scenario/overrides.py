@@ -22,7 +22,7 @@ from twmr.core.component import Component
 from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.core.port import Variable
 from twmr.registry import lookup, suggest
-from twmr.scenario.loaders import schema, schema_problems, unknown_key
+from twmr.scenario.loaders import schema, schema_problems
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.yamlread import FAST
 
@@ -78,9 +78,10 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
         parsed = {k: _number(v) for k, v in parsed.items()} if isinstance(parsed, dict) \
             else _number(parsed)
         allowed = schema()["properties"]["experiment"]["properties"]
-        if name not in allowed:
-            problems.append(unknown_key(loc, name, list(allowed)))
-            return spec
+        if name not in allowed:  # an option of the algorithm: checked by it when built
+            options = {**spec.experiment.options, name: Given(parsed, loc)}
+            return dataclasses.replace(spec, experiment=dataclasses.replace(spec.experiment,
+                                                                            options=options))
         found = schema_problems(parsed, lambda *_: loc, ("experiment", name), allowed[name])
         problems += found
         if found:

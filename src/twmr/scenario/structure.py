@@ -14,6 +14,7 @@ structure the builder reads.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Generic, TypeVar
@@ -66,8 +67,10 @@ class Exposure:
     where: Location
 
 
-#: the experiment keys of algorithm 'adaptive' (fields of `ExperimentSpec` and `Experiment`)
-ADAPTIVE_KEYS = ("rtol", "atol", "min_step", "max_step")
+#: the experiment keys every algorithm has; any other key is an option of the algorithm named
+#: (checked by its own schema, `twmr.master.algorithm.options_schema`)
+EXPERIMENT_KEYS = ("start", "stop", "step", "algorithm", "realtime", "fmu_terminate", "loops",
+                   "loop_solver")
 
 
 @dataclass(frozen=True)
@@ -81,17 +84,14 @@ class ExperimentSpec:
     algorithm: Given[str]
     realtime: Given[bool | None]
     where: Location
-    #: the adaptive algorithm's tolerances and step bounds (value None: not given)
-    rtol: Given[Any] | None = None
-    atol: Given[Any] | None = None
-    min_step: Given[Any] | None = None
-    max_step: Given[Any] | None = None
     #: what an FMU's request to end the simulation does: 'error' or 'stop' (None: not given)
     fmu_terminate: Given[Any] | None = None
     #: algebraic loops: 'refuse' or 'solve', and the solver's options as a mapping (value None:
     #: not given)
     loops: Given[Any] | None = None
     loop_solver: Given[Any] | None = None
+    #: the other keys: options of the algorithm (e.g. the adaptive master's rtol, max_step)
+    options: Mapping[str, Given[Any]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,9 @@ Data only. `twmr.scenario.build` makes them from a scenario file; the master ste
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from twmr.core.component import Component
 from twmr.core.errors import Location
@@ -59,12 +61,9 @@ class Experiment:
     step: float = 1e-3
     algorithm: str = "gauss_seidel"
     realtime: bool | None = None
-    #: algorithm 'adaptive': relative and absolute tolerance, step bounds [s] (None: the base
-    #: step and the whole run)
-    rtol: float = 1e-4
-    atol: float = 1e-6
-    min_step: float | None = None
-    max_step: float | None = None
+    #: the algorithm's own options as it reads them (e.g. the adaptive master's rtol, atol,
+    #: min_step, max_step; `twmr.master.algorithm.read_options`)
+    options: Mapping[str, Any] = field(default_factory=dict)
     #: an FMU that asks to end the simulation: 'error' fails the run, 'stop' ends it there
     #: normally (the rows up to that time are the result)
     fmu_terminate: str = "error"
