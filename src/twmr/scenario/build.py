@@ -42,9 +42,9 @@ from twmr.scenario.graph import (
     wire,
 )
 from twmr.scenario.kinds import KindError, code_failure
-from twmr.scenario.loaders import load_structure, read_structure, schema, schema_problems
+from twmr.scenario.loaders import load_structure, option_problems, read_structure, schema
 from twmr.scenario.overrides import apply_overrides
-from twmr.scenario.structure import EXPERIMENT_KEYS, ComponentSpec, Given, ScenarioSpec
+from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
 log = logging.getLogger("twmr")
@@ -453,62 +453,26 @@ class _Builder:
 
     def algorithm_options(self, step: float, duration: float) -> dict[str, Any]:
         """The experiment's keys beyond the common ones (`EXPERIMENT_KEYS`) as options of its
-        algorithm: each a key of the algorithm's own schema and valid by it, then read by the
-        algorithm (`twmr.master.algorithm.read_options`: defaults, checks across keys)."""
-        from twmr.master.algorithm import OptionError, options_schema, read_options
+        algorithm: each a key of the algorithm's own schema and valid by it
+        (`option_problems`), then read by the algorithm (`twmr.master.algorithm.read_options`:
+        defaults, checks across keys)."""
+        from twmr.master.algorithm import OptionError, read_options
 
         e = self.spec.experiment
         given = {k: g for k, g in e.options.items() if g.value is not None}
         name = e.algorithm.value
         if not given or name not in plugins(ALGORITHMS):
             return {}
-        try:
-            schema = options_schema(name)
-        except CosimError as err:
-            self.problems.append(Problem(e.algorithm.where, str(err)))
+        found = option_problems(name, given, e.algorithm.where)
+        if found:
+            self.problems += found
             return {}
-        for key, g in given.items():
-            if key not in schema:
-                self.problems.append(self.not_an_option(key, g.where, name, schema))
-                return {}
-            if isinstance(g.value, float) and not math.isfinite(g.value):
-                self.problems.append(Problem(g.where, f"'{key}' is {g.value}; it must be a "
-                                             f"finite number.", f"give {key} as a finite "
-                                             f"number, or leave it out for the default."))
-                return {}
-            found = schema_problems(g.value, lambda *_, w=g.where: w, ("experiment", key),
-                                    schema[key])
-            if found:
-                self.problems += found
-                return {}
         try:
             return read_options(name, {k: g.value for k, g in given.items()}, step, duration)
         except OptionError as err:
             where = given[err.key].where if err.key in given else e.where
             self.problems.append(Problem(where, err.what, err.fix))
             return {}
-
-    @staticmethod
-    def not_an_option(key: str, where: Location, name: str, schema: dict[str, Any]) -> Problem:
-        """The problem of experiment key `key` that algorithm `name` does not read: an option of
-        other algorithms, or a misspelt key."""
-        from twmr.master.algorithm import options_schema
-
-        owners = []
-        for other in sorted(plugins(ALGORITHMS)):
-            try:
-                if other != name and key in options_schema(other):
-                    owners.append(other)
-            except (CosimError, ImportError):
-                continue
-        if owners:
-            return Problem(where, f"'{key}' applies to algorithm: {' or '.join(owners)} only, "
-                           f"but the experiment's algorithm is '{name}'.",
-                           f"set 'algorithm: {owners[0]}', or remove '{key}'.")
-        known = [*EXPERIMENT_KEYS, *schema]
-        has = f"the options {', '.join(schema)}" if schema else "no options of its own"
-        return Problem(where, f"unknown experiment key '{key}'{suggest(key, known)} (algorithm "
-                       f"'{name}' has {has}).", f"allowed here: {', '.join(known)}.")
 
     def check_exposed(self, comps: dict[str, Component]) -> None:
         """Every exposed port names an inner port of its side, with a declared unit that

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 from collections.abc import Callable
 from functools import lru_cache
 from importlib import resources
@@ -69,10 +70,77 @@ def schema_problems(instance: Any, at: At, prefix: tuple[Any, ...] = (),
     return problems
 
 
+def option_problems(algorithm: str, options: dict[str, Given[Any]], where: Location
+                    ) -> list[Problem]:
+    """What is wrong with the experiment's `options` (its keys beyond `EXPERIMENT_KEYS`) for
+    `algorithm`: a key its schema does not have (an option of another algorithm, or a misspelt
+    key), a value its schema refuses, a number that is not finite. Imports the algorithm (a
+    registered one; an unknown name is reported elsewhere)."""
+    from twmr.core.errors import CosimError
+    from twmr.master.algorithm import options_schema
+    from twmr.registry import ALGORITHMS, plugins
+
+    if algorithm not in plugins(ALGORITHMS):
+        return []
+    try:
+        schema = options_schema(algorithm)
+    except CosimError as err:
+        return [Problem(where, str(err))]
+    problems: list[Problem] = []
+    for key, g in options.items():
+        if key not in schema:
+            problems.append(_not_an_option(key, g.where, algorithm, schema))
+        elif isinstance(g.value, float) and not math.isfinite(g.value):
+            problems.append(Problem(g.where, f"'{key}' is {g.value}; it must be a finite "
+                                    f"number.", f"give {key} as a finite number, or leave it "
+                                    f"out for the default."))
+        else:
+            problems += schema_problems(g.value, lambda *_, w=g.where: w, ("experiment", key),
+                                        schema[key])
+    return problems
+
+
+def _not_an_option(key: str, where: Location, name: str, schema: dict[str, Any]) -> Problem:
+    """The problem of experiment key `key` that algorithm `name` does not read: an option of
+    other algorithms, or a misspelt key."""
+    from twmr.core.errors import CosimError
+    from twmr.master.algorithm import options_schema
+    from twmr.registry import ALGORITHMS, plugins
+
+    owners = []
+    for other in sorted(plugins(ALGORITHMS)):
+        try:
+            if other != name and key in options_schema(other):
+                owners.append(other)
+        except (CosimError, ImportError):
+            continue
+    if owners:
+        return Problem(where, f"'{key}' applies to algorithm: {' or '.join(owners)} only, but "
+                       f"the experiment's algorithm is '{name}'.",
+                       f"set 'algorithm: {owners[0]}', or remove '{key}'.")
+    known = [*EXPERIMENT_KEYS, *schema]
+    has = f"the options {', '.join(schema)}" if schema else "no options of its own"
+    return Problem(where, f"unknown experiment key '{key}'{suggest(key, known)} (algorithm "
+                   f"'{name}' has {has}).", f"allowed here: {', '.join(known)}.")
+
+
 def unknown_key(where: Location, key: str, allowed: list[str]) -> Problem:
     """The problem of a key the schema does not know here."""
     return Problem(where, f"unknown key '{key}'{suggest(key, allowed)}.",
                    f"allowed here: {', '.join(allowed)}.")
+
+
+def _experiment_option_problems(data: dict[str, Any], at: At) -> list[Problem]:
+    """`option_problems` of the experiment as written (its algorithm's name a text)."""
+    exp = data.get("experiment")
+    if not isinstance(exp, dict):
+        return []
+    options = {str(k): Given(v, at("experiment", k)) for k, v in exp.items()
+               if k not in EXPERIMENT_KEYS}
+    name = exp.get("algorithm", "gauss_seidel")
+    if not options or not isinstance(name, str):
+        return []
+    return option_problems(name, options, at("experiment", "algorithm"))
 
 
 def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
@@ -83,7 +151,7 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         raise ScenarioError(Problem(Location(source, 1), "a scenario must be a mapping with "
                                     "'components:' and 'experiment:'.",
                                     "see docs/contracts.md for the format."))
-    problems = schema_problems(data, lines.at)
+    problems = schema_problems(data, lines.at) + _experiment_option_problems(data, lines.at)
     if "experiment" not in data and not data.keys() & {"inputs", "outputs"}:
         problems.append(Problem(Location(source, 1), "'experiment' is a required property.",
                                 "add 'experiment: {stop: ..., step: ...}' (only a subsystem "
