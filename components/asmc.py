@@ -14,8 +14,8 @@ from twmr.components._tracking import LawParams, TrackingController, TrackingSta
 from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
 from twmr.components.ctwins import C as TWINS
 from twmr.core import BOOLEAN, Output, Parameter
+from twmr.core.ctwin import Choice, CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import Choice, CTwin
 
 
 class AsmcParams(NamedTuple):

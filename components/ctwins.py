@@ -12,7 +12,7 @@ from pathlib import Path
 
 from twmr import blocks
 from twmr.components import _model
-from twmr.fmi.cexport.twin import Choice
+from twmr.core.ctwin import Choice
 
 C = Path(__file__).parent / "c"
 

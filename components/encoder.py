@@ -21,8 +21,8 @@ from twmr.components._sampled import sample_due
 from twmr.components.ctwins import SAMPLED
 from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter
+from twmr.core.ctwin import CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import CTwin
 
 
 class EncoderParams(NamedTuple):

@@ -22,8 +22,8 @@ from twmr.components._sampled import sample_due
 from twmr.components.ctwins import PHILOX, SAMPLED
 from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter
+from twmr.core.ctwin import CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import CTwin
 
 #: largest seed: seeds are whole numbers an FMU's Real parameter holds exactly
 SEED_MAX = 2.0 ** 53 - 1.0

@@ -31,8 +31,8 @@ from typing import NamedTuple
 
 from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Input, Output, Parameter
+from twmr.core.ctwin import Choice, CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: modes, name -> code (`MotorParams.dc`)
 MODES = {"ideal": 0, "dc": 1}

@@ -23,8 +23,8 @@ from twmr.components._model import DESCRIPTOR, inertia, rk4
 from twmr.components.ctwins import INERTIA, SLIP_DEFINES, SLIP_PROFILE
 from twmr.components.ctwins import C as TWINS
 from twmr.core import Component, Input, Output, Parameter, State
+from twmr.core.ctwin import CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import CTwin
 
 
 class PlantParams(NamedTuple):

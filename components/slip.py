@@ -30,8 +30,8 @@ from twmr.components.ctwins import PROFILES as C_PROFILES
 from twmr.components.ctwins import SLIP_DEFINES, SLIP_PROFILE
 from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Input, Output, Parameter
+from twmr.core.ctwin import Choice, CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: every profile name the block takes
 NAMES = (*PROFILES, "random")

@@ -10,7 +10,7 @@ from __future__ import annotations
 from twmr.components._tracking import TrackingController
 from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
 from twmr.components.ctwins import C as TWINS
-from twmr.fmi.cexport.twin import CTwin
+from twmr.core.ctwin import CTwin
 
 
 class SmcController(TrackingController):

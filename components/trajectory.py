@@ -14,8 +14,8 @@ import numpy as np
 
 from twmr.components.ctwins import C as TWINS
 from twmr.core import STRING, Component, Output, Parameter
+from twmr.core.ctwin import Choice, CTwin
 from twmr.core.kernel import Kernel, kernel_function
-from twmr.fmi.cexport.twin import Choice, CTwin
 
 #: kernel codes of the analytic shapes, name -> code (`waypoints` runs in Python only)
 PAPER1, CIRCLE, LEMNISCATE = 0, 1, 2

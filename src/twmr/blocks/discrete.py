@@ -12,11 +12,11 @@ import numpy as np
 from twmr.blocks import discrete_kernels as dk
 from twmr.blocks import kernels
 from twmr.core.component import Component
+from twmr.core.ctwin import Choice, CTwin, checked
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import BOOLEAN, INTEGER, STRING, Input, Output, Parameter
 from twmr.core.run import RunContext
-from twmr.fmi.cexport.twin import Choice, CTwin, checked
 
 #: how a `transfer_function` is discretised (or that its coefficients are already in z)
 TF_METHODS = {"zoh": 0, "tustin": 1, "discrete": 2}

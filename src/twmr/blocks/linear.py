@@ -13,10 +13,10 @@ from twmr.blocks import kernels
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.routing import Nary
 from twmr.core.component import Component
+from twmr.core.ctwin import CTwin, checked, nary_sizes
 from twmr.core.errors import CosimError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
-from twmr.fmi.cexport.twin import CTwin, checked, nary_sizes
 
 #: discretisations a state-space block keeps, one per step size [s]
 DISCRETE_CACHE = 256

@@ -15,10 +15,10 @@ from twmr.blocks import nonlinear_kernels as nk
 from twmr.blocks import tables
 from twmr.blocks.tables import Problems
 from twmr.core.component import Component
+from twmr.core.ctwin import Choice, elements, elementwise, table_sizes
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
 from twmr.core.units import parse_unit
-from twmr.fmi.cexport.twin import Choice, elements, elementwise, table_sizes
 
 
 class ElementBlock(Component):

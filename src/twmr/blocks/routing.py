@@ -9,10 +9,10 @@ from typing import Any, ClassVar
 from twmr.blocks import routing_kernels as rk
 from twmr.blocks.ports import numbered, resized
 from twmr.core.component import Component
+from twmr.core.ctwin import Choice, CTwin, initialiser, nary_sizes, width_of
 from twmr.core.errors import CosimError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Input, Output, Parameter
-from twmr.fmi.cexport.twin import Choice, CTwin, initialiser, nary_sizes, width_of
 
 
 def _size(n: int) -> int | None:

@@ -11,11 +11,11 @@ from twmr.blocks import signal_kernels as sk
 from twmr.blocks import tables
 from twmr.blocks.tables import Problems
 from twmr.core.component import Component
+from twmr.core.ctwin import Choice, CTwin, elementwise, table_sizes
 from twmr.core.errors import ComponentError
 from twmr.core.kernel import Kernel
 from twmr.core.port import INTEGER, STRING, Output, Parameter
 from twmr.core.run import RunContext
-from twmr.fmi.cexport.twin import Choice, CTwin, elementwise, table_sizes
 
 
 class Ramp(Component):

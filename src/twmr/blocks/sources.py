@@ -6,9 +6,9 @@ from pathlib import Path
 
 from twmr.blocks import kernels
 from twmr.core.component import Component
+from twmr.core.ctwin import CTwin
 from twmr.core.kernel import Kernel
 from twmr.core.port import Output, Parameter
-from twmr.fmi.cexport.twin import CTwin
 
 
 class Constant(Component):

@@ -279,7 +279,7 @@ class Component:
     #: frames stop its drives), 1 a bus that carries those frames, 2 a device that hears them
     terminate_stage: ClassVar[int] = 0
     #: the block's C twin for a standalone C FMU (`twmr export KIND`;
-    #: `twmr.fmi.cexport.twin.CTwin`), or None
+    #: `twmr.core.ctwin.CTwin`), or None
     c_twin: ClassVar[Any] = None
     #: element-wise blocks: variable -> the whole-number parameter that gives its size (1: a
     #: scalar, n > 1: a vector of n, its start value repeated)

@@ -5,7 +5,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from twmr.fmi.export import export_component
+
+def __getattr__(name: str) -> Any:
+    """`export_component` (twmr.fmi.export, which loads pythonfmu) imported when first asked
+    for: a run that imports FMUs, or none, does not pay for exporting."""
+    if name == "export_component":
+        from twmr.fmi.export import export_component
+
+        return export_component
+    raise AttributeError(f"module 'twmr.fmi' has no attribute {name!r}")
 
 
 def fmu_interface(path: str | Path) -> dict[str, Any]:
