@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 
 from twmr.core.errors import FmuError
 from twmr.fmi.description import clock_timing
+from twmr.fmi.direct import event_stepper
 from twmr.fmi.lsbus.ticks import TickedData
 
 if TYPE_CHECKING:
@@ -64,6 +65,10 @@ class EventMode:
         self.ticks: list[tuple[float, str]] = []
         #: the first early return inside the last step [s]
         self.early: float | None = None
+        #: no clock at all: a step is doStep and the events it asks for (`_step_plain`)
+        self.clockless = not self.clock_ports
+        instance = comp.instance
+        self._do_step = event_stepper(instance) or instance.doStep
 
     # -- times -------------------------------------------------------------------------------
     def due(self) -> dict[str, float]:
@@ -85,7 +90,10 @@ class EventMode:
     # -- one communication step --------------------------------------------------------------
     def step(self, t: float, h: float) -> None:
         """doStep from t to t + h [s], with every event on the way handled at its own time."""
-        c, f = self.comp, self.comp.instance
+        if self.clockless:
+            self._step_plain(t, h)
+            return
+        c = self.comp
         d = c.values
         for p in self.clock_ports:
             if p.kind == "output":
@@ -101,7 +109,8 @@ class EventMode:
             if stop <= now + _tol(now):
                 stop = end
             c.now = now
-            needed, terminate, early, last = c.call("fmi3DoStep", f.doStep, now, stop - now)
+            needed, terminate, early, last = c.call("fmi3DoStep", self._do_step, now,
+                                                    stop - now)
             if terminate:
                 raise FmuError(c.name, last if early else stop, f"FMU '{c.path.name}' asked to "
                                f"terminate the simulation (fmi3DoStep terminateSimulation).",
@@ -109,11 +118,7 @@ class EventMode:
             reached = last if early else stop
             stalled = stalled + 1 if reached <= now + _tol(now) else 0
             if stalled > MAX_ITERATIONS or (stalled and not needed):
-                raise FmuError(c.name, now, f"FMU '{c.path.name}' returned early from fmi3DoStep "
-                               f"at t = {reached:.9g} s without progress ({stalled} time(s) in a "
-                               f"row{'' if needed else ', without an event'}). Fix: see the "
-                               f"FMU's log (its vendor should not return early without "
-                               f"progress).", c.log.tail())
+                self._stalled(now, reached, stalled, needed)
             if early and self.early is None and reached < end - _tol(end):
                 self.early = reached
             now = max(now, reached)
@@ -122,6 +127,43 @@ class EventMode:
             timed = c.time_event <= now + _tol(now)
             if needed or early or due or timed:
                 self._handle(now, [], due)
+
+    def _step_plain(self, t: float, h: float) -> None:
+        """`step` of an FMU without clocks: its time events and the events doStep asks for are
+        all there is (the same calls at the same times as `step`, without the clocks'
+        bookkeeping)."""
+        c = self.comp
+        self.early = None
+        end, now, stalled = t + h, t, 0
+        last_point = end - _tol(end)
+        while now < last_point:
+            stop = min(end, c.time_event)
+            if stop <= now + _tol(now):
+                stop = end
+            c.now = now
+            needed, terminate, early, last = c.call("fmi3DoStep", self._do_step, now,
+                                                    stop - now)
+            if terminate:
+                raise FmuError(c.name, last if early else stop, f"FMU '{c.path.name}' asked to "
+                               f"terminate the simulation (fmi3DoStep terminateSimulation).",
+                               c.log.tail())
+            reached = last if early else stop
+            stalled = stalled + 1 if reached <= now + _tol(now) else 0
+            if stalled > MAX_ITERATIONS or (stalled and not needed):
+                self._stalled(now, reached, stalled, needed)
+            if early and self.early is None and reached < last_point:
+                self.early = reached
+            now = max(now, reached)
+            c.now = now
+            if needed or early or c.time_event <= now + _tol(now):
+                self._handle(now, [], [])
+
+    def _stalled(self, now: float, reached: float, stalled: int, needed: bool) -> None:
+        c = self.comp
+        raise FmuError(c.name, now, f"FMU '{c.path.name}' returned early from fmi3DoStep at "
+                       f"t = {reached:.9g} s without progress ({stalled} time(s) in a row"
+                       f"{'' if needed else ', without an event'}). Fix: see the FMU's log (its "
+                       f"vendor should not return early without progress).", c.log.tail())
 
     def _handle(self, t: float, ticked: list[FmuPort], scheduled: list[FmuPort]) -> None:
         """Event mode at t [s]: one event, then one more for every clock that became due at

@@ -111,3 +111,29 @@ def stepper(fmu: Any, fmi3: bool) -> Callable[[float, float], bool]:
         return terminate.value
 
     return step3
+
+
+def event_stepper(fmu: Any) -> Callable[[float, float], tuple[bool, bool, bool, float]] | None:
+    """fmi3DoStep(t, h) of fmpy's instantiated FMI 3.0 co-simulation `fmu` in event mode, as
+    fmpy's `doStep` returns it: (eventHandlingNeeded, terminateSimulation, earlyReturn,
+    lastSuccessfulTime), with its flags made once; None when fmpy did not configure the call."""
+    from fmpy.fmi1 import FMICallException
+
+    fn = c_function(fmu, "fmi3DoStep")
+    if fn is None:
+        return None
+    inst = fmu.component
+    needed, terminate, early = ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool()
+    last = ctypes.c_double()
+    refs = (ctypes.byref(needed), ctypes.byref(terminate), ctypes.byref(early),
+            ctypes.byref(last))
+
+    def step(t: float, h: float) -> tuple[bool, bool, bool, float]:
+        status = fn(inst, t, h, True, *refs)
+        if status > 1:
+            raise FMICallException(function="fmi3DoStep", status=status)
+        return needed.value, terminate.value, early.value, last.value
+
+    step.__name__ = "doStep"
+    return step
+
