@@ -717,15 +717,21 @@ class FmuComponent(Component):
         """This FMU's compiled form, for the compiled loop (`twmr.master.compiled`, mode 'on'):
         the loop calls its set, get and doStep functions itself through their C function
         pointers, with the calls and their order of `evaluate` / `do_step`
-        (`twmr.fmi.compiled_calls`). None for model exchange, event mode, an isolated FMU or
-        pythonfmu's own FMUs (they keep the Python loop); `NotCompilable` for a port the loop
-        cannot carry. Call after `initialize`; `h` [s] is its step."""
-        from twmr.fmi.compiled_calls import TERMINATE, compiled_form
+        (`twmr.fmi.compiled_calls`). `NotCompilable` saying why not for model exchange, event
+        mode, pythonfmu's own FMUs (they keep the Python loop) and a port the loop cannot
+        carry. Call after `initialize`; `h` [s] is its step."""
+        from twmr.fmi.compiled_calls import TERMINATE, NotCompilable, compiled_form
 
         fmu = self._fmu
-        if fmu is None or self.me or self.event_mode or self._pythonfmu or \
-                not hasattr(fmu, "dll"):
-            return None
+        why = "it is not instantiated" if fmu is None or not hasattr(fmu, "dll") else \
+            "it is model exchange (the master's solver integrates it, in Python)" if self.me \
+            else "it runs in event mode (FMI 3.0 hasEventMode: the master handles its events " \
+            "and clocks, in Python)" if self.event_mode else \
+            "it is a pythonfmu FMU (its model runs in this interpreter)" if self._pythonfmu \
+            else ""
+        if why:
+            raise NotCompilable(f"FMU '{self.name}' ({self.path.name}) is not called from the "
+                                f"compiled loop: {why}")
         version = "fmi3" if self.fmi3 else "fmi2"
 
         def error(call: str, status: int, t: float) -> BaseException:

@@ -85,11 +85,11 @@ PORTS = ("input", "output", "state")
 
 def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
              ) -> tuple[dict[str, Kernel] | None, str]:
-    from twmr.fmi.compiled_calls import NotCompilable
-
     """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
     'on': in 'auto' an FMU keeps the Python loop, whose chunks of steps are smaller — a crash
     inside the FMU's code then loses fewer rows)."""
+    from twmr.fmi.compiled_calls import NotCompilable
+
     comps = system.components
     for name, port in record:
         if comps[name].variables[port].kind not in ("input", "output", "state"):
@@ -112,6 +112,9 @@ def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
             kern = make(system.multiple(name) * h) if make is not None else None
         except NotCompilable as exc:
             return None, str(exc)
+        if kern is None and make is None and hasattr(comp, "compiled_calls"):
+            return None, f"'{name}' is an FMU, which the compiled loop calls only with " \
+                         f"--compiled on (in auto it keeps the Python loop)"
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
