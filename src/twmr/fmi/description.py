@@ -17,6 +17,7 @@ display unit where the FMU defines one), an alias of an input or parameter is no
 """
 from __future__ import annotations
 
+import functools
 import math
 import re
 from dataclasses import dataclass
@@ -107,16 +108,25 @@ def _unreadable(path: Path, exc: Exception) -> str:
            "missing or malformed)"
 
 
+@functools.lru_cache(maxsize=128)
+def _description(path: str, mtime_ns: int, size: int) -> Any:
+    """fmpy's ModelDescription of the FMU file `path` as it is (its time and size are the key:
+    a changed file is read anew); read once for all its instances. Not to be changed."""
+    from fmpy import read_model_description
+
+    return read_model_description(path, validate=False)
+
+
 def read_description(path: Path, instance: str = "fmu") -> Any:
     """fmpy's ModelDescription of `path`, with every failure as an FmuError; FMUs this importer
     cannot run correctly (FMI 1.0, clocks, scheduled execution only) are refused here."""
-    from fmpy import read_model_description
 
     if not path.exists():
         raise FmuError(instance, None, f"FMU file '{path}' not found. Fix: check `path:` (relative "
                        f"paths are taken from the scenario's folder).")
     try:
-        md = read_model_description(str(path), validate=False)
+        stat = (path / "modelDescription.xml" if path.is_dir() else path).stat()
+        md = _description(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds (zip, XML, schema)
         raise FmuError(instance, None, f"'{path}' is not a readable FMU: {_unreadable(path, exc)}."
                        f" Fix: give an FMU file (a zip with a valid modelDescription.xml at its "

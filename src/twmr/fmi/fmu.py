@@ -18,8 +18,6 @@ import logging
 import math
 import operator
 import os
-import shutil
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 from twmr.core.component import Component
 from twmr.core.errors import ComponentError, FmuError, FmuTerminated
 from twmr.core.run import RunContext
-from twmr.fmi import guard
+from twmr.fmi import guard, unpacked
 from twmr.fmi.clocks import EventMode
 from twmr.fmi.description import FmuPort, aliases_of, ports_of, read_description
 from twmr.fmi.direct import accessor, direct_calls, stepper, supports
@@ -306,14 +304,13 @@ class FmuComponent(Component):
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
-        from fmpy import extract
-
         self._t = start
         if not self._guarded:
             guard.enter()
             self._guarded = True
-        self._unzipped = self._call("extract", extract, str(self.path),
-                                    tempfile.mkdtemp(prefix="twmr-fmu-"))
+        iface = self.md.modelExchange if self.me else self.md.coSimulation
+        shared = not self._pythonfmu and not iface.canBeInstantiatedOnlyOncePerProcess
+        self._unzipped = self._call("extract", unpacked.take, self.path, shared)
         iface = self.md.modelExchange if self.me else self.md.coSimulation
         args = dict(guid=self.md.guid, unzipDirectory=self._unzipped,
                     modelIdentifier=iface.modelIdentifier, instanceName=self.name)
@@ -843,7 +840,7 @@ class FmuComponent(Component):
             self._integrator.close()
             self._integrator = None
         if self._unzipped:
-            shutil.rmtree(self._unzipped, ignore_errors=True)
+            unpacked.give_back(self._unzipped)
             self._unzipped = None
         if self._guarded:
             self._guarded = False

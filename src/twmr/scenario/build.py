@@ -588,12 +588,17 @@ class _Builder:
         """The input elements `open:` keeps at their start values: entries `comp.input`,
         wildcards (`ft.*`, `*.u`) and elements (`lag.u[3]`, `lag.u[1,3]`)."""
         opened: set[tuple[str, str, int]] = set()
+        every = [(f"{n}.{p}", n, p, v) for n, c in comps.items() for p, v in c.inputs.items()]
+        by_name = {full: (n, p, v) for full, n, p, v in every}
         for given in self.spec.open:
             text = str(given.value).strip()
             m = _OPEN.match(text)
             pattern, chosen = (m["pattern"], m["elements"]) if m else (text, None)
-            matched = [(n, p, v) for n, c in comps.items() for p, v in c.inputs.items()
-                       if fnmatch.fnmatchcase(f"{n}.{p}", pattern)]
+            if not _WILD.search(pattern):  # one input by its name
+                matched = [by_name[pattern]] if pattern in by_name else []
+            else:  # a wildcard, translated once and matched against every input
+                match = re.compile(fnmatch.translate(pattern)).match
+                matched = [(n, p, v) for full, n, p, v in every if match(full)]
             if not matched:
                 owner, _, port = pattern.rpartition(".")
                 inputs = list(comps[owner].inputs) if owner in comps else []
@@ -644,6 +649,8 @@ class _Builder:
         return RecordSpec(tuple(chosen), int(spec.decimation.value))
 
 
+#: the characters that make an fnmatch pattern more than a name
+_WILD = re.compile(r"[*?\[]")
 _OPEN = re.compile(r"^(?P<pattern>[^\[\]]+?)\s*(?:\[(?P<elements>[\d,\s]+)\])?$")
 _ELEMENT_KEY = re.compile(r"^(?P<name>\w+)\[(?P<index>\d+)\]$")
 
