@@ -389,6 +389,7 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
          method: str = "random", out: str | Path | None = None, workers: int | None = 1,
          scheduler: str | None = None, batch: int | None = None,
          baseline: str | Path | None = None, start: Sequence[dict[str, Any]] = (),
+         validation: int = 0, validate_top: int = 5, test: int = 0,
          report: bool = True, progress: bool = False) -> Any:
     """Tune `params` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC LO:HI, log:LO:HI, int:LO:HI or
     values:A,B,C) of `scenario` to minimise `aggregate` (mean, median, max, qP) of the metric
@@ -398,7 +399,11 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     (default: the workers). `workers` 1 runs in this process; more on local Dask workers on
     127.0.0.1. `baseline`: a scenario run once over the same realisations, its figures named
     `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
-    param) tried first, in order, before the sampler proposes. Writes `out` (default
+    param) tried first, in order, before the sampler proposes. `validation`: realisations
+    drawn apart (never optimised on) on which the `validate_top` best trials by training
+    objective run, the best chosen there; `test`: further ones the chosen trial runs on
+    (reported only); the trials' rows then carry `validation_objective`, `gap` and
+    `test_objective`. Writes `out` (default
     tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet, best.yaml,
     report/. Returns a `twmr.tuning.TuneOutcome`."""
     from twmr.sweeps import parse_vary
@@ -419,7 +424,7 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
                     trials, seed, aggregate, limits,
                     list(metrics), list(overrides), method,
                     str(baseline) if baseline is not None else None,
-                    [dict(p) for p in start])
+                    [dict(p) for p in start], validation, validate_top, test)
     folder = Path(out) if out is not None else Path("tunes") / (Path(str(scenario)).stem or
                                                                   "scenario")
     outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, batch=batch,

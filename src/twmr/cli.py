@@ -384,6 +384,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        overrides=args.set, method=args.method, out=args.out,
                        workers=args.workers, scheduler=args.scheduler, batch=args.batch,
                        baseline=args.baseline, start=[_start_point(t) for t in args.start],
+                       validation=args.validation, validate_top=args.validate_top,
+                       test=args.test,
                        progress=not args.quiet)
     best = outcome.best
     if outcome.trials and all(t["status"] == "failed" for t in outcome.trials):
@@ -392,9 +394,12 @@ def cmd_tune(args: argparse.Namespace) -> int:
         raise TuneError(f"every trial failed; the first's error: {outcome.trials[0]['error']} "
                         f"(all are in {outcome.folder}/realisations.parquet)")
     names = [p.partition("=")[0].strip() for p in args.param]
+    held = "".join(f", {part} {best[f'{part}_objective']:.6g}" for part in ("validation", "test")
+                   if best is not None and f"{part}_objective" in best)
+    gap = f" (gap {best['gap']:+.3g})" if best is not None and "gap" in best else ""
     found = "no feasible trial" if best is None else (
         f"best trial {best['trial']}: objective {best['objective']:.6g} (spread "
-        f"{best['spread']:.3g}) at " + ", ".join(f"{n}={best[n]}" for n in names))
+        f"{best['spread']:.3g}){held}{gap} at " + ", ".join(f"{n}={best[n]}" for n in names))
     log.info("tune: %d trial(s) run now, %d in all; %s -> %s/", outcome.ran,
              len(outcome.trials), found, outcome.folder)
     return 0
@@ -564,6 +569,15 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="trials asked and run together (default: the workers)")
     tu.add_argument("--start", action="append", default=[], metavar="NAME=VALUE,...",
                     help="a point tried first (every --param once); repeatable, in order")
+    tu.add_argument("--validation", type=int, default=0, metavar="N",
+                    help="N realisations drawn apart from the training ones and never optimised "
+                         "on: the best trials (--validate-top) run on them and the best is chosen "
+                         "there (0: chosen on the training realisations)")
+    tu.add_argument("--validate-top", type=int, default=5, metavar="K",
+                    help="how many of the best training trials run on the validation "
+                         "realisations (default 5)")
+    tu.add_argument("--test", type=int, default=0, metavar="N",
+                    help="N further realisations the chosen trial runs on, reported only")
     tu.add_argument("--baseline", metavar="SCENARIO",
                     help="run once over the same realisations; its figures are base_<figure>")
     tu.add_argument("--out", help="the tune's folder (default tunes/<scenario name>)")

@@ -64,7 +64,12 @@ DESCRIPTION, JOURNAL = "tune.json", "trials.jsonl"
 TRIALS, REALISATIONS, BEST = "trials.parquet", "realisations.parquet", "best.yaml"
 BASELINE = "baseline.parquet"
 BASE = "base_"  # prefix of a baseline figure in the expressions
-_OURS = {DESCRIPTION, JOURNAL, TRIALS, REALISATIONS, BASELINE, BEST, ".lock", "report"}
+VALIDATION_RUNS = "validation.parquet"
+TRAINING, VALIDATION, TEST = "training", "validation", "test"
+#: what each part's seed stream adds to the seed (far apart: seeds of studies do not collide)
+STREAMS = {TRAINING: 0, VALIDATION: 1_000_003, TEST: 2_000_029}
+_OURS = {DESCRIPTION, JOURNAL, TRIALS, REALISATIONS, BASELINE, BEST, VALIDATION_RUNS, ".lock",
+         "report"}
 
 
 @dataclass
@@ -86,6 +91,12 @@ class TuneSpec:
     method: str = "random"
     baseline: str | None = None
     start: list[dict[str, Any]] = field(default_factory=list)
+    #: realisations drawn apart from the training ones (their own seed stream), never optimised
+    #: on: the `validate_top` best trials by training objective run on them and the best is
+    #: chosen there; `test` further ones run by the chosen trial alone (reported only)
+    validation: int = 0
+    validate_top: int = 5
+    test: int = 0
 
     def check(self) -> None:
         """TuneError when the tune is ill-formed."""
@@ -128,6 +139,21 @@ class TuneSpec:
                 if not by_name[name].contains(value):
                     raise TuneError(f"--start {i}: {name}={value!r} is outside its range "
                                     f"{by_name[name].text}. Fix: give a value inside it.")
+        for what, n in (("--validation", self.validation), ("--test", self.test)):
+            if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+                raise TuneError(f"{what} {n!r} is not a whole number >= 0. Fix: give e.g. "
+                                f"{what} 20 (0: none).")
+        if (self.validation or self.test) and not self.vary:
+            raise TuneError("--validation/--test without --vary: every realisation would be the "
+                            "training one. Fix: give --vary NAME=SPEC (what differs between "
+                            "realisations).")
+        if self.test and not self.validation:
+            raise TuneError("--test without --validation: the test set judges the trial chosen "
+                            "on validation. Fix: give --validation N too.")
+        if not isinstance(self.validate_top, int) or isinstance(self.validate_top, bool) or \
+                self.validate_top < 1:
+            raise TuneError(f"--validate-top {self.validate_top!r} is not a positive whole "
+                            f"number. Fix: give e.g. --validate-top 5.")
         uses_base = [n for n in self.names() if n.startswith(BASE)]
         if uses_base and not self.baseline:
             raise TuneError(f"'{uses_base[0]}' is a baseline figure, and no baseline is given. "
@@ -138,12 +164,15 @@ class TuneSpec:
         """The figure names the objective and the constraints use."""
         return [*self.objective.names, *(n for c in self.constraints for n in c.expression.names)]
 
-    def table(self) -> list[dict[str, Any]]:
-        """The realisations: one {NAME: value} each, the same for every trial and every call."""
+    def table(self, part: str = TRAINING) -> list[dict[str, Any]]:
+        """The realisations of `part` (training, validation, test): one {NAME: value} each, the
+        same for every trial and every call; each part drawn from a seed stream of its own."""
         if not self.vary:
             return [{}]
-        return SweepSpec(self.scenario, self.vary, self.realisations, self.method,
-                         self.seed).samples_table()
+        n = {TRAINING: self.realisations, VALIDATION: self.validation, TEST: self.test}[part]
+        seed = self.seed + STREAMS[part]
+        return SweepSpec(self.scenario, self.vary, n, self.method, seed).samples_table() \
+            if n else []
 
     def described(self, content: str, baseline: str = "") -> dict[str, Any]:
         """What identifies the study (everything but the number of trials and the batch)."""
@@ -157,7 +186,9 @@ class TuneSpec:
                 "set": list(self.fixed), "baseline": self.baseline,
                 "start": [dict(sorted(p.items())) for p in self.start],
                 "baseline_sha256": hashlib.sha256(baseline.encode()).hexdigest()
-                if self.baseline else None}
+                if self.baseline else None,
+                **({"validation": self.validation, "validate_top": self.validate_top,
+                    "test": self.test} if self.validation else {})}
 
 
 @dataclass
@@ -172,6 +203,11 @@ class TuneOutcome:
     best: dict[str, Any] | None = None
     interrupted: bool = False
     baseline: list[dict[str, Any]] = field(default_factory=list)
+    #: held-out parts (validation, test): trial -> (its row there, its runs); and the
+    #: baseline's runs there
+    held: dict[str, dict[int, tuple[dict[str, Any], list[dict[str, Any]]]]] = \
+        field(default_factory=dict)
+    held_baseline: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
 
     def frame(self) -> Any:
         import pandas as pd
@@ -211,8 +247,9 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
     lock = _open_folder(folder, described)
     journal: IO[str] | None = None
     client = cluster = bar = None
-    done, done_runs, done_base = _read_journal(folder)
-    outcome = TuneOutcome(done, done_runs, 0, folder, baseline=done_base)
+    done, done_runs, done_base, held, held_base = _read_journal(folder)
+    outcome = TuneOutcome(done, done_runs, 0, folder, baseline=done_base, held=held,
+                          held_baseline=held_base)
     warned = SweepWarnings(log, REALISATIONS)
     try:
         left = spec.trials - len(outcome.trials)
@@ -258,6 +295,12 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
                     bar.set_postfix(best=f"{best['objective']:.4g}" if best else "-",
                                     refresh=False)
                     bar.update(1)
+        if spec.validation:
+            if journal is None:
+                journal = open_journal(folder / JOURNAL)
+            if client is None and (workers != 1 or scheduler) and _unvalidated(spec, outcome):
+                client, cluster = dask_client(workers, scheduler)
+            _held_out(spec, scenario, content, bases, base_scenario, client, outcome, journal)
     except KeyboardInterrupt as stop:
         outcome.interrupted = True
         stop.partial_results = folder  # type: ignore[attr-defined]  # shown by the CLI
@@ -272,7 +315,7 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
                 journal.close()
             close_client(client, cluster, [])
             warned.close()
-            outcome.best = _best(outcome.trials)
+            outcome.best = _chosen(spec, outcome)
             _write(outcome, spec, scenario)
             release_lock(lock)
     return outcome
@@ -365,15 +408,18 @@ def _open_folder(folder: Path, described: dict[str, Any]) -> IO[str]:
 
 
 def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, Any]],
-                                         list[dict[str, Any]]]:
-    """The trials and runs already done (the journal's last line may be cut short by a kill);
-    the baseline's runs come last."""
+                                         list[dict[str, Any]], dict[str, Any], dict[str, Any]]:
+    """The trials and runs already done (the journal's last line may be cut short by a kill),
+    the baseline's runs, the held-out parts' rows and runs by trial, the baseline's runs
+    there."""
     path = folder / JOURNAL
     trials: list[dict[str, Any]] = []
     runs: list[dict[str, Any]] = []
     baseline: list[dict[str, Any]] = []
+    held: dict[str, Any] = {}
+    held_base: dict[str, Any] = {}
     if not path.exists():
-        return trials, runs, baseline
+        return trials, runs, baseline, held, held_base
     lines = path.read_text(encoding="utf-8", errors="replace").split("\n")
     for number, line in enumerate(lines, 1):
         if not line.strip():
@@ -383,6 +429,15 @@ def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, An
             if "baseline" in entry:
                 baseline = list(entry["baseline"])
                 continue
+            if "held_out" in entry:
+                part = entry["held_out"]
+                held.setdefault(part["part"], {})[int(part["trial"])] = (part["row"],
+                                                                         part["runs"])
+                continue
+            if "held_out_baseline" in entry:
+                part = entry["held_out_baseline"]
+                held_base[part["part"]] = list(part["runs"])
+                continue
             trial, trial_runs = entry["trial"], entry["runs"]
         except (ValueError, KeyError, TypeError):
             if number >= len(lines) - 1:
@@ -391,7 +446,7 @@ def _read_journal(folder: Path) -> tuple[list[dict[str, Any]], list[dict[str, An
                             f"another --out.") from None
         trials.append(trial)
         runs.extend(trial_runs)
-    return trials, runs, baseline
+    return trials, runs, baseline, held, held_base
 
 
 def _study(spec: TuneSpec, done: list[dict[str, Any]]) -> Any:
@@ -493,6 +548,89 @@ def _constraints(row: dict[str, Any], n: int) -> dict[str, float]:
     return {f"violation_{i}": float(row[f"violation_{i}"]) for i in range(n)}
 
 
+def _ranked(spec: TuneSpec, outcome: TuneOutcome) -> list[dict[str, Any]]:
+    """The `validate_top` feasible trials of the lowest training objective (first of equals)."""
+    ok = [t for t in outcome.trials if t["status"] == "ok"]
+    return sorted(ok, key=lambda t: (t["objective"], t["trial"]))[:spec.validate_top]
+
+
+def _unvalidated(spec: TuneSpec, outcome: TuneOutcome) -> bool:
+    """Whether a held-out run is still to be made."""
+    done = outcome.held.get(VALIDATION, {})
+    if any(t["trial"] not in done for t in _ranked(spec, outcome)):
+        return True
+    chosen = _chosen(spec, outcome)
+    return bool(spec.test and chosen is not None and
+                chosen["trial"] not in outcome.held.get(TEST, {}))
+
+
+def _held_out(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any],
+              base_scenario: Any, client: Any, outcome: TuneOutcome, journal: IO[str]) -> None:
+    """The best trials by training objective on the validation realisations (the ones not yet
+    run there), then the one chosen there on the test realisations; journalled as they end."""
+    from types import SimpleNamespace
+
+    for part in (VALIDATION, TEST):
+        if part == TEST:
+            chosen = _chosen(spec, outcome)
+            wanted = [chosen] if spec.test and chosen is not None else []
+        else:
+            wanted = _ranked(spec, outcome)
+        done = outcome.held.setdefault(part, {})
+        todo = [t for t in wanted if t["trial"] not in done]
+        if not todo:
+            continue
+        table = spec.table(part)
+        if base_scenario is not None and part not in outcome.held_baseline:
+            runs = _run_baseline(spec, base_scenario, _text(base_scenario), table, client)
+            outcome.held_baseline[part] = runs
+            append_row(journal, {"held_out_baseline": {"part": part, "runs": runs}})
+        base = {r["sample"]: {f"{BASE}{k}": v for k, v in r.items()
+                              if isinstance(v, int | float) and not isinstance(v, bool)}
+                for r in outcome.held_baseline.get(part, [])}
+        trials = [SimpleNamespace(number=t["trial"], params={p.name: t[p.name]
+                                                             for p in spec.params})
+                  for t in todo]
+        for trial, (row, runs) in zip(trials, _evaluate(spec, scenario, content, bases, table,
+                                                         trials, client, base), strict=True):
+            for r in runs:
+                r["part"] = part
+            done[trial.number] = (row, runs)
+            append_row(journal, {"held_out": {"part": part, "trial": trial.number, "row": row,
+                                              "runs": runs}})
+
+
+def _chosen(spec: TuneSpec, outcome: TuneOutcome) -> dict[str, Any] | None:
+    """The best trial: by training objective, or — with validation realisations — by its
+    objective on them among those validated that hold every constraint there too; its row
+    carries its figures on the held-out parts (`validation_objective`, `gap`, `test_...`)."""
+    if not spec.validation:
+        return _best(outcome.trials)
+    by_number = {t["trial"]: t for t in outcome.trials}
+    validated = outcome.held.get(VALIDATION, {})
+    ok = [(row["objective"], n) for n, (row, _) in validated.items()
+          if row["status"] == "ok" and n in by_number]
+    if not ok:
+        return None
+    number = min(ok)[1]
+    return {**by_number[number], **_held_figures(outcome, number)}
+
+
+def _held_figures(outcome: TuneOutcome, number: int) -> dict[str, Any]:
+    """A trial's figures on the held-out parts it ran on."""
+    out: dict[str, Any] = {}
+    for part, rows in outcome.held.items():
+        if number in rows:
+            row = rows[number][0]
+            out[f"{part}_objective"] = row["objective"]
+            out[f"{part}_spread"] = row["spread"]
+            out[f"{part}_status"] = row["status"]
+    if "validation_objective" in out:
+        train = next(t["objective"] for t in outcome.trials if t["trial"] == number)
+        out["gap"] = out["validation_objective"] - train
+    return out
+
+
 def _best(trials: list[dict[str, Any]]) -> dict[str, Any] | None:
     """The feasible trial of the lowest objective (the first of equals)."""
     ok = [t for t in trials if t["status"] == "ok"]
@@ -504,8 +642,10 @@ def _write(outcome: TuneOutcome, spec: TuneSpec, scenario: Any) -> None:
     import pandas as pd
 
     folder = outcome.folder
-    for rows, name in ((outcome.trials, TRIALS), (outcome.runs, REALISATIONS),
-                       (outcome.baseline, BASELINE)):
+    trials = [{**t, **_held_figures(outcome, t["trial"])} for t in outcome.trials]
+    held_runs = [r for part in outcome.held.values() for _, runs in part.values() for r in runs]
+    for rows, name in ((trials, TRIALS), (outcome.runs, REALISATIONS),
+                       (outcome.baseline, BASELINE), (held_runs, VALIDATION_RUNS)):
         if not rows:
             continue
         partial = folder / f".{name}.{os.getpid()}.part"
@@ -540,8 +680,11 @@ def best_yaml(scenario: Any, spec: TuneSpec, best: dict[str, Any]) -> str | None
         else:
             entry = data["components"][comp]
             entry.setdefault("parameters", {})[param] = value
+    held = "".join(f", on {spec.validation if part == VALIDATION else spec.test} {part} "
+                   f"realisation(s) {best[f'{part}_objective']:.6g}"
+                   for part in (VALIDATION, TEST) if f"{part}_objective" in best)
     head = (f"# {scenario.source} tuned by `twmr tune`: trial {best['trial']}, {spec.aggregate} "
             f"of {spec.objective.text} over {spec.realisations} realisation(s) = "
-            f"{best['objective']:.6g} (spread {best['spread']:.3g})\n"
+            f"{best['objective']:.6g} (spread {best['spread']:.3g}){held}\n"
             f"# relative paths in it are relative to {scenario.base_dir}\n")
     return head + yaml.safe_dump(data, sort_keys=False)
