@@ -165,7 +165,9 @@ def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float,
     ex, ey = xT - x, yT - y
     e1 = c * ex + s_ * ey  # eq. (9)
     e2 = -s_ * ex + c * ey
-    e1k = e1 if abs(e1) >= eps else (eps if e1 >= 0.0 else -eps)  # singularity guard
+    # the clamp of |e_p1| at eps in kappa: with a large eps a standing part of the law, not a
+    # guard of rare instants (docs/model.md, section 3)
+    e1k = e1 if abs(e1) >= eps else (eps if e1 >= 0.0 else -eps)
     # eq. (15): kappa
     k11 = (e2 / b - 1.0) * r / 2.0
     k12 = -(e2 / b + 1.0) * r / 2.0

@@ -10,8 +10,12 @@ Singularity (det kappa = -r^2 e_p1 / (2b)): the law is applied to a look-ahead p
 cost is a steady offset of about |L| between M and T. The stable side is the one where L and the
 target's body-frame speed share a sign, i.e. the robot's driving direction: `drive: forward` puts
 P ahead of M (L = +lookahead), `backward` behind it, `auto` chooses at the start (see
-`start_direction`). A sign-preserving clamp |e_p1| >= eps_singular in kappa keeps tau finite at
-e_p1 = 0 (during the transient); `lookahead = 0` gives the law as printed with the clamp only.
+`start_direction`). A sign-preserving clamp |e_p1| >= eps_singular in kappa (and so in the x1'
+estimate) keeps tau finite at e_p1 = 0. With eps_singular above the |e_p1| the loop runs at (the
+shipped configurations: 0.5 m and 0.81 m, against |e_p1| of a few cm) the clamp is active nearly
+all the time, not only in the transient: it is a lasting change of the law, a fixed lever arm
+of eps_singular in kappa (docs/model.md, section 3, measures how often and what it changes).
+`lookahead = 0` gives the law as printed with the clamp only.
 
 Actuation: each wheel's torque is limited to `torque_limit` (the drive's 48 N.m by default; 0 = no
 limit), by clipping each wheel or by scaling both. The defaults (eta in asmc, eps_singular, phi,

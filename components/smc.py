@@ -2,8 +2,9 @@
 
 What it is here: the same sliding surface s = vartheta x1 + x2 (eq. 25), the same equivalent
 control and switching term as eq. (32), with the adaptive term removed (d_hat = 0) — i.e. the
-ASMC with eta = 0. Same gains (Table II) and the same look-ahead/clamp remedy, so the comparison
-isolates the adaptation.
+ASMC with eta = 0, and the same look-ahead/clamp remedy. Its defaults are the shared gains of
+`_tracking`; a scenario that gives the ASMC other shared gains (lambda, vartheta, k, phi, the
+clamp, the look-ahead) compares more than the adaptation.
 """
 from __future__ import annotations
 
