@@ -37,7 +37,7 @@ def test_tune_resumes_after_kills_at_any_byte(tmp_path_factory: pytest.TempPathF
         line = (json.dumps(_trial(finished)) + "\n").encode()
         with open(path, "ab") as f:  # the kill: part of the next line reached the disk
             f.write(line[:int(cut * (len(line) - 1))])
-        trials, runs, _ = _read_journal(folder)
+        trials, runs, *_ = _read_journal(folder)
         assert [t["number"] for t in trials] == list(range(finished))
         assert len(runs) == finished
 
