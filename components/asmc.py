@@ -5,7 +5,8 @@ tau = -Z^-1 [(vartheta I + E)(x2 - lambda x1) + d_hat + k sgn(s)]   (eq. 32)
 d_hat' = eta s                                                       (eq. 33)
 with Z = kappa M^-1, E = -kappa M^-1 B kappa^-1 from the nominal model. How x2 is formed and how
 the singularity of kappa is handled: see `_tracking` (x1' without slip; look-ahead point L and a
-clamp of |e_p1|, which with the shipped eps_singular is active nearly all the time). d_hat is integrated exactly for s held over the step: d_hat += eta s h.
+clamp of |e_p1|, which with the shipped eps_singular is active nearly all the time). d_hat is
+integrated exactly for s held over the step: d_hat += eta s h.
 """
 from __future__ import annotations
 

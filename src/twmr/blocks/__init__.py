@@ -6,7 +6,8 @@ Registered as component kinds like any other: `constant`, `sine`, `step`, `gain`
 `zero_order_hold`, `first_order` (`twmr.blocks.discrete`); `mux`, `demux`, `selector`,
 `product`, `math` (`twmr.blocks.routing`); `ramp`, `pulse`, `table`, `noise`, `chirp`
 (`twmr.blocks.signals`); `saturation`, `dead_zone`, `rate_limiter`, `quantizer`, `backlash`,
-`relay`, `lookup_1d`, `lookup_2d` (`twmr.blocks.nonlinear`). docs/blocks.md describes them.
+`relay`, `lookup_1d`, `lookup_2d` (`twmr.blocks.nonlinear`); `port_fault` (`twmr.blocks.faults`,
+what a scenario's `events:` inserts on a wire). docs/blocks.md describes them.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from typing import Any
 #: sine and a gain loads two modules, not the whole library)
 _MODULES = {
     "discrete": ("FirstOrder", "Pid", "TransferFunction", "TransportDelay", "ZeroOrderHold"),
+    "faults": ("PortFault",),
     "linear": ("Delay", "Gain", "Integrator", "StateSpace", "Sum"),
     "nonlinear": ("Backlash", "DeadZone", "Lookup1D", "Lookup2D", "Quantizer", "RateLimiter",
                   "Relay", "Saturation"),
@@ -27,7 +29,8 @@ _MODULES = {
 _WHERE = {name: module for module, names in _MODULES.items() for name in names}
 
 __all__ = ["Backlash", "Chirp", "Constant", "DeadZone", "Delay", "Demux", "FirstOrder", "Gain",
-           "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid", "Product",
+           "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid", "PortFault",
+           "Product",
            "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay", "Saturation", "Selector", "Sine",
            "StateSpace", "Step", "Sum", "Table", "TransferFunction", "TransportDelay",
            "ZeroOrderHold"]

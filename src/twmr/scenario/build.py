@@ -29,6 +29,7 @@ from twmr.core.errors import (
 from twmr.core.port import CLOCK, STRING, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
+from twmr.scenario.events import insert_faults
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
 from twmr.scenario.graph import (
     Loop,
@@ -148,6 +149,11 @@ class _Builder:
         if not self.problems:
             self.check_steps(comps, experiment.step)
         self.fail_if_problems()
+        marks: list[Any] = []
+        if self.spec.events:
+            self.spec, found, marks = insert_faults(self.spec, comps, experiment)
+            self.problems += found
+            self.fail_if_problems()
         self.problems += self.flat_problems
         self.check_exposed(comps)
         conns = self.connections(comps)
@@ -176,7 +182,8 @@ class _Builder:
         record = self.record(comps)
         self.fail_if_problems()
         multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
-        return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source)
+        return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source,
+                      events=tuple(marks))
 
     def cycle_location(self, cycle: list[tuple[str, str]], conns: list[Connection]) -> Location:
         """Where the first wire of `cycle` (a closed walk of ports) is written."""

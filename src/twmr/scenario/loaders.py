@@ -23,6 +23,7 @@ from twmr.scenario.schemacheck import conforms
 from twmr.scenario.structure import (
     EXPERIMENT_KEYS,
     ComponentSpec,
+    EventSpec,
     ExperimentSpec,
     Exposure,
     Given,
@@ -130,6 +131,12 @@ def unknown_key(where: Location, key: str, allowed: list[str]) -> Problem:
                    f"allowed here: {', '.join(allowed)}.")
 
 
+def _maybe(given: Any, *path: Any) -> Given[Any] | None:
+    """The value at `path` as given, None when it is not written."""
+    found = given(*path)
+    return None if found.value is None else found
+
+
 def _experiment_option_problems(data: dict[str, Any], at: At) -> list[Problem]:
     """`option_problems` of the experiment as written (its algorithm's name a text)."""
     exp = data.get("experiment")
@@ -203,7 +210,12 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         tuple(given("connections", i) for i in range(len(data.get("connections") or []))),
         tuple(given("open", i) for i in range(len(data.get("open") or []))),
         experiment, record, data.get("description", ""),
-        {key: at(key) for key in data}, exposed["inputs"], exposed["outputs"])
+        {key: at(key) for key in data}, exposed["inputs"], exposed["outputs"],
+        tuple(EventSpec(given("events", i, "at"), _maybe(given, "events", i, "until"),
+                        given("events", i, "port"), given("events", i, "fault"),
+                        _maybe(given, "events", i, "value"), _maybe(given, "events", i, "seed"),
+                        at("events", i))
+              for i in range(len(data.get("events") or []))))
 
 
 def _exposure(name: str, value: Any, at: At, side: str) -> Exposure:

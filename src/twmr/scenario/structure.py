@@ -105,6 +105,20 @@ class RecordingSpec:
 
 
 @dataclass(frozen=True)
+class EventSpec:
+    """A fault on a port during the run (`events:`): from `at` until `until` [s] (None: the
+    end), `port` ('comp.port') frozen, biased, scaled, noisy, dropped out or stuck at `value`."""
+
+    at: Given[Any]
+    until: Given[Any] | None
+    port: Given[str]
+    fault: Given[str]
+    value: Given[Any] | None
+    seed: Given[Any] | None
+    where: Location
+
+
+@dataclass(frozen=True)
 class ScenarioSpec:
     """A whole scenario as loaded: components in the order written, wires
     ('src.output -> dst.input' texts), inputs left open, the experiment and what to record, and
@@ -124,6 +138,7 @@ class ScenarioSpec:
     sections: dict[str, Location] = field(default_factory=dict)
     inputs: dict[str, Exposure] = field(default_factory=dict)
     outputs: dict[str, Exposure] = field(default_factory=dict)
+    events: tuple[EventSpec, ...] = ()
 
     def at(self, section: str) -> Location:
         """Where a top-level section is (the file alone when it is not written)."""

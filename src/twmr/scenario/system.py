@@ -100,6 +100,8 @@ class System:
     #: than the driver's; `twmr.master.scenario_loop.own_loop`): raised by `twmr.built.Built`
     #: as the system's runs step
     own_loop_budget_s: float = 0.0
+    #: the scenario's events as the results keep them (`twmr.scenario.events.Mark`)
+    events: tuple[Any, ...] = ()
 
     @property
     def paced(self) -> bool:
