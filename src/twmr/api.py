@@ -158,7 +158,9 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     summary = SignalSummary({"scenario": scenario.source, "overrides": list(scenario.overrides),
                              "algorithm": system.experiment.algorithm,
                              "start": system.experiment.start, "stop": system.experiment.stop,
-                             "step": system.experiment.step, **(header or {})})
+                             "step": system.experiment.step,
+                             **({"events": [m.plain() for m in system.events]}
+                                if system.events else {}), **(header or {})})
     extra: list[Observer] = []
     if progress:
         from twmr.observers.progress import ProgressBar

@@ -36,6 +36,7 @@ sign pattern) offers `examples(h)`, parameter sets for steps of h, one of which 
 """
 from __future__ import annotations
 
+import math
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -76,7 +77,10 @@ KINDS = sorted(set(twins()) | {k for k in kinds() if _offers_kernel(k)})
 def _element(var: Any, default: float) -> st.SearchStrategy[float]:
     """A value for one element of parameter `var`: its default, or uniform in [d/4, 4d] for a
     positive default under a lower bound (masses, lengths, steps), else in d +- (4|d| + 1);
-    clipped to the declared min/max."""
+    clipped to the declared min/max; a default that is no finite number (a stop time of inf) as
+    it is."""
+    if not math.isfinite(default):
+        return st.just(float(default))
     if var.min is not None and default > 0.0:
         lo, hi = default / 4.0, default * 4.0
     else:
