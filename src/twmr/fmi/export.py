@@ -203,6 +203,10 @@ def wrapper_binary() -> tuple[str, bytes]:
         return fmpy.platform, lib.read_bytes()
 
 
+#: Python's words for the numbers that are not finite -> xs:double's (what the FMI schema takes)
+_XSD_DOUBLE = {"inf": "INF", "-inf": "-INF", "nan": "NaN"}
+
+
 def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None:
     """Put our binary in place of pythonfmu's ones (and drop its embedded copy: the FMU uses the
     host's pythonfmu, pinned by twmr-cosim); name the slave class; write units and feedthrough
@@ -230,6 +234,8 @@ def _finish(fmu: Path, comp: Any, model: str, binary: tuple[str, bytes]) -> None
         var = comp.variables[var_name]
         unit = var.element_unit(i or 0)
         real = sv.find("Real")
+        if real is not None and real.get("start") in _XSD_DOUBLE:  # Python's 'inf', 'nan'
+            real.set("start", _XSD_DOUBLE[real.get("start", "")])
         if real is not None and unit:
             real.set("unit", unit)
             units[unit] = parse_unit(unit)
