@@ -64,7 +64,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from twmr.master.stats import lines
 
     scenario_path = Path(args.scenario)
-    overrides = list(args.set) + (["experiment.realtime=true"] if args.realtime else [])
+    overrides = list(args.set) + ([f"experiment.realtime={args.realtime}"]
+                                  if args.realtime else [])
     options = Options(compiled=args.compiled or None, fmu_log=args.fmu_log,
                       timing=getattr(args, "verbose", False))  # time per block, in summary.json
     formats = _formats(args.format)
@@ -471,8 +472,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                         "formats (csv, mat, parquet, or an installed one) or none (default)")
     r.add_argument("--metrics", action="append", default=[], metavar="NAME",
                    help="registered metric sets to compute (e.g. tracking); repeatable")
-    r.add_argument("--realtime", action="store_true",
-                   help="pace steps to the wall clock (automatic with hardware components)")
+    r.add_argument("--realtime", nargs="?", const="true", metavar="FACTOR",
+                   help="pace steps to the wall clock (automatic with hardware components); a "
+                        "FACTOR runs that much faster than it (2) or slower (0.25)")
     r.add_argument("--compiled", choices=("auto", "on", "off"),
                    help="compile the step loop with numba: auto (default: when every block "
                         "offers a kernel and the run has >= 10000 steps), on (an error "

@@ -210,7 +210,7 @@ class Execution:
         self.observers = list(observers)
         self.folder = Path(folder) if folder is not None else None
         exp = system.experiment
-        self.pacer = Pacer(exp.step) if system.paced else None
+        self.pacer = Pacer(exp.step / system.pace_factor) if system.paced else None
         if algorithm is None:
             self.algorithm = algorithm_for(system, self.options.compiled)
         else:

@@ -148,6 +148,7 @@ class _Builder:
         experiment = self.experiment()
         if not self.problems:
             self.check_steps(comps, experiment.step)
+            self.check_pace(comps, experiment)
         self.fail_if_problems()
         marks: list[Any] = []
         if self.spec.events:
@@ -433,6 +434,25 @@ class _Builder:
         return Experiment(start, stop, step, e.algorithm.value, e.realtime.value,
                           options=self.algorithm_options(step, stop - start),
                           fmu_terminate=ending or "error", **self.loop_options())
+
+    def check_pace(self, comps: dict[str, Component], experiment: Experiment) -> None:
+        """A real-time factor is a finite positive number, and 1 with hardware in the loop (its
+        drives run on the wall clock)."""
+        given = experiment.realtime
+        if given is None or isinstance(given, bool):
+            return
+        where = self.spec.experiment.realtime.where
+        if not math.isfinite(given):
+            self.problems.append(Problem(where, f"realtime: {given} is no real-time factor.",
+                                         "give a finite factor (2: twice as fast as the wall "
+                                         "clock), true or false."))
+            return
+        hardware = [n for n, c in comps.items() if c.needs_realtime]
+        if hardware and given != 1:
+            self.problems.append(Problem(where, f"realtime: {given:g} with hardware in the loop "
+                                         f"({', '.join(hardware[:3])}), which runs on the wall "
+                                         f"clock.", "give realtime: true (a factor of 1), or "
+                                         "run without the hardware."))
 
     def loop_options(self) -> dict[str, Any]:
         """The experiment's `loops` and `loop_solver` (the schema checked their values;

@@ -82,7 +82,7 @@ class ExperimentSpec:
     stop: Given[Any]
     step: Given[Any]
     algorithm: Given[str]
-    realtime: Given[bool | None]
+    realtime: Given[bool | float | None]
     where: Location
     #: what an FMU's request to end the simulation does: 'error' or 'stop' (None: not given)
     fmu_terminate: Given[Any] | None = None

@@ -60,7 +60,7 @@ class Experiment:
     stop: float = 1.0
     step: float = 1e-3
     algorithm: str = "gauss_seidel"
-    realtime: bool | None = None
+    realtime: bool | float | None = None
     #: the algorithm's own options as it reads them (e.g. the adaptive master's rtol, atol,
     #: min_step, max_step; `twmr.master.algorithm.read_options`)
     options: Mapping[str, Any] = field(default_factory=dict)
@@ -105,11 +105,18 @@ class System:
 
     @property
     def paced(self) -> bool:
-        """Steps paced to the wall clock: as the experiment says, else when hardware is in the
-        loop."""
+        """Steps paced to the wall clock: as the experiment says (true or a factor), else when
+        hardware is in the loop."""
         if self.experiment.realtime is not None:
-            return self.experiment.realtime
+            return self.experiment.realtime is not False
         return any(c.needs_realtime for c in self.components.values())
+
+    @property
+    def pace_factor(self) -> float:
+        """Simulated seconds per wall-clock second of a paced run (`realtime: <factor>`; 1 for
+        `true` and for hardware)."""
+        given = self.experiment.realtime
+        return 1.0 if given is None or isinstance(given, bool) else float(given)
 
     def multiple(self, name: str) -> int:
         """Step multiple of an instance (1 when not set)."""

@@ -17,6 +17,7 @@ not FMUs (or nested .ssp packages), signal dictionaries, connections into parame
 Binary parameters."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
@@ -390,15 +391,19 @@ class _Reader:
         stop = float(stop_text) if stop_text is not None else start + 1.0
         step: Any = None
         algorithm = Given("gauss_seidel", where)
-        realtime: Given[bool | None] = Given(None, where)
+        realtime: Given[bool | float | None] = Given(None, where)
         ours = _experiment_note(root)
         osp = root.find(f".//{{{OSP}}}FixedStepAlgorithm") if de is not None else None
         if ours is not None:
             step = Given(float(ours.get("step")), at(source, ours, "twmr Experiment step"))
             if ours.get("algorithm"):
                 algorithm = Given(ours.get("algorithm"), at(source, ours, "twmr Experiment"))
-            if ours.get("realtime") in ("true", "false"):
-                realtime = Given(ours.get("realtime") == "true", at(source, ours, "realtime"))
+            paced = ours.get("realtime")
+            if paced in ("true", "false"):
+                realtime = Given(paced == "true", at(source, ours, "realtime"))
+            elif paced is not None:
+                with contextlib.suppress(ValueError):  # not ours: pacing as the run decides
+                    realtime = Given(float(paced), at(source, ours, "realtime"))
         elif osp is not None and osp.get("baseStepSize") is not None:
             step = Given(float(osp.get("baseStepSize")),
                          at(source, osp, "osp:FixedStepAlgorithm baseStepSize"))

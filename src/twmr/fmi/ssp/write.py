@@ -223,8 +223,10 @@ def default_experiment(system: System) -> ET.Element:
     ours = ET.SubElement(notes, _q(SSC, "Annotation"), type=TWMR_TYPE)
     run = ET.SubElement(ours, _q(TWMR, "Experiment"), step=repr(exp.step),
                         algorithm=exp.algorithm)
-    if exp.realtime is not None:
+    if isinstance(exp.realtime, bool):
         run.set("realtime", "true" if exp.realtime else "false")
+    elif exp.realtime is not None:
+        run.set("realtime", repr(float(exp.realtime)))
     multiples = {n: m for n, m in system.step_multiples.items() if m != 1}
     for name, m in multiples.items():
         ET.SubElement(run, _q(TWMR, "StepMultiple"), element=element_name(name), value=str(m))
