@@ -66,7 +66,7 @@ class BusCore:
         self.rows: list[tuple[Any, ...]] = []
         self.failures: list[str] = []  # of participants, gateways, the log, the thread
         self._errors: list[BusEvent] = []  # the first bus errors
-        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0}
+        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0, "dropped": 0}
         self.sent_by: Counter[str] = Counter()  # frames transmitted, by participant
         self.last_error: BusEvent | None = None
         self._members: dict[str, Participant] = {}
@@ -114,6 +114,8 @@ class BusCore:
 
     def _dispatch(self, events: list[BusEvent], members: dict[str, Participant]) -> None:
         for event in events:
+            if event.kind == "dropped":
+                continue
             targets = [m for n, m in members.items() if n != event.sender] \
                 if event.kind == "transmit" else [members[event.sender]] \
                 if event.sender in members else []
@@ -137,6 +139,7 @@ class BusRunner(BusCore):
         self.channel = channel
         self.on_close = on_close
         model.live = False  # until `begin`: the drives power up before the host joins
+        model.run_offset = math.nan
         self._keepers: set[str] = set()
         self._closing = False
         self._stopped = False
@@ -203,7 +206,7 @@ class BusRunner(BusCore):
         """The run's first step, at run time `t` [s]: bus time is run time from now, and a
         frame no one acknowledges is an ACK error."""
         with self._cond:
-            self.offset = t - time.monotonic()
+            self.offset = self.model.run_offset = t - time.monotonic()
             self.model.live = not self._closing
 
     def now(self) -> float:

@@ -45,7 +45,7 @@ from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import bus_options, describe, interface_problem
 from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
-from twmr.hw.cansim import STUFFING, CanBusModel
+from twmr.hw.cansim import STUFFING, CanBusModel, FrameDrop
 from twmr.hw.lsbus_node import LsBusNode, frame_of
 from twmr.hw.steppedbus import SteppedBus
 
@@ -53,6 +53,26 @@ log = logging.getLogger(__name__)
 
 #: the share of the steps over `flood_time` with a bus error from which it is an error storm
 BAD_SHARE = 0.8
+
+
+def drop_fault(bus: CanBus) -> FrameDrop | str | None:
+    """The drop fault bus block `bus`'s `drop_*` parameters give (None: none), or what is wrong
+    with its `drop_ids`."""
+    text = str(bus.drop_ids).strip()
+    if not text:
+        return None
+    ids: set[int] = set()
+    if text.lower() != "all":
+        for part in text.replace(";", ",").split(","):
+            try:
+                ident = int(part.strip(), 0)
+            except ValueError:
+                return f"drop_ids '{text}': '{part.strip()}' is no CAN identifier"
+            if not 0 <= ident < 1 << 29:
+                return f"drop_ids '{text}': {ident:#x} is outside 0 .. 0x1FFFFFFF"
+            ids.add(ident)
+    return FrameDrop(frozenset(ids), float(bus.drop_start), float(bus.drop_stop),
+                     float(bus.drop_probability), int(bus.drop_seed), int(bus.drop_count))
 
 
 def channel_of(run_id: int, name: str) -> str:
@@ -117,6 +137,18 @@ class CanBus(Component):
                            f"flood), or {BAD_SHARE:.0%} of the steps over this long had a bus "
                            "error (an error storm); a simulated bus notes it once; 0: never")
 
+    drop_ids = Parameter("", type=STRING, description="a fault: frames of these identifiers "
+                         "('0x00C, 0x02C', decimal or hex) are lost on the bus — received by "
+                         "no one, confirmed to the sender; 'all': every frame; '': no fault")
+    drop_start = Parameter(0.0, unit="s", description="run time the drop fault begins")
+    drop_stop = Parameter(math.inf, unit="s", description="run time the drop fault ends "
+                          "(frames ending on the wire before it are lost)")
+    drop_probability = Parameter(1.0, unit="1", min=0.0, max=1.0, description="each frame "
+                                 "the fault may take is lost with this probability")
+    drop_count = Parameter(0, type="Integer", min=0, description="at most this many frames "
+                           "lost (0: no limit)")
+    drop_seed = Parameter(0, type="Integer", description="seed of the drop fault's draws")
+
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
     load = Output(unit="1", description="fraction of the last step the bus was busy")
@@ -170,6 +202,12 @@ class CanBus(Component):
             if wrong:
                 problems.append(("interface", wrong + ".", "give a python-can interface name, "
                                  "or '' for a bus with no link outside."))
+        if isinstance(drop := drop_fault(self), str):
+            problems.append(("drop_ids", drop, "give identifiers separated by commas (0x00C, "
+                             "12, 0x18FF50E5), 'all', or '' for no fault."))
+        elif drop is not None and not drop.start < drop.stop:
+            problems.append(("drop_stop", f"drop_stop {drop.stop} is not after drop_start "
+                             f"{drop.start}.", "give a window with drop_start < drop_stop."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() != ".arrows"):
@@ -244,8 +282,10 @@ class CanBus(Component):
         self._flood: tuple[deque[tuple[float, bool, Counter[str]]], int] = (deque(), 0)
         self._flood_told = False
         self.gateway: Gateway | None = None
+        drop = drop_fault(self)
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
-                            str(self.stuffing))
+                            str(self.stuffing), fault=drop if isinstance(drop, FrameDrop)
+                            else None)
         stepped = not (self._wallclock or getattr(run, "paced", False))
         self.bus: BusRunner | SteppedBus | None = SteppedBus(self.name, model) if stepped \
             else BusRunner(self.name, channel_of(id(run), self.name), model, self._closed)
@@ -455,6 +495,8 @@ class CanBus(Component):
         out: dict[str, Any] = {"frames": bus.counts["transmit"],
                                "bus_errors": bus.counts["bus_error"],
                                "arbitration_lost": bus.counts["arbitration_lost"]}
+        if str(self.drop_ids).strip():
+            out["dropped"] = bus.counts["dropped"]
         problems = bus.problems()
         if problems:
             out["problems"] = problems[:5]
@@ -465,9 +507,11 @@ class CanBus(Component):
         sent as it terminated (a CAN node FMU's zero torque and disable) go on the wire in
         place of any it had queued; the bus stops when its last participant has left (a drive's
         zero torque and disable still pass, and go out through the link outside), then closes
-        that link and writes its log."""
+        that link and writes its log. A drop fault ends before the last frames."""
         bus = getattr(self, "bus", None)
         if bus is not None:
+            with bus_lock(bus):
+                bus.model.fault = None  # a fault ends with the run: the last frames pass
             self._last_frames(bus)
         bus, self.bus = getattr(self, "bus", None), None
         if isinstance(bus, SteppedBus):

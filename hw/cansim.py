@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import math
+import random
 import re
 from collections import deque
 from dataclasses import dataclass, field
@@ -218,8 +219,9 @@ def priority(frame: can.Message) -> tuple[int, ...]:
 @dataclass(frozen=True)
 class BusEvent:
     """What the bus tells participants: `transmit` (a frame every participant but its sender
-    receives), `confirm`, `arbitration_lost` or `bus_error` (to the sender), at bus time `time`
-    [s]; `start` is when the frame began on the wire (NaN: it never did)."""
+    receives), `confirm`, `arbitration_lost` or `bus_error` (to the sender), `dropped` (a frame
+    the bus's drop fault took: no one receives it, its sender is confirmed; for the log), at
+    bus time `time` [s]; `start` is when the frame began on the wire (NaN: it never did)."""
 
     kind: str
     time: float
@@ -236,6 +238,26 @@ class _Pending:
     time: float
     seq: int
     queued: float = -math.inf  # bus time it was handed over (later than `time` for one late)
+
+
+@dataclass(frozen=True)
+class FrameDrop:
+    """A fault of the bus: frames of identifiers `ids` (all when empty) that end on the wire in
+    [start, stop) [s of run time] are lost — the receivers get nothing, the sender its
+    confirmation (a silent loss, as a gateway or a failing transceiver makes) — each with
+    probability `probability`, drawn from `seed`, at most `count` of them (0: no limit)."""
+
+    ids: frozenset[int] = frozenset()
+    start: float = 0.0
+    stop: float = math.inf
+    probability: float = 1.0
+    seed: int = 0
+    count: int = 0
+
+    def applies(self, frame: can.Message, t: float) -> bool:
+        """Whether `frame`, ending at run time t [s], is one the fault may take."""
+        return self.start <= t < self.stop and (not self.ids or
+                                                frame.arbitration_id in self.ids)
 
 
 @dataclass
@@ -257,8 +279,14 @@ class CanBusModel:
     live: bool = True  # False while the bus comes up or winds down: no ACK errors then
     #: participants whose frames that lose arbitration are dropped, not sent again
     discarding: set[str] = field(default_factory=set)
+    #: frames lost on purpose (a fault injected), or None
+    fault: FrameDrop | None = None
+    #: run time = bus time + run_offset [s] (NaN until the run begins: no fault before)
+    run_offset: float = 0.0
 
     def __post_init__(self) -> None:
+        self._draw = random.Random(self.fault.seed if self.fault else 0).random
+        self.dropped = 0  # frames the fault took
         self._queues: dict[str, deque[_Pending]] = {}
         self._seq = 0
         self._on_wire: tuple[_Pending, float, Timing] | None = None
@@ -267,6 +295,16 @@ class CanBusModel:
 
     def join(self, name: str) -> None:
         self.members.add(name)
+
+    def _lost(self, frame: can.Message, end: float) -> bool:
+        """Whether the drop fault takes `frame`, ending on the wire at bus time `end`."""
+        fault = self.fault
+        if fault is None or not fault.applies(frame, end + self.run_offset) or \
+                (fault.count and self.dropped >= fault.count) or \
+                (fault.probability < 1.0 and self._draw() >= fault.probability):
+            return False
+        self.dropped += 1
+        return True
 
     def leave(self, name: str) -> None:
         """`name` is gone; frames it submitted stay queued (they are on their way)."""
@@ -318,7 +356,13 @@ class CanBusModel:
                 self._on_wire = None
                 self._free_at = start + timing.to_free
                 self.busy_time += timing.to_free
-                if self.members - {item.sender}:
+                if self._lost(item.frame, end):
+                    events.append(BusEvent("dropped", end, item.frame, item.sender,
+                                           "lost on purpose (the bus's drop fault)",
+                                           start=start))
+                    events.append(BusEvent("confirm", end, item.frame, item.sender,
+                                           start=start))
+                elif self.members - {item.sender}:
                     events.append(BusEvent("transmit", end, item.frame, item.sender,
                                            start=start))
                     events.append(BusEvent("confirm", end, item.frame, item.sender,

@@ -191,7 +191,8 @@ class OdriveLink(Link):
             with self.lock:
                 self.beats[node], self.states[node] = now, beat
             if self.running and (beat.axis_error or beat.axis_state != p.AXIS_CLOSED_LOOP):
-                self._latch(Fault(node, f"axis error 0x{beat.axis_error:x}, state "
+                self._latch(Fault(node, f"axis error "
+                                  f"{p.axis_error_text(beat.axis_error, self.firmware)}, state "
                                   f"{beat.axis_state} (heartbeat)",
                                   "read the drive's errors, then Clear_Errors"))
 

@@ -230,6 +230,30 @@ def error_bit(name: str, version: str) -> int:
     return table[firmware_line(version)]
 
 
+@cache
+def _axis_error_bits(line: str) -> dict[int, str]:
+    """Bit -> name of the heartbeat's Axis_Error in the firmware line's DBC (its value table)."""
+    import cantools
+
+    db = cantools.database.load_file(str(dbc_path(line + ".0")))
+    assert isinstance(db, cantools.database.can.Database)
+    signal = db.get_message_by_frame_id(HEARTBEAT).get_signal_by_name("Axis_Error")
+    return {int(k): str(v) for k, v in (signal.choices or {}).items() if int(k) > 0}
+
+
+def axis_error_text(code: int, version: str) -> str:
+    """An axis error as '0x1000000 (WATCHDOG_TIMER_EXPIRED)': the bits named by the firmware's
+    DBC, any unnamed ones in hex."""
+    try:
+        bits = _axis_error_bits(firmware_line(version))
+    except Exception:  # noqa: BLE001 - a name is a courtesy; the code is the fact
+        bits = {}
+    names = [name for bit, name in sorted(bits.items()) if code & bit]
+    rest = code & ~sum(bit for bit in bits if code & bit)
+    names += [f"0x{rest:x}"] if rest and names else []
+    return f"0x{code:x}" + (f" ({' | '.join(names)})" if names else "")
+
+
 def decode_heartbeat(data: bytes, version: str) -> Heartbeat:
     values = _HEARTBEAT[firmware_line(version)].unpack_from(data)
     return Heartbeat(values[0], values[1], values[2])

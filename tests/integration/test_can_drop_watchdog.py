@@ -1,0 +1,65 @@
+"""A lost torque frame on purpose: the bench scenario (emulated ODrives 0.6.10 on a `can_bus`
+block) with the bus's drop fault on node 0's Set_Input_Torque from t = 0.3 s. The frame log,
+decoded with cantools from the firmware's own DBC, shows the drive's axis watchdog (0.1 s, set
+by the host) tripping — WATCHDOG_TIMER_EXPIRED, axis IDLE (no torque) — and the host stopping
+the run on that heartbeat with zero torque and the drives disabled."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cantools
+import pytest
+
+from tests.integration.test_hw_canbus import bench, last_commands
+from twmr.api import simulate
+from twmr.hw import protocol as p
+from twmr.hw.canbus import read_log
+
+pytestmark = pytest.mark.timeout(120)
+
+DROP_AT = 0.3  # [s]
+TORQUE_0 = p.can_id(0, p.SET_INPUT_TORQUE)
+
+
+def test_a_dropped_torque_frame_trips_the_drive_watchdog(tmp_path: Path) -> None:
+    text = bench(2.0, True).replace(
+        "parameters: {bitrate: 1000000}",
+        f"parameters: {{bitrate: 1000000, drop_ids: '{TORQUE_0:#x}', drop_start: {DROP_AT}}}")
+    (tmp_path / "drop.yaml").write_text(text)
+    with pytest.raises(Exception, match=r"drive node 0: axis error 0x1000000 "
+                                        r"\(WATCHDOG_TIMER_EXPIRED\), state 1") as err:
+        simulate(tmp_path / "drop.yaml", out=tmp_path / "run")
+    assert "Torque set to zero and drives disabled" in str(err.value)
+
+    log = read_log(tmp_path / "run.incomplete" / "can0_frames.arrows")
+    lost = log[log.event == "dropped"]
+    assert len(lost) > 10 and set(lost.id.astype(int)) == {TORQUE_0}
+    assert lost.time.min() >= DROP_AT and set(lost.sender) == {"motor"}
+    # node 1's torque frames pass: the fault takes only the identifier named
+    sent = log[log.event == "transmit"]
+    torque_1 = sent[sent.id.astype(int) == p.can_id(1, p.SET_INPUT_TORQUE)]
+    assert (torque_1.time > DROP_AT).sum() > 10
+
+    # the drive's side, read from its heartbeats with cantools and the DBC of its firmware
+    db = cantools.database.load_file(str(p.dbc_path("0.6.10")))
+    beats = sent[sent.id.astype(int) == p.can_id(0, p.HEARTBEAT)]
+    decoded = [(t, db.decode_message(p.HEARTBEAT, bytes(d), decode_choices=False))
+               for t, d in zip(beats.time, beats.data, strict=True)]
+    tripped = [(t, m) for t, m in decoded if m["Axis_Error"]]
+    assert tripped, "no heartbeat of node 0 reports an axis error"
+    t_trip, first = tripped[0]
+    assert first["Axis_Error"] == p.error_bit("watchdog", "0.6.10")
+    assert first["Axis_State"] == p.AXIS_IDLE
+    # the watchdog (0.1 s) runs on the drive's clock from the last torque frame it received
+    assert t_trip >= DROP_AT + 0.1 - 0.01
+    assert all(m["Axis_Error"] == 0 for t, m in decoded if t < DROP_AT)
+
+    # the stop: the host's last frames to each node are zero torque and Estop; node 0's zero
+    # torque is lost to the fault as its others were (the run stopped inside the fault's
+    # window), and the Estop, another identifier, stops the drive all the same
+    host = sent[sent.sender == "motor"]
+    per_node = last_commands(zip(host.id, host.data, strict=True))
+    estop = [(p.ESTOP, p.encode_estop(node)[1]) for node in (0, 1)]
+    assert per_node[1][-2:] == [(p.SET_INPUT_TORQUE, p.encode_torque(1, 0.0, 1.0)[1]), estop[1]]
+    assert per_node[0][-1] == estop[0]
+    assert bytes(lost.data.iloc[-1]) == p.encode_torque(0, 0.0, 1.0)[1]
