@@ -1,6 +1,6 @@
-"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | inspect |
-export, plus the subcommands installed packages register (`twmr.commands` entry points: compare,
-emulate-drive, replay).
+"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | verify |
+inspect | export, plus the subcommands installed packages register (`twmr.commands` entry
+points: compare, emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
@@ -211,6 +211,19 @@ def cmd_plot(args: argparse.Namespace) -> int:
                          ports=result.summary.get("ports")):
         print(p)
     return 0
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    from twmr.verify import Tolerance, plot, verify
+
+    signals = [n.strip() for n in ",".join(args.signals).split(",") if n.strip()] or None
+    verdict = verify(args.run, args.reference, Tolerance(args.abs, args.rel, args.shift),
+                     signals)
+    print(verdict.text())
+    if args.plot:
+        for p in plot(verdict, args.plot):
+            print(p)
+    return 0 if verdict.passed else 1
 
 
 def cmd_inspect(args: argparse.Namespace) -> int:
@@ -511,6 +524,23 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     pl.add_argument("result")
     pl.add_argument("--out")
     pl.set_defaults(fn=cmd_plot)
+    ve = sub.add_parser("verify", parents=[common],
+                        help="check a run against a reference within tolerance tubes (exit 1 "
+                        "when a signal leaves its tube)")
+    ve.add_argument("run", help="the run's folder or a result file")
+    ve.add_argument("--reference", required=True, help="the reference: a run's folder, a "
+                    "result file, or a CSV ('name [unit]' headers or units.json beside it)")
+    ve.add_argument("--signals", action="append", default=[], metavar="NAMES",
+                    help="signals to check, comma-separated (default: every one both have)")
+    ve.add_argument("--abs", type=float, default=0.0, help="absolute tolerance, in each "
+                    "signal's unit (default 0)")
+    ve.add_argument("--rel", type=float, default=1e-3, help="tolerance relative to the "
+                    "reference's magnitude (default 1e-3)")
+    ve.add_argument("--shift", type=float, default=0.0, help="time tolerance [s]: the tube "
+                    "spans the reference over t +- shift (default 0)")
+    ve.add_argument("--plot", metavar="FILE", help="write the tubes and the run as FILE.png "
+                    "and FILE.svg")
+    ve.set_defaults(fn=cmd_verify)
     sw = sub.add_parser("sweep", parents=[common],
                         help="run a scenario over varied parameters (Monte Carlo) on Dask")
     sw.add_argument("scenario", help="the scenario, or a sweep file (YAML with vary:)")

@@ -13,6 +13,9 @@ The harness keeps the life cycle in order (prepare, setup, initialize before any
 once, also when the test fails inside `with`), checks every value through the port that takes it
 (size, type, min/max), and keeps time as start + n h like the master, so what passes here behaves
 the same inside a scenario.
+
+`assert_matches(run, reference, abs=, rel=, shift=)`: a run stays inside the tolerance tubes
+around a reference result (what `twmr verify` checks).
 """
 from __future__ import annotations
 
@@ -130,3 +133,17 @@ class Harness:
 
     def __exit__(self, *exc: Any) -> None:
         self.terminate()
+
+
+def assert_matches(run: str | Path | Any, reference: str | Path | Any, *, abs: float = 0.0,
+                   rel: float = 1e-3, shift: float = 0.0,
+                   signals: list[str] | None = None) -> Any:
+    """Assert that `run` (a run's folder, a result file or a `Result`) stays inside the
+    tolerance tubes around `reference` (`twmr.verify`: abs + rel |reference|, time shift
+    [s]); AssertionError with the table `twmr verify` prints. Returns the verdict."""
+    from twmr.verify import Tolerance, verify
+
+    verdict = verify(run, reference, Tolerance(abs, rel, shift), signals)
+    if not verdict.passed:
+        raise AssertionError(verdict.text())
+    return verdict

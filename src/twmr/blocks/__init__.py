@@ -7,7 +7,8 @@ Registered as component kinds like any other: `constant`, `sine`, `step`, `gain`
 `product`, `math` (`twmr.blocks.routing`); `ramp`, `pulse`, `table`, `noise`, `chirp`
 (`twmr.blocks.signals`); `saturation`, `dead_zone`, `rate_limiter`, `quantizer`, `backlash`,
 `relay`, `lookup_1d`, `lookup_2d` (`twmr.blocks.nonlinear`); `port_fault` (`twmr.blocks.faults`,
-what a scenario's `events:` inserts on a wire). docs/blocks.md describes them.
+what a scenario's `events:` inserts on a wire); `data` (`twmr.blocks.data`: measured samples
+played from a file). docs/blocks.md describes them.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from typing import Any
 #: each block class by the module that defines it, imported when first named (a scenario of a
 #: sine and a gain loads two modules, not the whole library)
 _MODULES = {
+    "data": ("Data",),
     "discrete": ("FirstOrder", "Pid", "TransferFunction", "TransportDelay", "ZeroOrderHold"),
     "faults": ("PortFault",),
     "linear": ("Delay", "Gain", "Integrator", "StateSpace", "Sum"),
@@ -28,12 +30,11 @@ _MODULES = {
 }
 _WHERE = {name: module for module, names in _MODULES.items() for name in names}
 
-__all__ = ["Backlash", "Chirp", "Constant", "DeadZone", "Delay", "Demux", "FirstOrder", "Gain",
-           "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid", "PortFault",
-           "Product",
-           "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay", "Saturation", "Selector", "Sine",
-           "StateSpace", "Step", "Sum", "Table", "TransferFunction", "TransportDelay",
-           "ZeroOrderHold"]
+__all__ = ["Backlash", "Chirp", "Constant", "Data", "DeadZone", "Delay", "Demux", "FirstOrder",
+           "Gain", "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid",
+           "PortFault", "Product", "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay",
+           "Saturation", "Selector", "Sine", "StateSpace", "Step", "Sum", "Table",
+           "TransferFunction", "TransportDelay", "ZeroOrderHold"]
 
 
 def __getattr__(name: str) -> Any:

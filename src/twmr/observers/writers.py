@@ -144,7 +144,10 @@ class Csv(ResultFormat):
 
         with open(path) as f:
             columns = next(csv.reader([f.readline()]))
-        values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        try:
+            values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        except ValueError:  # a column of text, an empty cell: NaN there, the numbers kept
+            values = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
         try:
             unit_of = json.loads((path.parent / UNITS_FILE).read_text())
         except (OSError, ValueError):
@@ -218,10 +221,14 @@ class Parquet(ResultFormat):
         pq.write_table(pa.table(columns), path)
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
         table = pq.read_table(path)
+        numeric = [f.name for f in table.schema if pa.types.is_integer(f.type) or
+                   pa.types.is_floating(f.type) or pa.types.is_boolean(f.type)]
+        table = table.select(numeric)  # a file written by another tool may hold text too
         units = [(f.metadata or {}).get(b"unit", b"").decode() for f in table.schema]
-        values = np.column_stack([c.to_numpy() for c in table.columns]) if table.num_rows \
-            else np.zeros((0, table.num_columns))
+        values = np.column_stack([c.to_numpy().astype(float) for c in table.columns]) \
+            if table.num_rows else np.zeros((0, table.num_columns))
         return list(table.column_names), units, values
