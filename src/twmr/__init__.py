@@ -16,7 +16,7 @@ _FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", 
                           "sweep", "tune"), "twmr.api"),
          **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
                          "twmr.core"),
-         "Kernel": "twmr.core.kernel", "Options": "twmr.core.run"}
+         "Kernel": "twmr.core.kernel", "Options": "twmr.core.run", "fit": "twmr.fitting"}
 __all__ = sorted([*_FROM, "__version__"])
 
 

@@ -1,5 +1,5 @@
-"""`twmr` command line: run | check | sweep | sweep-report | tune | components | plot | verify |
-inspect | export, plus the subcommands installed packages register (`twmr.commands` entry
+"""`twmr` command line: run | check | sweep | sweep-report | tune | fit | components | plot |
+verify | inspect | export, plus the subcommands installed packages register (`twmr.commands` entry
 points: compare, emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
@@ -210,6 +210,34 @@ def cmd_plot(args: argparse.Namespace) -> int:
     for p in plot_result(result.data, result.units, out, title=path.stem,
                          ports=result.summary.get("ports")):
         print(p)
+    return 0
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from twmr.fitting import Experiment, fit
+
+    pairs = {}
+    for part in ",".join(args.match).split(","):
+        model, _, column = part.partition("=")
+        if model.strip():
+            pairs[model.strip()] = column.strip() or model.strip()
+    sigma = {}
+    for part in args.sigma:
+        name, sep, value = part.partition("=")
+        try:
+            sigma[name.strip()] = float(value)
+        except ValueError:
+            raise CosimError(f"--sigma {part!r}: not NAME=VALUE. Fix: e.g. --sigma "
+                             f"plant.pose[1]=0.01.") from None
+        if not sep:
+            raise CosimError(f"--sigma {part!r}: not NAME=VALUE. Fix: e.g. --sigma "
+                             f"plant.pose[1]=0.01.")
+    scenario = Path(args.scenario)
+    out = Path(args.out) if args.out else Path("fits") / (scenario.stem or "scenario")
+    result = fit(scenario, [Experiment(d) for d in args.data], args.estimate, pairs,
+                 sigma=sigma, overrides=args.set, out=out, max_runs=args.max_runs)
+    print(result.text())
+    print(f"fit.json, fitted.yaml and residuals.png in {out}/")
     return 0
 
 
@@ -524,6 +552,27 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     pl.add_argument("result")
     pl.add_argument("--out")
     pl.set_defaults(fn=cmd_plot)
+    fi = sub.add_parser("fit", parents=[common],
+                        help="estimate parameters and initial states so that runs match "
+                        "measured signals (least squares, confidence intervals)")
+    fi.add_argument("scenario")
+    fi.add_argument("--data", action="append", required=True, metavar="RUN_OR_FILE",
+                    help="measured data: a run's folder or a result file (CSV, Parquet, .mat); "
+                    "repeat for several experiments (a run folder brings its overrides)")
+    fi.add_argument("--estimate", action="append", required=True, metavar="NAME=LO:HI[@START]",
+                    help="a parameter or initial-state element to estimate within LO..HI "
+                    "(repeatable), e.g. plant.scale=0.5:2")
+    fi.add_argument("--match", action="append", required=True, metavar="SIGNALS",
+                    help="model signals to match, comma-separated; MODEL=COLUMN for a data "
+                    "column of another name")
+    fi.add_argument("--sigma", action="append", default=[], metavar="NAME=VALUE",
+                    help="a signal's measurement standard deviation (default: the data's)")
+    fi.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="override for every run (repeatable)")
+    fi.add_argument("--max-runs", type=int, default=200, help="at most this many runs")
+    fi.add_argument("--out", help="folder of the fit (default fits/<scenario>); a fit asked "
+                    "again there resumes")
+    fi.set_defaults(fn=cmd_fit)
     ve = sub.add_parser("verify", parents=[common],
                         help="check a run against a reference within tolerance tubes (exit 1 "
                         "when a signal leaves its tube)")

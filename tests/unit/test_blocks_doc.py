@@ -11,7 +11,7 @@ from twmr.registry import lookup
 from twmr.scenario import loads
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "blocks.md"
-SOURCES = ["ramp", "pulse", "table", "noise", "chirp"]
+SOURCES = ["ramp", "pulse", "table", "data", "noise", "chirp"]
 NONLINEAR = ["saturation", "dead_zone", "rate_limiter", "quantizer", "backlash", "relay",
              "lookup_1d", "lookup_2d"]
 DISCRETE = ["transfer_function", "pid", "transport_delay", "zero_order_hold", "first_order",

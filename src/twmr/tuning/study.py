@@ -662,24 +662,8 @@ def _write(outcome: TuneOutcome, spec: TuneSpec, scenario: Any) -> None:
 def best_yaml(scenario: Any, spec: TuneSpec, best: dict[str, Any]) -> str | None:
     """The scenario's YAML with the best trial's parameters (and the --set overrides) set; None
     for a scenario that is no YAML text (an SSP)."""
-    import yaml
+    from twmr.scenario.written import yaml_with
 
-    if not isinstance(scenario.content, str):
-        log.warning("best.yaml not written: %s is not a YAML scenario; the best parameters are "
-                    "in %s", scenario.source, TRIALS)
-        return None
-    data = yaml.safe_load(scenario.content)
-    settings = [(s.partition("=")[0], yaml.safe_load(s.partition("=")[2])) for s in spec.fixed]
-    settings += [(p.name, best[p.name]) for p in spec.params]
-    for name, value in settings:
-        comp, _, param = name.strip().rpartition(".")
-        if comp == "experiment":
-            data.setdefault("experiment", {})[param] = value
-        elif param == "step_multiple":
-            data["components"][comp][param] = value
-        else:
-            entry = data["components"][comp]
-            entry.setdefault("parameters", {})[param] = value
     held = "".join(f", on {spec.validation if part == VALIDATION else spec.test} {part} "
                    f"realisation(s) {best[f'{part}_objective']:.6g}"
                    for part in (VALIDATION, TEST) if f"{part}_objective" in best)
@@ -687,4 +671,6 @@ def best_yaml(scenario: Any, spec: TuneSpec, best: dict[str, Any]) -> str | None
             f"of {spec.objective.text} over {spec.realisations} realisation(s) = "
             f"{best['objective']:.6g} (spread {best['spread']:.3g}){held}\n"
             f"# relative paths in it are relative to {scenario.base_dir}\n")
-    return head + yaml.safe_dump(data, sort_keys=False)
+    settings: list[str | tuple[str, Any]] = [*spec.fixed]
+    settings += [(p.name, best[p.name]) for p in spec.params]
+    return yaml_with(scenario, settings, head)
