@@ -16,7 +16,8 @@ _FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", 
                           "sweep", "tune"), "twmr.api"),
          **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
                          "twmr.core"),
-         "Kernel": "twmr.core.kernel", "Options": "twmr.core.run", "fit": "twmr.fitting"}
+         "Kernel": "twmr.core.kernel", "Options": "twmr.core.run", "fit": "twmr.fitting",
+         "linearize": "twmr.linear_analysis"}
 __all__ = sorted([*_FROM, "__version__"])
 
 

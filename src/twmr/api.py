@@ -82,15 +82,21 @@ class Scenario:
         return stem or "scenario"
 
 
-def load(source: str | Path | dict[str, Any] | ScenarioSpec,
+def load(source: str | Path | dict[str, Any] | ScenarioSpec | Scenario,
          overrides: Sequence[str] = ()) -> Scenario:
     """A scenario from a YAML file path, a YAML string, a dict or a `ScenarioSpec` (the typed
     structure, `twmr.scenario.structure`), with `comp.name=value` overrides (also
-    `experiment.stop|step|start|algorithm|realtime=...` and `comp.step_multiple=m`). Raises
-    `ScenarioError` listing every problem found."""
+    `experiment.stop|step|start|algorithm|realtime=...` and `comp.step_multiple=m`); a loaded
+    `Scenario` as it is, or with more overrides. Raises `ScenarioError` listing every problem
+    found."""
     from twmr.scenario.loaders import load_yaml, loader_of
 
-    if isinstance(source, ScenarioSpec):
+    if isinstance(source, Scenario):
+        if not overrides:
+            return source
+        scenario = Scenario(source.source, source.content, source.base_dir,
+                            (*source.overrides, *overrides))
+    elif isinstance(source, ScenarioSpec):
         scenario = Scenario(source.source, source, source.base_dir, tuple(overrides))
     elif isinstance(source, dict):
         scenario = Scenario("<dict>", source, Path.cwd(), tuple(overrides))

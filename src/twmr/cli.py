@@ -1,6 +1,6 @@
-"""`twmr` command line: run | check | sweep | sweep-report | tune | fit | components | plot |
-verify | inspect | export, plus the subcommands installed packages register (`twmr.commands` entry
-points: compare, emulate-drive, replay).
+"""`twmr` command line: run | check | sweep | sweep-report | tune | fit | linearize | components |
+plot | verify | inspect | export, plus the subcommands installed packages register
+(`twmr.commands` entry points: compare, emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
 shows it), and exit with status 1; results computed before a failure are already on disk.
@@ -238,6 +238,55 @@ def cmd_fit(args: argparse.Namespace) -> int:
                  sigma=sigma, overrides=args.set, out=out, max_runs=args.max_runs)
     print(result.text())
     print(f"fit.json, fitted.yaml and residuals.png in {out}/")
+    return 0
+
+
+def cmd_linearize(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from twmr import api
+    from twmr.linear_analysis import bode_figure, linearize, loop_at, source_of
+
+    scenario = api.load(Path(args.scenario), args.set)
+    inputs, outputs = list(args.input), list(args.output)
+    if args.loop:
+        source = source_of(scenario, args.loop)
+        if not source or inputs or outputs:
+            raise CosimError(f"--loop {args.loop}: " + ("give it alone, without --input and "
+                             "--output." if source else "no wire feeds this input. Fix: give "
+                             "an input port a wire feeds (COMP.PORT)."))
+        inputs, outputs = [args.loop], [source]
+    model = linearize(scenario, inputs, outputs, at=args.at, horizon=args.horizon,
+                      amplitude=args.amplitude, order=args.order, tol=args.tol)
+    out = Path(args.out) if args.out else Path("linear") / Path(args.scenario).stem
+    out.mkdir(parents=True, exist_ok=True)
+    plain = model.plain()
+    loop = loop_at(model) if args.loop else None
+    lines = [f"linear model at t = {model.at:g} s, step {model.dt:g} s: {model.order} states; "
+             f"fit error {model.fit_error:.2g}, nonlinearity {model.nonlinearity:.2g}",
+             "discrete poles z: " + ", ".join(
+                 f"{complex(z):.6g}" for z in np.sort_complex(model.poles()))]
+    if loop is not None:
+        import control
+
+        gm, pm, wcg, wcp = control.margin(loop)
+        plain["loop"] = {"gain_margin": gm, "phase_margin_deg": pm, "phase_crossover_rad_s": wcg,
+                         "gain_crossover_rad_s": wcp}
+        lines.append(f"loop at {args.loop} (fed by {outputs[0]}): gain margin {gm:.6g} "
+                     f"({20 * np.log10(gm):.4g} dB) at {wcg:.6g} rad/s, phase margin {pm:.6g} "
+                     f"deg at {wcp:.6g} rad/s")
+    (out / "linear.json").write_text(json.dumps(plain, indent=2))
+    np.savez(out / "linear.npz", A=model.A, B=model.B, C=model.C, D=model.D, dt=model.dt,
+             markov=model.markov)
+    try:
+        (out / "state_space.yaml").write_text(model.block_yaml())
+    except CosimError as err:
+        lines.append(f"no state_space.yaml: {err}")
+    bode_figure(model, out / "bode", loop)
+    print("\n".join(lines))
+    print(f"linear.json, linear.npz, state_space.yaml and bode.png in {out}/")
     return 0
 
 
@@ -573,6 +622,28 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     fi.add_argument("--out", help="folder of the fit (default fits/<scenario>); a fit asked "
                     "again there resumes")
     fi.set_defaults(fn=cmd_fit)
+    li = sub.add_parser("linearize", parents=[common],
+                        help="the linear model (A, B, C, D) of a scenario around a point of its "
+                        "run; Bode plot, poles, margins of a loop broken at a wire")
+    li.add_argument("scenario")
+    li.add_argument("--input", action="append", default=[], metavar="COMP.PORT",
+                    help="a scalar port perturbed at its wire (repeatable)")
+    li.add_argument("--output", action="append", default=[], metavar="COMP.PORT",
+                    help="a port whose response is measured (repeatable)")
+    li.add_argument("--loop", metavar="COMP.PORT", help="break the loop at this input's wire: "
+                    "its loop transfer and margins")
+    li.add_argument("--at", type=float, required=True, help="the point: a time of the run [s]")
+    li.add_argument("--horizon", type=int, default=200, help="steps of impulse response "
+                    "(default 200)")
+    li.add_argument("--amplitude", type=float, default=1e-3, help="height of the pulse, in "
+                    "the input's unit (default 1e-3)")
+    li.add_argument("--order", type=int, help="states of the model (default: from the Hankel "
+                    "singular values)")
+    li.add_argument("--tol", type=float, default=1e-7, help="relative Hankel singular value "
+                    "below which a state is dropped")
+    li.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
+    li.add_argument("--out", help="folder of the model and plots (default linear/<scenario>)")
+    li.set_defaults(fn=cmd_linearize)
     ve = sub.add_parser("verify", parents=[common],
                         help="check a run against a reference within tolerance tubes (exit 1 "
                         "when a signal leaves its tube)")

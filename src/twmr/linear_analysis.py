@@ -1,0 +1,309 @@
+"""Linear models of any scenario around a point of its run (`twmr linearize`, `twmr.linearize`):
+a one-step pulse of height +-amplitude added at each input port at time `at` (a `bias` event, so
+FMUs, hardware-free subsystems and compiled loops alike are perturbed as a wire would be), the
+outputs' responses over `horizon` steps differenced centrally ((y+ - y-) / 2 amplitude, the
+impulse response of the linearisation: its Markov parameters), and a minimal state-space
+realisation of them by the eigensystem realisation algorithm (ERA: an SVD of their Hankel
+matrix; Juang and Pappa, 1985). The model is discrete at the base step h, as the co-simulation
+is (a step is a sample; zero-order hold between them); `continuous()` converts it by the matrix
+logarithm where that exists.
+
+Reported with it: the Hankel singular values (the order chosen where they fall below `tol` of
+the largest), how well the model reproduces the measured impulse response (relative error),
+and how far the response is from linear at that amplitude ((y+ + y- - 2 y0) / (y+ - y-),
+relative: 0 for a linear system). Exact for a system that is linear around a steady point;
+around a point of a trajectory the model is that of the step map from `at` on, and the
+nonlinearity figure says how far to trust it.
+
+`loop_at(port)`: the loop transfer at a wire — the perturbation enters at the input `port`,
+the response is read at the output feeding it: T = -L / (1 + L), so L = -T / (1 + T) (negative
+feedback convention), whose margins python-control computes.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twmr.core.errors import CosimError, Location
+
+#: default relative Hankel singular value below which a state is dropped
+TOL = 1e-7
+
+
+@dataclass
+class LinearModel:
+    """x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k] at step `dt` [s], around time `at`, for
+    the input ports `inputs` and output columns `outputs`."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    dt: float
+    at: float
+    inputs: list[str]
+    outputs: list[str]
+    singular_values: np.ndarray
+    fit_error: float
+    nonlinearity: float
+    markov: np.ndarray  # (horizon + 1) x p x m, the measured impulse response
+
+    @property
+    def order(self) -> int:
+        return int(self.A.shape[0])
+
+    def ss(self) -> Any:
+        """The model as a python-control discrete `StateSpace`."""
+        import control
+
+        return control.ss(self.A, self.B, self.C, self.D, self.dt)
+
+    def poles(self) -> np.ndarray:
+        """Discrete poles z (eigenvalues of A), and their continuous equivalents log(z) / dt."""
+        return np.linalg.eigvals(self.A)
+
+    def continuous(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(A, B, C, D) of the continuous system whose zero-order-hold discretisation this is;
+        CosimError when A has an eigenvalue on the negative real axis or at 0 (no real
+        logarithm: the discrete model has no continuous twin)."""
+        from scipy.linalg import logm
+
+        n, m = self.order, self.B.shape[1]
+        z = np.linalg.eigvals(self.A)
+        if np.any((np.abs(z.imag) < 1e-12) & (z.real <= 0)):
+            raise CosimError("the discrete model has a pole on the negative real axis or at 0 "
+                             "(a delay, a discrete block, a sampled loop): it has no continuous "
+                             "twin. Fix: use the discrete model (A, B, C, D at dt).")
+        big = np.zeros((n + m, n + m))
+        big[:n, :n], big[:n, n:], big[n:, n:] = self.A, self.B, np.eye(m)
+        log = logm(big) / self.dt
+        if np.abs(log.imag).max(initial=0.0) > 1e-9 * max(1.0, np.abs(log).max()):
+            raise CosimError("the discrete model's matrix logarithm is not real. Fix: use the "
+                             "discrete model.")
+        log = log.real
+        return log[:n, :n], log[:n, n:], self.C, self.D
+
+    def plain(self) -> dict[str, Any]:
+        """JSON-ready: the matrices, dt, the point, the ports and the quality figures."""
+        return {"A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(),
+                "D": self.D.tolist(), "dt": self.dt, "at": self.at, "inputs": self.inputs,
+                "outputs": self.outputs, "order": self.order,
+                "singular_values": self.singular_values.tolist(), "fit_error": self.fit_error,
+                "nonlinearity": self.nonlinearity,
+                "poles": [[float(p.real), float(p.imag)] for p in self.poles()]}
+
+    def block_yaml(self, name: str = "lin") -> str:
+        """A `state_space` component (continuous, discretised back exactly by the block) that
+        plugs into a scenario in place of what was linearised (its outputs as deviations from
+        their values at `at`)."""
+        import yaml
+
+        a, b, c, d = self.continuous()
+        params = {"n_in": len(self.inputs), "n_out": len(self.outputs), "A": a.tolist(),
+                  "B": b.tolist(), "C": c.tolist(),
+                  "D": float(d[0, 0]) if d.size == 1 else d.tolist()}
+        head = (f"# linearised at t = {self.at:g} s: inputs {', '.join(self.inputs)}; outputs "
+                f"{', '.join(self.outputs)} (deviations from their values then)\n")
+        return head + yaml.safe_dump({name: {"kind": "state_space", "parameters": params}},
+                                     sort_keys=False)
+
+
+def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequence[str], *,
+              at: float, horizon: int = 200, amplitude: float = 1e-3,
+              order: int | None = None, tol: float = TOL,
+              overrides: Sequence[str] = ()) -> LinearModel:
+    """The discrete linear model from the input ports `inputs` (scalar ports, each perturbed at
+    the wire) to the output ports `outputs` (their elements), around time `at` [s] of a run of
+    `scenario`, from the impulse response over `horizon` steps; order from the Hankel singular
+    values above `tol` of the largest, or `order`."""
+    from twmr.api import load
+
+    if not inputs or not outputs:
+        raise CosimError("linearize needs at least one input and one output port. Fix: give "
+                         "--input COMP.PORT and --output COMP.PORT.")
+    if not (math.isfinite(amplitude) and amplitude > 0):
+        raise CosimError(f"amplitude {amplitude} is not above 0. Fix: give a small positive "
+                         f"pulse height in the input's unit.")
+    if horizon < 4:
+        raise CosimError(f"horizon {horizon} is too short. Fix: give at least 4 steps.")
+    base = load(scenario, list(overrides))
+    system = base.system
+    h = float(system.experiment.step)
+    start = float(system.experiment.start)
+    k0 = round((at - start) / h) if math.isfinite(at) else -1
+    if k0 < 0 or abs(start + k0 * h - at) > 1e-9 * max(1.0, abs(at)):
+        raise CosimError(f"at = {at:g} s is not a communication point of the run (start "
+                         f"{start:g} s, step {h:g} s). Fix: give start + k step.")
+    for port in inputs:
+        _scalar_input(port, system)
+    t_at = start + k0 * h
+    stop = t_at + horizon * h
+    plus, minus = [], []
+    y0, columns = _run(base.spec, None, t_at, h, stop, outputs)
+    for j in range(len(inputs)):
+        yp, _ = _run(base.spec, (inputs[j], amplitude), t_at, h, stop, outputs)
+        ym, _ = _run(base.spec, (inputs[j], -amplitude), t_at, h, stop, outputs)
+        plus.append(yp)
+        minus.append(ym)
+    # rows from `at` on: Markov parameters M[k] (p x m) = response at at + k h per unit pulse
+    markov = np.stack([(yp - ym) / (2 * amplitude) for yp, ym in zip(plus, minus, strict=True)],
+                      axis=-1)
+    curvature = np.stack([(yp + ym - 2 * y0) for yp, ym in zip(plus, minus, strict=True)],
+                         axis=-1)
+    spread = np.abs(markov).max() * 2 * amplitude
+    nonlinearity = float(np.abs(curvature).max() / spread) if spread > 0 else 0.0
+    A, B, C, D, sv = era(markov, order, tol)
+    fit_error = _fit_error(markov, A, B, C, D)
+    return LinearModel(A, B, C, D, h, t_at, list(inputs), columns, sv, fit_error,
+                       nonlinearity, markov)
+
+
+def era(markov: np.ndarray, order: int | None = None, tol: float = TOL
+        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A, B, C, D and the Hankel singular values of a minimal realisation of the Markov
+    parameters `markov` ((N + 1) x p x m: D, CB, CAB, ...), by the eigensystem realisation
+    algorithm."""
+    n_markov, p, m = markov.shape
+    r = (n_markov - 2) // 2
+    hankel0 = np.block([[markov[1 + i + j] for j in range(r)] for i in range(r)])
+    hankel1 = np.block([[markov[2 + i + j] for j in range(r)] for i in range(r)])
+    u, s, vt = np.linalg.svd(hankel0)
+    if order is None:
+        order = int(np.sum(s > tol * s[0])) if s[0] > 0 else 0
+    if order < 1:
+        raise CosimError("the outputs do not respond to the inputs over the horizon (every "
+                         "Hankel singular value is 0). Fix: check that the inputs reach the "
+                         "outputs, and give a longer horizon.")
+    if order > len(s):
+        raise CosimError(f"order {order} is above what the horizon can show ({len(s)}). Fix: "
+                         f"give a longer horizon.")
+    root = np.sqrt(s[:order])
+    un, vn = u[:, :order], vt[:order, :].T
+    a = (un / root).T @ hankel1 @ (vn / root)
+    b = (root[:, None] * vn.T)[:, :m]
+    c = (un * root)[:p, :]
+    return a, b, c, markov[0].copy(), s
+
+
+def _fit_error(markov: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
+               d: np.ndarray) -> float:
+    """|measured - model| / |measured| over the impulse response."""
+    model = np.empty_like(markov)
+    model[0] = d
+    x = b
+    for k in range(1, len(markov)):
+        model[k] = c @ x
+        x = a @ x
+    norm = np.linalg.norm(markov)
+    return float(np.linalg.norm(markov - model) / norm) if norm > 0 else 0.0
+
+
+def _scalar_input(port: str, system: Any) -> None:
+    comp, _, name = port.rpartition(".")
+    c = system.components.get(comp)
+    if c is None or name not in c.variables:
+        from twmr.registry import suggest
+
+        where = list(system.components) if c is None else list(c.inputs) + list(c.outputs)
+        raise CosimError(f"'{port}' names no port of the scenario"
+                         f"{suggest(comp if c is None else name, where)}. Fix: give COMP.PORT "
+                         f"of a wired port.")
+    if c.variables[name].width != 1:
+        raise CosimError(f"'{port}' has {c.variables[name].width} elements: an input is "
+                         f"perturbed whole, so it must be a scalar port. Fix: linearise from a "
+                         f"scalar port (a demux's output, one element's wire).")
+
+
+def _run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
+         outputs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+    """The outputs' rows from `at` to `stop` (one per step) of a run of `spec` with a pulse of
+    (port, height) over [at, at + h) (None: a pulse of 0, the same blocks)."""
+    from twmr.api import load, simulate
+    from twmr.scenario.structure import EventSpec, Given, RecordingSpec
+
+    where = Location("<linearize>", 0, "events")
+    port, value = pulse if pulse is not None else (None, 0.0)
+    events = tuple(spec.events)
+    if port is not None:
+        events += (EventSpec(Given(at, where), Given(at + h, where), Given(port, where),
+                             Given("bias", where), Given(value, where), None, where),)
+    record = RecordingSpec(tuple(Given(o, where) for o in outputs), Given(1, where), where)
+    experiment = dataclasses.replace(spec.experiment, stop=Given(stop, where),
+                                     realtime=Given(False, where))
+    changed = dataclasses.replace(spec, events=events, record=record, experiment=experiment)
+    result = simulate(load(changed), None)
+    columns = [c for c in result.columns if c != "time"]
+    t = np.asarray(result["time"])
+    rows = result.values[t >= at - 1e-9 * h, 1:]
+    return np.asarray(rows, dtype=float), columns
+
+
+def loop_at(model: LinearModel) -> Any:
+    """The loop transfer L = -T / (1 + T) of a model from one input port to the output that
+    feeds it (python-control, discrete)."""
+    import control
+
+    if len(model.inputs) != 1 or len(model.outputs) != 1:
+        raise CosimError("a loop is broken at one wire: one input port and the one output that "
+                         "feeds it. Fix: give --loop COMP.PORT alone.")
+    return control.feedback(-model.ss(), 1, sign=1)
+
+
+def source_of(scenario: Any, port: str) -> str:
+    """The output that feeds input `port` ('' when none)."""
+    from twmr.scenario.graph import parse_end
+
+    comp, _, name = port.rpartition(".")
+    for wire in scenario.spec.connections:
+        left, _, right = str(wire.value).partition("->")
+        try:
+            src, dst = parse_end(left), parse_end(right)
+        except ValueError:
+            continue
+        if (dst.comp, dst.port) == (comp, name):
+            return f"{src.comp}.{src.port}"
+    return ""
+
+
+def bode_figure(model: LinearModel, path: str | Path, loop: Any = None) -> list[Path]:
+    """Bode plots (magnitude in dB, phase in degrees, up to the Nyquist frequency) of each
+    input-output pair, or of the loop transfer `loop` with its gain and phase margins marked."""
+    import control
+
+    from twmr.plots import line_style, pyplot, save
+
+    plt = pyplot()
+    nyquist = math.pi / model.dt
+    w = np.logspace(math.log10(nyquist) - 4, math.log10(nyquist) * 0.999999, 600)
+    fig, (mag_ax, ph_ax) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    pairs = [("L", loop)] if loop is not None else [
+        (f"{o} / {i}", model.ss()[k, j]) for j, i in enumerate(model.inputs)
+        for k, o in enumerate(model.outputs)]
+    for n, (label, sys) in enumerate(pairs):
+        response = control.frequency_response(sys, w)
+        mag = 20 * np.log10(np.maximum(np.abs(np.ravel(response.magnitude)), 1e-300))
+        phase = np.degrees(np.unwrap(np.ravel(response.phase)))
+        mag_ax.semilogx(w, mag, label=label, **line_style(n))
+        ph_ax.semilogx(w, phase, **line_style(n))
+    if loop is not None:
+        gm, pm, wcg, wcp = control.margin(loop)
+        mag_ax.axhline(0.0, color="#999999", lw=0.6)
+        ph_ax.axhline(-180.0, color="#999999", lw=0.6)
+        if math.isfinite(wcp):
+            ph_ax.axvline(wcp, color="#D55E00", lw=0.8, ls="--")
+        if math.isfinite(wcg):
+            mag_ax.axvline(wcg, color="#009E73", lw=0.8, ls="--")
+        mag_ax.set_title(f"loop at {model.inputs[0]}: gain margin {20 * math.log10(gm):.3g} dB"
+                         f" at {wcg:.4g} rad/s, phase margin {pm:.3g} deg at {wcp:.4g} rad/s",
+                         fontsize=9, loc="left")
+    mag_ax.set_ylabel("magnitude [dB]")
+    ph_ax.set_ylabel("phase [deg]")
+    ph_ax.set_xlabel(f"frequency [rad/s] (Nyquist {nyquist:.4g} rad/s at step {model.dt:g} s)")
+    mag_ax.legend(fontsize=8, frameon=False)
+    return save(fig, path)

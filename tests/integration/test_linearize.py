@@ -1,0 +1,113 @@
+"""`twmr linearize` / `twmr.linearize`: the linear model of a scenario around a point, against
+models computed apart with python-control — a mass-spring-damper `state_space` block gives the
+poles and impulse response of its zero-order-hold discretisation (`control.c2d`), a unit delay
+its pole at 0, a loop broken at a wire the margins python-control gives for k G(z) / z — and bad
+input refused."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+import twmr
+from twmr.core.errors import CosimError
+from twmr.linear_analysis import loop_at
+
+pytestmark = pytest.mark.timeout(300)
+
+M, C_DAMP, K_SPRING, H = 2.0, 0.8, 50.0, 0.01
+MSD = f"""components:
+  f: {{kind: constant, parameters: {{value: 1.0}}}}
+  msd:
+    kind: state_space
+    parameters: {{A: [[0, 1], [{-K_SPRING / M}, {-C_DAMP / M}]], B: [0, {1 / M}], C: [1, 0]}}
+connections: [f.y -> msd.u]
+experiment: {{stop: 5.0, step: {H}}}
+"""
+LOOP = f"""components:
+  r: {{kind: constant, parameters: {{value: 1.0}}}}
+  e: {{kind: sum, parameters: {{signs: '+-'}}}}
+  k: {{kind: gain, parameters: {{k: 3.0}}}}
+  z: {{kind: delay}}
+  plant: {{kind: first_order, parameters: {{K: 2.0, T: 0.5}}}}
+connections: [r.y -> e.u1, plant.y -> e.u2, e.y -> k.u, k.y -> z.u, z.y -> plant.u]
+experiment: {{stop: 5.0, step: {H}}}
+"""
+
+
+def analytic_msd() -> control.StateSpace:
+    a = np.array([[0.0, 1.0], [-K_SPRING / M, -C_DAMP / M]])
+    return control.c2d(control.ss(a, [[0.0], [1 / M]], [[1.0, 0.0]], [[0.0]]), H, "zoh")
+
+
+def markov_of(sys: control.StateSpace, n: int) -> np.ndarray:
+    out, x = [np.asarray(sys.D)], np.asarray(sys.B)
+    for _ in range(n):
+        out.append(np.asarray(sys.C) @ x)
+        x = np.asarray(sys.A) @ x
+    return np.array(out)
+
+
+def test_a_mass_spring_damper_gives_its_zoh_model() -> None:
+    model = twmr.linearize(twmr.load(MSD), ["msd.u"], ["msd.y"], at=1.0, horizon=60)
+    ref = analytic_msd()
+    assert model.order == 2 and model.fit_error < 1e-8 and model.nonlinearity < 1e-6
+    assert np.sort_complex(model.poles()) == pytest.approx(np.sort_complex(ref.poles()),
+                                                           abs=1e-9)
+    np.testing.assert_allclose(markov_of(model.ss(), 60)[:, 0, 0],
+                               markov_of(ref, 60)[:, 0, 0], atol=1e-10)
+    a, b, c, d = model.continuous()
+    assert np.sort_complex(np.linalg.eigvals(a)) == pytest.approx(
+        np.sort_complex(np.roots([1.0, C_DAMP / M, K_SPRING / M])), abs=1e-6)
+    dc = (c @ np.linalg.solve(-a, b) + d)[0, 0]
+    assert dc == pytest.approx(1 / K_SPRING, rel=1e-6)
+
+
+def test_a_unit_delay_has_its_pole_at_zero_and_no_continuous_twin() -> None:
+    scenario = twmr.load("""components:
+  f: {kind: constant}
+  z: {kind: delay}
+connections: [f.y -> z.u]
+experiment: {stop: 1.0, step: 0.01}
+""")
+    model = twmr.linearize(scenario, ["z.u"], ["z.y"], at=0.2, horizon=20)
+    assert model.order == 1 and abs(model.poles()[0]) < 1e-9
+    np.testing.assert_allclose(model.markov[:4, 0, 0], [0.0, 1.0, 0.0, 0.0], atol=1e-12)
+    with pytest.raises(CosimError, match="no continuous"):
+        model.continuous()
+
+
+def test_the_margins_of_a_loop_broken_at_a_wire_are_python_controls() -> None:
+    """k G(z) / z: the gain, the plant's zero-order-hold model, the unit delay."""
+    model = twmr.linearize(twmr.load(LOOP), ["plant.u"], ["z.y"], at=2.0, horizon=80)
+    a = np.exp(-H / 0.5)
+    analytic = 3.0 * control.tf([2.0 * (1 - a)], [1.0, -a, 0.0], H)
+    got, want = control.margin(loop_at(model)), control.margin(analytic)
+    assert all(np.isfinite(want))
+    np.testing.assert_allclose(got, want, rtol=1e-6)
+
+
+def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "loop.yaml").write_text(LOOP)
+    done = subprocess.run([str(Path(sys.executable).parent / "twmr"), "linearize",
+                           str(tmp_path / "loop.yaml"), "--loop", "plant.u", "--at", "2.0",
+                           "--out", str(tmp_path / "lin")], capture_output=True, text=True,
+                          timeout=200)
+    assert done.returncode == 0, done.stderr
+    assert "gain margin" in done.stdout
+    for name in ("linear.json", "linear.npz", "state_space.yaml", "bode.png"):
+        assert (tmp_path / "lin" / name).stat().st_size > 0, name
+    block = [line for line in (tmp_path / "lin" / "state_space.yaml").read_text().splitlines()
+             if not line.startswith("#")]
+    back = twmr.load("components:\n" + "\n".join("  " + line for line in block) +
+                     "\nopen: [lin.u]\nexperiment: {stop: 0.1, step: 0.01}\n")
+    assert back.system.components["lin"].kind == "state_space"
+    msd = twmr.load(MSD)
+    with pytest.raises(CosimError, match="names no port"):
+        twmr.linearize(msd, ["msd.v"], ["msd.y"], at=1.0)
+    with pytest.raises(CosimError, match="not a communication point"):
+        twmr.linearize(msd, ["msd.u"], ["msd.y"], at=1.005)
