@@ -179,8 +179,10 @@ class Kernel:
     component can report (e.g. log a warning).
 
     `advance(t, h, x, y, u, p) -> (x, y)`, optional, is `step` without the work `evaluate` redoes
-    at the next point: the same state x and the same values of every output that depends on no
-    input, the feedthrough outputs left as they were. The compiled driver and the Python
+    at the next point: the same values of every output that depends on no input, the
+    feedthrough outputs left as they were, and the same state x — for a block with feedthrough,
+    the same once `evaluate` has run at the next point (a state `evaluate` sets, such as a
+    controller's "the torque was limited", is left to it). The compiled driver and the Python
     schedule call it instead of `step` where the plan evaluates the block at the point after
     each step before anything reads its feedthrough outputs, except in the last step of a chunk
     (tests/property/test_block_forms.py holds it to `step`)."""
