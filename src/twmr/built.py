@@ -94,7 +94,7 @@ def _shape(spec: ScenarioSpec, system: System, base: ScenarioSpec | None = None,
             e.start, e.stop, e.step, e.algorithm, e.realtime)),
         tuple(sorted((k, repr(g.value)) for k, g in e.options.items())))
     events = tuple(tuple(None if g is None else repr(g.value) for g in (
-        ev.at, ev.until, ev.port, ev.fault, ev.value, ev.seed)) for ev in spec.events)
+        ev.at, ev.until, ev.port, ev.fault, ev.value, ev.seed, ev.set)) for ev in spec.events)
     return (tuple(blocks), tuple(g.value for g in spec.connections),
             tuple(g.value for g in spec.open), experiment,
             None if r.signals is None else tuple(g.value for g in r.signals),

@@ -211,6 +211,14 @@ def python_kernel(comp: Component, h: float) -> PythonKernel | None:
     return bound_kernel(comp, h) if runs_kernel(comp) else None
 
 
+def parameters_changed(comp: Component) -> None:
+    """`comp`'s parameters were set during a run: its kernel is made anew, from them, at its
+    next call (the private state it holds is kept)."""
+    calls = comp.__dict__.get(_CALLS)
+    if calls is not None:
+        calls.reset()
+
+
 def bound_kernel(comp: Component, h: float) -> PythonKernel | None:
     """`python_kernel` without asking `runs_kernel` again (a loop generated for it asks once)."""
     calls = _calls(comp)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import os
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -110,6 +110,11 @@ class Algorithm(ABC):
     def finish(self, n: int, rows: list[Any]) -> None:
         """The final communication point at step n: inputs written, feedthrough evaluated and
         the row recorded, without stepping."""
+
+    def reparameterized(self, names: Collection[str]) -> None:  # noqa: B027 - a hook
+        """Components `names` had parameters set between two steps (a scenario's `set` events):
+        whatever the algorithm made from their parameters is made anew before the next step.
+        The base: nothing is held (an algorithm that calls the components' methods)."""
 
     def start(self) -> None:
         """Called once after every component is initialized, before the first `advance` (the

@@ -51,6 +51,7 @@ from __future__ import annotations
 import logging
 import sys
 import time
+from collections.abc import Collection
 from typing import Any
 
 import numpy as np
@@ -405,6 +406,14 @@ class CompiledStep(Algorithm):
         else:
             self._sync(rows, buf, *self._call(self._run, n0, n1, buf))
         return n1
+
+    def reparameterized(self, names: Collection[str]) -> None:
+        """The compiled loop's parameters (and states, ports) laid out anew from the components
+        as they are now, as when a run switches to it after Python steps; the Python schedule
+        makes the kernels of `names` anew itself."""
+        self.python.reparameterized(names)
+        if self.compiled:
+            self._compile()
 
     def _buffer(self, count: int) -> np.ndarray:
         """Room for the next `count` recorded rows: the rows of the run's one buffer after those

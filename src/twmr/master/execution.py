@@ -304,7 +304,8 @@ class Execution:
         chunk = FIRST_CHUNK
         variable = self.algorithm.variable_step  # its steps must not depend on the chunks
         while self._n < n_steps:
-            n1 = n_steps if variable else min(n_steps, self._n + chunk)
+            upcoming = self._changed()
+            n1 = n_steps if variable else min(n_steps, self._n + chunk, upcoming)
             t0 = time.perf_counter()
             self._n = self._advance(n1)
             dt = time.perf_counter() - t0
@@ -318,6 +319,7 @@ class Execution:
         every = max(1, round(CHUNK_SECONDS / self.system.experiment.step))
         pacer.start()
         while self._n < n_steps:
+            self._changed()
             self._n = self._advance(self._n + 1)
             pacer(self._n)
             if self._n % every == 0:
@@ -329,6 +331,24 @@ class Execution:
         while no stop signal came."""
         if self._signalled:
             raise RunInterrupted(self._signalled)
+
+    def _changed(self) -> int:
+        """Set the parameters due before the present step (`System.changes`), the algorithm
+        told which components changed; the step of the next change (a chunk ends there), or
+        the end of time."""
+        changes = self.system.changes
+        due = [c for c in changes if c.step == self._n]
+        if due:
+            from twmr.scenario.events import apply_change
+
+            if self.algorithm.variable_step:
+                raise CosimError(f"events: set events need a fixed-step master; "
+                                 f"{type(self.algorithm).__name__} varies its steps. Fix: use "
+                                 f"algorithm: gauss_seidel or jacobi.")
+            for change in due:
+                apply_change(self.system.components[change.comp], change)
+            self.algorithm.reparameterized({c.comp for c in due})
+        return min((c.step for c in changes if c.step > self._n), default=1 << 62)
 
     def _advance(self, n1: int) -> int:
         """The algorithm's advance from the present step towards `n1`; the step it reached must be

@@ -1,9 +1,12 @@
-"""A scenario's `events:`: each fault on a port becomes a `port_fault` block on the port's wires
+"""A scenario's `events:`. Each fault on a port becomes a `port_fault` block on the port's wires
 (`twmr.blocks.faults`). A fault on an output sits between it and every input it feeds; a fault
 on an input, between its source and it. The block takes the port's width and unit, so the wires
 select and convert as before; the port itself keeps its value in the results (record the
 fault block's `y`, named `fault<k>_<comp>_<port>`, for what the readers saw). Being a block with
-a kernel, a fault runs alike in the Python schedule, the compiled loop and the adaptive master.
+a kernel, a fault runs alike in the Python schedule, the compiled loop and the adaptive master. Each
+`set` of a parameter is a `Change` the master applies between two steps (`apply_change`): the
+blocks' kernels are made anew from the parameters of then, in the Python schedule and the
+compiled loop alike.
 """
 from __future__ import annotations
 
@@ -18,6 +21,21 @@ from twmr.registry import suggest
 from twmr.scenario.graph import parse_end
 from twmr.scenario.structure import ComponentSpec, EventSpec, Given, ScenarioSpec
 from twmr.scenario.system import Experiment
+
+#: the masters whose steps stop at a set event
+FIXED_STEP = ("gauss_seidel", "jacobi")
+
+
+@dataclasses.dataclass(frozen=True)
+class Change:
+    """A parameter set during a run: `name` of component `comp` to `value` before base step
+    `step` (the first communication point at or after `at` [s])."""
+
+    step: int
+    at: float
+    comp: str
+    name: str
+    value: Any
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +67,9 @@ def insert_faults(spec: ScenarioSpec, comps: dict[str, Component], experiment: E
     problems: list[Problem] = []
     marks: list[Mark] = []
     for k, event in enumerate(spec.events, 1):
+        if event.set is not None or not _is_fault(event, problems):
+            continue
+        assert event.port is not None and event.fault is not None
         found = _port(event, comps, problems)
         if found is None:
             continue
@@ -89,9 +110,130 @@ def insert_faults(spec: ScenarioSpec, comps: dict[str, Component], experiment: E
     return dataclasses.replace(spec, components=specs, connections=tuple(wires)), problems, marks
 
 
+def _is_fault(event: EventSpec, problems: list[Problem]) -> bool:
+    """Whether `event` is a fault as written (port and fault given); else its problem."""
+    if event.port is not None and event.fault is not None:
+        return True
+    problems.append(Problem(event.where, "events: an event needs either port and fault (a "
+                            "fault on a port) or set and value (a parameter changed).",
+                            "write {at: 5, port: comp.port, fault: freeze} or {at: 5, set: "
+                            "comp.parameter, value: 2.0}."))
+    return False
+
+
+def parameter_changes(spec: ScenarioSpec, comps: dict[str, Component], experiment: Experiment
+                      ) -> tuple[list[Change], list[Problem], list[Mark]]:
+    """The `set` events of `spec`: each a `Change` at the first base step at or after its time
+    (within 1e-9 of a step), its value taken by the parameter as `--set` would; the problems of
+    those that cannot be, and their marks."""
+    changes: list[Change] = []
+    problems: list[Problem] = []
+    marks: list[Mark] = []
+    for event in spec.events:
+        if event.set is None:
+            continue
+        where = event.set.where
+        if event.port is not None or event.fault is not None or event.until is not None or \
+                event.seed is not None:
+            problems.append(Problem(event.where, "events: a set event takes at, set and value; "
+                                    "port, fault, until and seed are a fault's (either one or "
+                                    "the other).", "split it into two events."))
+            continue
+        if event.value is None:
+            problems.append(Problem(where, f"events: set {event.set.value} needs a value.",
+                                    "give value: the parameter's new value."))
+            continue
+        start, _ = _window(event, experiment, problems)
+        if start is None:
+            continue
+        change = _change(str(event.set.value).strip(), event.value.value, start, comps,
+                         experiment, where, problems)
+        if change is not None:
+            changes.append(change)
+            value = change.value
+            marks.append(Mark(start, math.inf, f"{change.comp}.{change.name}", "set",
+                              float(value) if isinstance(value, int | float) else math.nan,
+                              change.comp))
+    if changes and experiment.algorithm not in FIXED_STEP:
+        problems.append(Problem(spec.at("events"), f"events: set events run on the fixed-step "
+                                f"masters ({', '.join(FIXED_STEP)}), not on "
+                                f"'{experiment.algorithm}' (the adaptive master's steps do not "
+                                f"stop at them).", "use algorithm: gauss_seidel or jacobi."))
+    return sorted(changes, key=lambda c: c.step), problems, marks
+
+
+def _change(text: str, value: Any, at: float, comps: dict[str, Component],
+            experiment: Experiment, where: Any, problems: list[Problem]) -> Change | None:
+    """The change `text` = value at time `at` [s], or None after its problem."""
+    comp_name, _, name = text.rpartition(".")
+    comp = comps.get(comp_name)
+    if comp is None:
+        problems.append(Problem(where, f"events: '{text}' names no component"
+                                f"{suggest(comp_name, list(comps))}.", "give comp.parameter."))
+        return None
+    var = comp.variables.get(name)
+    params = list(comp.parameters)
+    if var is None:
+        problems.append(Problem(where, f"events: '{comp_name}' has no parameter '{name}'"
+                                f"{suggest(name, params)}.", f"known: {', '.join(params)}."))
+        return None
+    if var.kind != "parameter":
+        problems.append(Problem(where, f"events: '{text}' is an {var.kind}, not a parameter.",
+                                "set a parameter; a port's value is changed with a fault "
+                                "(port: ..., fault: stuck_at)."))
+        return None
+    why = _fixed(comp, name)
+    if why:
+        problems.append(Problem(where, f"events: '{text}' cannot change during a run: {why}.",
+                                "set it before the run (parameters:, --set)."))
+        return None
+    try:
+        coerced = var.coerce(value)
+    except (TypeError, ValueError) as err:
+        problems.append(Problem(where, f"events: '{text}' cannot take {value!r}: {err}.",
+                                "give a value of the parameter's type and range."))
+        return None
+    step = math.ceil((at - experiment.start) / experiment.step - 1e-9)
+    return Change(step, at, comp_name, name, coerced)
+
+
+def _fixed(comp: Component, name: str) -> str:
+    """Why parameter `name` of `comp` cannot change during a run ('' when it can)."""
+    if name in comp.sizing_parameters:
+        return "it sizes the block's ports (it changes the block's ports)"
+    if name in comp.construction_parameters:
+        return "the block is made from it"
+    if getattr(comp, "kind", "") == "fmu":
+        return "an FMU's parameters are set before it is initialized (not built yet mid-run)"
+    if comp.needs_realtime:
+        return "the block is hardware in the loop"
+    return ""
+
+
+def apply_change(comp: Component, change: Change) -> None:
+    """Set `change` on `comp` during a run; CosimError when it changes the block's ports (their
+    sizes or what its outputs depend on)."""
+    from twmr.core.component import parameters_changed
+    from twmr.core.errors import CosimError
+
+    before = _ports_of(comp)
+    comp.set_parameter(change.name, change.value)
+    if _ports_of(comp) != before:
+        raise CosimError(f"events: setting {change.comp}.{change.name} at t = {change.at:g} s "
+                         f"changes the block's ports (their sizes or feedthrough). Fix: set it "
+                         f"before the run.")
+    parameters_changed(comp)
+
+
+def _ports_of(comp: Component) -> tuple[Any, ...]:
+    return tuple((n, v.size, getattr(v, "depends_on", None))
+                 for n, v in comp.variables.items() if v.kind != "parameter")
+
+
 def _port(event: EventSpec, comps: dict[str, Component], problems: list[Problem]
           ) -> tuple[str, str, bool] | None:
     """(component, port, whether an output) the event names; None after its problem."""
+    assert event.port is not None
     text = str(event.port.value).strip()
     comp, _, port = text.rpartition(".")
     if comp not in comps:

@@ -212,9 +212,9 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         experiment, record, data.get("description", ""),
         {key: at(key) for key in data}, exposed["inputs"], exposed["outputs"],
         tuple(EventSpec(given("events", i, "at"), _maybe(given, "events", i, "until"),
-                        given("events", i, "port"), given("events", i, "fault"),
+                        _maybe(given, "events", i, "port"), _maybe(given, "events", i, "fault"),
                         _maybe(given, "events", i, "value"), _maybe(given, "events", i, "seed"),
-                        at("events", i))
+                        at("events", i), _maybe(given, "events", i, "set"))
               for i in range(len(data.get("events") or []))))
 
 

@@ -106,16 +106,18 @@ class RecordingSpec:
 
 @dataclass(frozen=True)
 class EventSpec:
-    """A fault on a port during the run (`events:`): from `at` until `until` [s] (None: the
-    end), `port` ('comp.port') frozen, biased, scaled, noisy, dropped out or stuck at `value`."""
+    """An event during the run (`events:`): a fault on a port from `at` until `until` [s] (None:
+    the end), `port` ('comp.port') frozen, biased, scaled, noisy, dropped out or stuck at
+    `value`; or, with `set` ('comp.parameter'), the parameter set to `value` from `at` on."""
 
     at: Given[Any]
     until: Given[Any] | None
-    port: Given[str]
-    fault: Given[str]
+    port: Given[str] | None
+    fault: Given[str] | None
     value: Given[Any] | None
     seed: Given[Any] | None
     where: Location
+    set: Given[str] | None = None
 
 
 @dataclass(frozen=True)

@@ -102,6 +102,8 @@ class System:
     own_loop_budget_s: float = 0.0
     #: the scenario's events as the results keep them (`twmr.scenario.events.Mark`)
     events: tuple[Any, ...] = ()
+    #: parameters set during the run, by base step (`twmr.scenario.events.Change`)
+    changes: tuple[Any, ...] = ()
 
     @property
     def paced(self) -> bool:
