@@ -10,6 +10,7 @@ from pathlib import Path
 import cantools
 import pytest
 
+from tests.hw_bench import WATCHDOG
 from tests.integration.test_hw_canbus import bench, last_commands
 from twmr.api import simulate
 from twmr.hw import protocol as p
@@ -22,7 +23,9 @@ TORQUE_0 = p.can_id(0, p.SET_INPUT_TORQUE)
 
 
 def test_a_dropped_torque_frame_trips_the_drive_watchdog(tmp_path: Path) -> None:
-    text = bench(2.0, True).replace(
+    # the host's watchdogs for a loaded machine (0.5 s, 2 s), so the drive's (0.1 s) trips first
+    text = bench(3.0, True).replace(f"watchdog_periods: {WATCHDOG}", "watchdog_periods: 250, "
+                                    "heartbeat_timeout: 2.0").replace(
         "parameters: {bitrate: 1000000}",
         f"parameters: {{bitrate: 1000000, drop_ids: '{TORQUE_0:#x}', drop_start: {DROP_AT}}}")
     (tmp_path / "drop.yaml").write_text(text)
