@@ -234,7 +234,8 @@ def cmd_fit(args: argparse.Namespace) -> int:
                              f"plant.pose[1]=0.01.")
     scenario = Path(args.scenario)
     out = Path(args.out) if args.out else Path("fits") / (scenario.stem or "scenario")
-    result = fit(scenario, [Experiment(d) for d in args.data], args.estimate, pairs,
+    result = fit(scenario, [Experiment(d, until=args.until) for d in args.data], args.estimate,
+                 pairs,
                  sigma=sigma, overrides=args.set, out=out, max_runs=args.max_runs)
     print(result.text())
     print(f"fit.json, fitted.yaml and residuals.png in {out}/")
@@ -618,6 +619,8 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="a signal's measurement standard deviation (default: the data's)")
     fi.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="override for every run (repeatable)")
+    fi.add_argument("--until", type=float, help="fit the data up to this time [s] only, each "
+                    "run stopped there")
     fi.add_argument("--max-runs", type=int, default=200, help="at most this many runs")
     fi.add_argument("--out", help="folder of the fit (default fits/<scenario>); a fit asked "
                     "again there resumes")

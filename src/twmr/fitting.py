@@ -80,10 +80,13 @@ class Estimate:
 class Experiment:
     """Measured `data` (a run's folder or a result file: CSV, Parquet, .mat) and the overrides
     that make the scenario what it was when they were measured (with a run's folder, the
-    overrides its summary records are added, except those of the estimated names)."""
+    overrides its summary records are added, except those of the estimated names); `until`
+    [s]: only the data up to then, each run stopped there (an open-loop replay of a long
+    record drifts far from any start: fit a stretch first)."""
 
     data: str | Path
     overrides: tuple[str, ...] = ()
+    until: float | None = None
 
 
 @dataclass
@@ -230,9 +233,17 @@ def _measure(e: Experiment, pairs: Mapping[str, str], estimated: set[str]) -> _M
         columns[model] = np.asarray(values, dtype=float)
     recorded = tuple(o for o in result.summary.get("overrides", [])
                      if o.partition("=")[0].strip() not in estimated)
-    digest = _digest(path)
-    return _Measured(np.asarray(result.values[:, at["time"]], dtype=float), columns,
-                     recorded + tuple(e.overrides), str(path), digest)
+    times = np.asarray(result.values[:, at["time"]], dtype=float)
+    stop: tuple[str, ...] = ()
+    if e.until is not None:
+        keep = times <= e.until + 1e-9 * max(1.0, abs(e.until))
+        if keep.sum() < 2:
+            raise CosimError(f"{path}: fewer than two rows up to until = {e.until:g} s. Fix: "
+                             f"give a later until.")
+        times, columns = times[keep], {k: v[keep] for k, v in columns.items()}
+        stop = (f"experiment.stop={e.until!r}",)
+    digest = _digest(path) + ("" if e.until is None else f"@{e.until!r}")
+    return _Measured(times, columns, recorded + tuple(e.overrides) + stop, str(path), digest)
 
 
 def _start(built: Any, e: Estimate) -> float:

@@ -118,3 +118,14 @@ def test_the_command_fits_and_bad_input_is_refused(tmp_path: Path) -> None:
         fit(tmp_path / "lag.yaml", data, ["lag.K=0.1:0.5"], ["lag.y"])
     with pytest.raises(CosimError, match="no finite range"):
         Estimate.parse("lag.K=3:1")
+
+
+def test_until_fits_a_stretch_of_the_data_and_stops_the_runs_there(tmp_path: Path) -> None:
+    (tmp_path / "lag.yaml").write_text(LAG)
+    data = lag_data(tmp_path, noise=0.0)
+    result = fit(tmp_path / "lag.yaml", [Experiment(data, until=0.5)],
+                 ["lag.K=0.1:10", "lag.T=0.05:5"], ["lag.y"], out=tmp_path / "part")
+    assert result.estimates["lag.K"] == pytest.approx(K, rel=1e-6)
+    assert result.estimates["lag.T"] == pytest.approx(T, rel=1e-6)
+    runs = sorted((tmp_path / "part" / "runs").iterdir())
+    assert np.frombuffer(runs[0].read_bytes(), dtype="<f8").size == 26  # rows 0 .. 0.5 s
