@@ -92,3 +92,15 @@ def test_the_adaptive_master_refuses_a_set(tmp_path: Path) -> None:
     path.write_text(BASE % (", algorithm: adaptive", "  - {at: 0.05, set: g.k, value: 1.0}"))
     with pytest.raises(CosimError, match="adaptive"):
         twmr.load(path)
+
+
+def test_a_set_with_until_ramps_the_parameter_step_by_step(tmp_path: Path) -> None:
+    """g.k from 2 to 7 between 0.1 and 0.15 s: 2 + 5 (t - 0.1) / 0.05 at each point, 7 after."""
+    scenario = twmr.load(BASE % ("", "  - {at: 0.1, until: 0.15, set: g.k, value: 7.0}"))
+    python = twmr.simulate(scenario, tmp_path / "py", compiled="off")
+    compiled = twmr.simulate(scenario, tmp_path / "c", compiled="on")
+    assert np.array_equal(python.values, compiled.values)
+    t, g = python["time"], python["g.y"]
+    expected = np.clip(2.0 + 5.0 * (t - 0.1) / 0.05, 2.0, 7.0)
+    np.testing.assert_allclose(g, expected, rtol=0, atol=1e-12)
+    assert g[-1] == 7.0

@@ -129,31 +129,41 @@ def parameter_changes(spec: ScenarioSpec, comps: dict[str, Component], experimen
     changes: list[Change] = []
     problems: list[Problem] = []
     marks: list[Mark] = []
-    for event in spec.events:
-        if event.set is None:
-            continue
+    held: dict[tuple[str, str], Any] = {}  # each parameter's value as the events leave it
+    sets = sorted((e for e in spec.events if e.set is not None), key=lambda e: _time(e.at))
+    for event in sets:
+        assert event.set is not None
         where = event.set.where
-        if event.port is not None or event.fault is not None or event.until is not None or \
-                event.seed is not None:
-            problems.append(Problem(event.where, "events: a set event takes at, set and value; "
-                                    "port, fault, until and seed are a fault's (either one or "
-                                    "the other).", "split it into two events."))
+        if event.port is not None or event.fault is not None or event.seed is not None:
+            problems.append(Problem(event.where, "events: a set event takes at, set, value and "
+                                    "until (a ramp); port, fault and seed are a fault's (either "
+                                    "one or the other).", "split it into two events."))
             continue
         if event.value is None:
             problems.append(Problem(where, f"events: set {event.set.value} needs a value.",
                                     "give value: the parameter's new value."))
             continue
-        start, _ = _window(event, experiment, problems)
-        if start is None:
+        start, stop = _window(event, experiment, problems)
+        if start is None or stop is None:
             continue
         change = _change(str(event.set.value).strip(), event.value.value, start, comps,
                          experiment, where, problems)
-        if change is not None:
+        if change is None:
+            continue
+        key = (change.comp, change.name)
+        before = held.get(key, comps[change.comp].get(change.name))
+        held[key] = change.value
+        if event.until is None:
             changes.append(change)
-            value = change.value
-            marks.append(Mark(start, math.inf, f"{change.comp}.{change.name}", "set",
-                              float(value) if isinstance(value, int | float) else math.nan,
-                              change.comp))
+        else:
+            ramp = _ramp(change, before, stop, experiment, where, problems)
+            if ramp is None:
+                continue
+            changes += ramp
+        value = change.value
+        marks.append(Mark(start, stop, f"{change.comp}.{change.name}", "set",
+                          float(value) if isinstance(value, int | float) else math.nan,
+                          change.comp))
     if changes and experiment.algorithm not in FIXED_STEP:
         problems.append(Problem(spec.at("events"), f"events: set events run on the fixed-step "
                                 f"masters ({', '.join(FIXED_STEP)}), not on "
@@ -195,6 +205,35 @@ def _change(text: str, value: Any, at: float, comps: dict[str, Component],
         return None
     step = math.ceil((at - experiment.start) / experiment.step - 1e-9)
     return Change(step, at, comp_name, name, coerced)
+
+
+def _time(given: Given[Any]) -> float:
+    try:
+        return float(given.value)
+    except (TypeError, ValueError):
+        return math.inf
+
+
+def _ramp(change: Change, before: Any, until: float, experiment: Experiment, where: Any,
+          problems: list[Problem]) -> list[Change] | None:
+    """`change` reached linearly from `before` between its time and `until` [s]: a change at
+    every base step of the ramp, the last one (the first step at or after `until`) the value
+    itself; None after the problem of a parameter that cannot ramp."""
+    target = change.value
+    if isinstance(target, bool) or not isinstance(target, float) or \
+            isinstance(before, bool) or not isinstance(before, int | float):
+        problems.append(Problem(where, f"events: {change.comp}.{change.name} cannot ramp: "
+                                f"only a Real scalar parameter ramps.", "leave until out (the "
+                                "value from `at` on)."))
+        return None
+    last = math.ceil((until - experiment.start) / experiment.step - 1e-9)
+    ramp = []
+    for k in range(change.step, last + 1):
+        t = experiment.start + k * experiment.step
+        share = min(1.0, max(0.0, (t - change.at) / (until - change.at)))
+        value = target if k == last else before + (target - before) * share
+        ramp.append(dataclasses.replace(change, step=k, value=float(value)))
+    return ramp
 
 
 def _fixed(comp: Component, name: str) -> str:
