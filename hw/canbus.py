@@ -307,6 +307,11 @@ class BlockBus(can.BusABC):
             raise can.CanOperationError(f"{problem} (frame {frame_text(msg)} refused by bus "
                                         f"'{self._runner.name}')")
 
+    def flush_sent(self, timeout: float) -> bool:
+        """Wait (at most `timeout` [s]) until the frames sent so far are on the wire and handed
+        to the others; whether they are."""
+        return self._runner.handed(self.name, timeout)
+
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         try:
             msg = self.queue.get_nowait() if timeout == 0 else self.queue.get(timeout=timeout)

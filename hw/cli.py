@@ -3,6 +3,7 @@ entry point: emulated CAN drives on a python-can bus, and a run's frame log deco
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from datetime import datetime, timezone
@@ -159,6 +160,58 @@ OPTION_HELP = ("an option of --protocol, repeatable (e.g. firmware=0.6.10 for od
                "cia402; a NAME it does not have lists the ones it has)")
 
 
+def emulate_device(args: argparse.Namespace) -> int:
+    """A device of a CAN database (`--node`) on a python-can bus: it sends its messages, values
+    from `--set`, a data file's columns named `Message.Signal`, or the file's initial values,
+    and answers remote frames, until `--duration` or Ctrl-C."""
+    from twmr.api import simulate
+    from twmr.hw.bus import describe
+    from twmr.hw.can_io import CanDevice
+    from twmr.result import read_result
+
+    dbc = Path(args.dbc).resolve()
+    bus = {"can_config": str(Path(args.can_config).resolve())} if args.can_config else \
+        {"interface": args.interface, "channel": args.channel, "bitrate": args.bitrate}
+    device = CanDevice("device", dbc=str(dbc), node=args.node)
+    for _key, what, fix in device.check(frozenset()):
+        raise CosimError(f"emulate-device: {what} Fix: {fix}")
+    initial: dict[str, float] = {}
+    for pair in args.set:
+        key, sep, text = pair.partition("=")
+        if not sep or key.strip() not in device.inputs:
+            raise CosimError(f"emulate-device: --set {pair}: {key.strip()!r} is no signal the "
+                             f"device sends. Fix: give Message.Signal=VALUE with one of "
+                             f"{', '.join(list(device.inputs)[:8])}.")
+        initial[key.strip()] = float(text)
+    components: dict[str, Any] = {"device": {"kind": "can_device", "parameters": {
+        "dbc": str(dbc), "node": args.node, "send_mode": args.send_mode, "log_file": "",
+        **bus}, "initial": initial}}
+    wires = []
+    if args.data:
+        columns = [c for c in read_result(Path(args.data)).columns if c in device.inputs]
+        if not columns:
+            raise CosimError(f"emulate-device: {args.data} has no column named as a signal the "
+                             f"device sends (Message.Signal). Fix: name its columns so, e.g. "
+                             f"{next(iter(device.inputs), 'Message.Signal')}.")
+        for k, column in enumerate(columns):
+            components[f"data{k}"] = {"kind": "data", "parameters": {
+                "file": str(Path(args.data).resolve()), "columns": [column]}}
+            wires.append(f"data{k}.y -> device.{column}")
+    scenario = {"description": f"twmr emulate-device {dbc.name} --node {args.node}",
+                "components": components, "connections": wires,
+                "experiment": {"start": 0.0, "stop": args.duration, "step": args.step,
+                               "realtime": True},
+                "record": {"signals": [], "decimation": 1}}
+    sends = ", ".join(m.name for m in device.tx.values()) or "nothing"
+    hears = ", ".join(m.name for m in device.rx.values()) or "nothing"
+    print(f"emulating node {args.node} of {dbc.name} on "
+          f"{describe(bus) if 'interface' in bus else bus['can_config']}: sends {sends}; "
+          f"receives {hears}; Ctrl-C stops", file=sys.stderr)
+    with contextlib.suppress(KeyboardInterrupt):
+        simulate(scenario)
+    return 0
+
+
 def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentParser) -> None:
     """Add `emulate-drive` and `replay` to the command line."""
     em = subparsers.add_parser("emulate-drive", parents=[common],
@@ -176,6 +229,23 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
                     help="axis node id (repeatable; default: the protocol's, ODrive 0 and 1, "
                     "CiA 402 1 and 2)")
     em.set_defaults(fn=emulate_drive)
+    ed = subparsers.add_parser("emulate-device", parents=[common],
+                               help="a device of a CAN database (DBC, ARXML, KCD) on a CAN bus")
+    ed.add_argument("dbc", help="the CAN database (.dbc, .arxml, .kcd, .sym)")
+    ed.add_argument("--node", required=True, help="the device: a node of the file")
+    ed.add_argument("--set", action="append", default=[], metavar="MESSAGE.SIGNAL=VALUE",
+                    help="a value it sends (repeatable; others: the file's initial values)")
+    ed.add_argument("--data", help="CSV, Parquet or .mat file, or a run's folder: columns "
+                    "named Message.Signal over a time column 'time' are played")
+    ed.add_argument("--send-mode", default="cyclic", help="cyclic (the file's cycle times) | "
+                    "on_change | every_step | on_request")
+    ed.add_argument("--step", type=float, default=0.01, help="the device's step [s]")
+    ed.add_argument("--duration", type=float, default=24 * 3600.0, help="[s] (default a day)")
+    ed.add_argument("--interface", default="udp_multicast")
+    ed.add_argument("--channel", default="239.74.163.2")
+    ed.add_argument("--bitrate", type=int, default=500_000)
+    ed.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
+    ed.set_defaults(fn=emulate_device)
     rp = subparsers.add_parser("replay", parents=[common],
                                help="decode a run's CAN frame log to CSV, or play it onto a bus")
     rp.add_argument("log", help="<name>_frames.blf or .asc written beside the results")
