@@ -15,6 +15,8 @@ from typing import Any
 
 import can
 
+from twmr.core import STRING, Parameter
+
 
 def bus_options(interface: str, channel: str, bitrate: int, can_config: str = "",
                 context: str = "default") -> dict[str, Any]:
@@ -53,6 +55,41 @@ def interface_problem(interface: str) -> str:
         return ""
     return (f"python-can has no interface '{interface}'{suggest(interface, known)}; it knows "
             f"{', '.join(known)}")
+
+
+class BusMember:
+    """The parameters by which a CAN participant says where its frames go, and their check."""
+
+    bus = Parameter("", type=STRING, description="a can_bus block of the scenario to join "
+                    "(replaces interface/channel/can_config; '' = its own python-can bus)")
+    interface = Parameter("virtual", type=STRING, description="python-can interface")
+    channel = Parameter("twmr", type=STRING, description="python-can channel")
+    bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
+    can_config = Parameter("", type=STRING, description="python-can config file (INI); replaces "
+                           "interface/channel/bitrate when given")
+    can_context = Parameter("default", type=STRING, description="section of can_config")
+
+
+def member_problems(block: Any, given: frozenset[str]) -> list[tuple[str, str, str]]:
+    """`bus:` beside its own python-can options, our bus blocks' interface named directly, and
+    an unknown python-can interface."""
+    from twmr.hw.canbus import INTERFACE
+
+    own = sorted(given & {"interface", "channel", "can_config"})
+    if block.bus and own:
+        return [(own[0], f"bus: {block.bus} and {', '.join(own)} both say where the frames go.",
+                 f"keep bus: {block.bus} (the bus block bridges any python-can bus with its "
+                 f"own interface/channel), or drop bus:.")]
+    if block.bus or block.can_config:
+        return []
+    if block.interface == INTERFACE:
+        return [("interface", f"interface '{INTERFACE}' is how participants join a can_bus "
+                 f"block.", "give bus: <the can_bus block's name> instead.")]
+    wrong = interface_problem(block.interface)
+    if wrong:
+        return [("interface", wrong + ".", "give a python-can interface name (or can_config: "
+                 "a python-can config file).")]
+    return []
 
 
 def describe(options: dict[str, Any]) -> str:

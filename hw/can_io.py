@@ -36,6 +36,7 @@ from typing import Any
 
 from twmr.core import BOOLEAN, STRING, Component, HardwareError, Input, Output, Parameter
 from twmr.core.run import RunContext
+from twmr.hw.bus import BusMember, member_problems
 from twmr.hw.dbc import STATUS, CanDatabase, DatabaseError, MessagePorts, status_collisions
 
 log = logging.getLogger("twmr.hw")
@@ -43,19 +44,6 @@ log = logging.getLogger("twmr.hw")
 SEND_MODES = ("cyclic", "on_change", "every_step", "on_request")
 #: how long a send on a bus block waits for its frames to be on the wire and handed on [s]
 HAND_WAIT = 0.05
-
-
-class BusMember:
-    """The parameters by which a CAN participant says where its frames go, and their check."""
-
-    bus = Parameter("", type=STRING, description="a can_bus block of the scenario to join "
-                    "(replaces interface/channel/can_config; '' = its own python-can bus)")
-    interface = Parameter("virtual", type=STRING, description="python-can interface")
-    channel = Parameter("twmr", type=STRING, description="python-can channel")
-    bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
-    can_config = Parameter("", type=STRING, description="python-can config file (INI); replaces "
-                           "interface/channel/bitrate when given")
-    can_context = Parameter("default", type=STRING, description="section of can_config")
 
 
 class CanIo(Component, BusMember):
@@ -513,29 +501,6 @@ def _unit(signal: Any) -> str:
     from twmr.hw.dbc import port_unit
 
     return port_unit(signal.unit)
-
-
-def member_problems(block: Any, given: frozenset[str]) -> list[tuple[str, str, str]]:
-    """`bus:` beside its own python-can options, our bus blocks' interface named directly, and
-    an unknown python-can interface."""
-    from twmr.hw.bus import interface_problem
-    from twmr.hw.canbus import INTERFACE
-
-    own = sorted(given & {"interface", "channel", "can_config"})
-    if block.bus and own:
-        return [(own[0], f"bus: {block.bus} and {', '.join(own)} both say where the frames go.",
-                 f"keep bus: {block.bus} (the bus block bridges any python-can bus with its "
-                 f"own interface/channel), or drop bus:.")]
-    if block.bus or block.can_config:
-        return []
-    if block.interface == INTERFACE:
-        return [("interface", f"interface '{INTERFACE}' is how participants join a can_bus "
-                 f"block.", "give bus: <the can_bus block's name> instead.")]
-    wrong = interface_problem(block.interface)
-    if wrong:
-        return [("interface", wrong + ".", "give a python-can interface name (or can_config: "
-                 "a python-can config file).")]
-    return []
 
 
 class CanDevice(CanIo):

@@ -45,7 +45,7 @@ from twmr.core import (
     Parameter,
 )
 from twmr.core.run import RunContext
-from twmr.hw.bus import FrameLog, bus_options, interface_problem
+from twmr.hw.bus import BusMember, FrameLog, bus_options, interface_problem, member_problems
 from twmr.hw.link import (
     DriveSpec,
     Link,
@@ -59,7 +59,7 @@ from twmr.hw.safety import Fault, LinkError, clamp, stale
 log = logging.getLogger("twmr.hw")
 
 
-class CanMotorDrive(Component):
+class CanMotorDrive(Component, BusMember):
     """Two drive axes on a CAN bus (ODrive CAN Simple or CiA 402), as the `motor_driver` block."""
 
     kind = "can_drive"
@@ -70,14 +70,6 @@ class CanMotorDrive(Component):
 
     protocol = Parameter("odrive", type=STRING, description="a registered CAN protocol "
                          "(twmr.can_protocols): odrive | cia402")
-    interface = Parameter("virtual", type=STRING, description="python-can interface")
-    channel = Parameter("twmr", type=STRING, description="python-can channel")
-    bitrate = Parameter(1_000_000, type="Integer", description="bit/s")
-    can_config = Parameter("", type=STRING, description="python-can config file (INI); replaces "
-                           "interface/channel/bitrate when given")
-    bus = Parameter("", type=STRING, description="a can_bus block of the scenario to join "
-                    "(replaces interface/channel/can_config; '' = its own python-can bus)")
-    can_context = Parameter("default", type=STRING, description="section of can_config")
     node_ids = Parameter((0, 1), size=2, type="Integer", description="right, left node id")
     gear = Parameter(1.0, min=1e-9, description="motor turns per wheel turn")
     torque_limit = Parameter(50.0, unit="N.m", min=0.0, description="|wheel torque| limit, "
@@ -162,18 +154,9 @@ class CanMotorDrive(Component):
         """`bus:` with its own python-can options, our bus blocks' interface named directly,
         and a `virtual` bus for drives in another process (python-can's virtual bus exists
         inside one process only)."""
-        from twmr.hw.canbus import INTERFACE
-
-        own = sorted(given & {"interface", "channel", "can_config"})
-        if self.bus and own:
-            return [(own[0], f"bus: {self.bus} and {', '.join(own)} both say where the frames "
-                     f"go.", f"keep bus: {self.bus} (the bus block bridges any python-can bus "
-                     f"with its own interface/channel), or drop bus:.")]
-        if self.bus:
-            return []
-        if self.interface == INTERFACE and not self.can_config:
-            return [("interface", f"interface '{INTERFACE}' is how participants join a can_bus "
-                     f"block.", "give bus: <the can_bus block's name> instead.")]
+        problems = member_problems(self, given)
+        if problems or self.bus:
+            return problems
         if not self.emulate and not self.can_config and self.interface == "virtual":
             return [("interface", "interface 'virtual' with emulate: false: python-can's "
                      "virtual bus exists inside one process only, so no drive in another "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import gc
 import time
 import uuid
+from collections.abc import Callable
 from typing import Any
 
 import can
@@ -18,6 +19,17 @@ WATCHDOG = 50
 #: the heartbeat timeout of the bench tests [s] (a case that tests heartbeat loss gives its own):
 #: heartbeats 0.54 s apart were seen at load 20
 HEARTBEAT_TIMEOUT = 1.0
+
+
+def eventually(check: Callable[[], bool], limit: float = 5.0) -> bool:
+    """Whether `check()` holds within `limit` seconds of wall time, polled every millisecond: the
+    emulated drives act on frames in their own thread, which a loaded machine runs late."""
+    end = time.monotonic() + limit
+    while not check():
+        if time.monotonic() > end:
+            return False
+        time.sleep(1e-3)
+    return True
 
 
 def channel() -> str:

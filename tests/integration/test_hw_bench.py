@@ -11,7 +11,7 @@ import can
 import numpy as np
 import pytest
 
-from tests.hw_bench import WATCHDOG, Monitor, Paced, channel, started
+from tests.hw_bench import WATCHDOG, Monitor, Paced, channel, eventually, started
 from twmr.components.metrics import errors
 from twmr.hw import protocol as p
 from twmr.master import simulate
@@ -63,9 +63,9 @@ def test_torque_is_limited_by_the_host_and_by_the_drive() -> None:
         # constant = 12.5 A x 0.04 N.m/A) holds it
         rogue.send(can.Message(arbitration_id=p.can_id(0, p.SET_INPUT_TORQUE),
                                data=p.encode_torque(0, 9.0, 1.0)[1], is_extended_id=False))
-        time.sleep(0.02)
         axis = d.emulators[0].axes[0]
-        assert axis.command == pytest.approx(9.0) and axis.torque == pytest.approx(0.5)
+        assert eventually(lambda: axis.command == pytest.approx(9.0))
+        assert axis.torque == pytest.approx(0.5)
     finally:
         d.terminate()
         rogue.shutdown()

@@ -5,14 +5,13 @@ scenario with the motor block as CiA 402 drives."""
 from __future__ import annotations
 
 import math
-import time
 import uuid
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from tests.hw_bench import WATCHDOG, Paced, started
+from tests.hw_bench import WATCHDOG, Paced, eventually, started
 from twmr.components.metrics import errors, tracking_metrics
 from twmr.hw.cia402 import State
 from twmr.master import simulate
@@ -47,8 +46,7 @@ def test_real_description_enable_torque_and_feedback(name: str) -> None:
             assert axes[1].node.sdo[0x6072].raw == 750  # 1.5 N.m / 2 / 1 N.m rated, per mille
             d.link.rx[1][2].raw = 2000  # a raw target past the limit reaches the drive
             d.link.rx[1][0].transmit()
-            time.sleep(0.02)
-            assert axes[1].torque == pytest.approx(1.5)
+            assert eventually(lambda: axes[1].torque == pytest.approx(1.5))
     finally:
         d.terminate()
 
