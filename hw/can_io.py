@@ -17,9 +17,13 @@ messages go out as FD frames with bit-rate switching.
 
 The bus: `bus: <can_bus block>` (the simulated bus with its bit timing, beside drives and LS-BUS
 FMUs), or a python-can bus of its own (`interface`/`channel`/`bitrate`, or `can_config`: virtual,
-udp_multicast across processes, socketcan, a real adapter). Frames are taken from the bus by a
-python-can notifier thread stamped with the host's clock; the interface's own timestamp (the
-kernel's or the adapter's for socketcan) is kept beside it in the frame log
+udp_multicast across processes, socketcan, a real adapter). When nothing on the wall clock joins
+the bus block (no drive, no bus outside) the block steps the bus in run time: a frame sent at a
+step goes on the wire in the bus block's next step and is taken by the receivers at their first
+step after it ended there, the same in every run, with periods and jitter measured in run time.
+Otherwise frames are taken from the bus by a python-can notifier thread stamped with the host's
+clock; the interface's own timestamp (the kernel's or the adapter's for socketcan; run time on a
+bus block in run time) is kept beside it in the frame log
 (`<name>_frames.parquet`: run time, host time, interface time, direction, identifier, data,
 message). `report()` gives, per message, frames sent and seen, the send period's measured
 mean and jitter, timeouts, saturated values and counter jumps.
@@ -275,6 +279,11 @@ class CanIo(Component, BusMember):
                 "give an existing python-can config file or interface and channel"
             raise HardwareError(self.name, start, f"cannot open the CAN bus ({err}). Fix: "
                                 f"{fix}.") from err
+        #: on a bus block stepped in run time: frames are taken at each step, periods measured
+        #: in run time
+        self._stepped = bool(getattr(self.canbus, "in_run_time", False))
+        if self._stepped:
+            return
         inbox = self._inbox
 
         class Inbox(can.Listener):
@@ -321,7 +330,7 @@ class CanIo(Component, BusMember):
         period = self.period or mp.cycle
         if not period:
             return True
-        if t + 1e-9 * h < self._next_send[mp.name]:
+        if t + 0.5 * h < self._next_send[mp.name]:  # due at the step nearest its time
             return False
         self._next_send[mp.name] = max(self._next_send[mp.name] + period, t)
         return True
@@ -356,7 +365,7 @@ class CanIo(Component, BusMember):
             frames += 1
         stats = self._stats[mp.name]
         stats["sent"] += frames
-        stats["times"].append(time.perf_counter())
+        stats["times"].append(t if self._stepped else time.perf_counter())
         self._last_sent[mp.name] = self._values(mp)
         return frames
 
@@ -380,6 +389,9 @@ class CanIo(Component, BusMember):
         """Decode every frame the bus brought since the last step; age and timeouts at `now`."""
         import can
 
+        if self._stepped:
+            while (arrived := self.canbus.recv(timeout=0)) is not None:
+                self._inbox.put((arrived, time.time()))
         answered: set[str] = set()
         while True:
             try:

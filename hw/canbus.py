@@ -35,7 +35,7 @@ from twmr.hw.cansim import BusEvent, CanBusModel
 
 #: the python-can interface name of bus blocks (entry point group `can.interface`)
 INTERFACE = "twmr"
-_RUNNERS: dict[str, BusRunner] = {}
+_RUNNERS: dict[str, BusCore] = {}
 _RUNNERS_LOCK = threading.Lock()
 
 
@@ -49,15 +49,44 @@ class Participant(Protocol):
     def deliver(self, event: BusEvent) -> None: ...
 
 
-def runner(channel: str) -> BusRunner | None:
+def runner(channel: str) -> BusCore | None:
     """The running bus of `channel`, if any."""
     with _RUNNERS_LOCK:
         return _RUNNERS.get(channel)
 
 
+def register(channel: str, bus: BusCore) -> None:
+    """`bus` is reached as `channel` (by `runner` and python-can's interface `twmr`)."""
+    with _RUNNERS_LOCK:
+        _RUNNERS[channel] = bus
+
+
+def unregister(channel: str, bus: BusCore) -> None:
+    """`channel` no longer reaches `bus`."""
+    with _RUNNERS_LOCK:
+        if _RUNNERS.get(channel) is bus:
+            del _RUNNERS[channel]
+
+
 class BusCore:
     """What every bus of a block keeps: `model`, its participants, the events recorded for the
-    log, the counts and the first bus errors. Bus time is run time minus `offset`."""
+    log, the counts and the first bus errors. Bus time is run time minus `offset`. What a
+    participant of interface `twmr` (`BlockBus`) calls: `join`, `leave`, `submit`, `handed`;
+    `in_run_time`: whether bus time is run time (the block steps it) or the monotonic clock."""
+
+    in_run_time: ClassVar[bool] = False
+
+    def join(self, member: Participant, keeps_open: bool = True) -> str:
+        raise NotImplementedError
+
+    def leave(self, name: str, flush: float = 0.5) -> None:
+        raise NotImplementedError
+
+    def submit(self, sender: str, frame: can.Message, at: float | None = None) -> str:
+        raise NotImplementedError
+
+    def handed(self, name: str, timeout: float) -> bool:
+        raise NotImplementedError
 
     def __init__(self, name: str, model: CanBusModel, offset: float):
         self.name, self.model = name, model
@@ -145,8 +174,7 @@ class BusRunner(BusCore):
         self._stopped = False
         self._handing = False  # the thread is handing events to the participants
         self._thread = threading.Thread(target=self._run, name=f"can-bus {name}", daemon=True)
-        with _RUNNERS_LOCK:
-            _RUNNERS[channel] = self
+        register(channel, self)
         self._thread.start()
 
     # -- participants ------------------------------------------------------------------------
@@ -263,9 +291,7 @@ class BusRunner(BusCore):
                 self._record(event)
             members = dict(self._members)
         self._dispatch(events, members)
-        with _RUNNERS_LOCK:
-            if _RUNNERS.get(self.channel) is self:
-                del _RUNNERS[self.channel]
+        unregister(self.channel, self)
         if self.on_close is not None:
             self.on_close(self)
 
@@ -288,9 +314,18 @@ class BlockBus(can.BusABC):
         self.queue: queue.SimpleQueue[can.Message] = queue.SimpleQueue()
         self._runner.join(self)
 
+    @property
+    def in_run_time(self) -> bool:
+        """Whether the bus is stepped in run time by its block (frames arrive as it steps,
+        stamped with run time), not on the wall clock."""
+        return self._runner.in_run_time
+
     def deliver(self, event: BusEvent) -> None:
+        """Queue a frame of another participant (an error frame for a bus error), stamped with
+        the time it ended on the wire: run time on a bus in run time, else the host's clock."""
+        stamp = event.time if self._runner.in_run_time else time.time()
         if event.kind == "transmit":
-            msg = can.Message(timestamp=time.time(), arbitration_id=event.frame.arbitration_id,
+            msg = can.Message(timestamp=stamp, arbitration_id=event.frame.arbitration_id,
                               is_extended_id=event.frame.is_extended_id,
                               is_remote_frame=event.frame.is_remote_frame,
                               is_fd=event.frame.is_fd, bitrate_switch=event.frame.bitrate_switch,
@@ -298,7 +333,7 @@ class BlockBus(can.BusABC):
                               channel=self._runner.name, check=False)
             self.queue.put(msg)
         elif event.kind == "bus_error" and not math.isnan(event.start):
-            self.queue.put(can.Message(timestamp=time.time(), is_error_frame=True,
+            self.queue.put(can.Message(timestamp=stamp, is_error_frame=True,
                                         channel=self._runner.name, is_rx=True))
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:

@@ -218,10 +218,11 @@ class CanBus(Component):
 
     def check_peers(self, peers: Mapping[str, Component]) -> list[tuple[str, str, str]]:
         """Two bus blocks bridged to the same python-can bus are one bus joined twice. Whether
-        the bus needs the wall clock: a drive (`bus:` naming it) or a bus outside joins."""
+        the bus needs the wall clock: a bus outside or a block on the wall clock (a drive, not
+        a `can_io` node) joins it (`bus:` naming it)."""
         self._wallclock = bool(self.interface or self.can_config) or any(
-            isinstance(getattr(c, "bus", None), str) and c.bus and  # type: ignore[attr-defined]
-            joins(n, c.bus, peers) == self.name  # type: ignore[attr-defined]
+            c.needs_realtime and isinstance(getattr(c, "bus", None), str) and
+            c.bus and joins(n, c.bus, peers) == self.name  # type: ignore[attr-defined]
             for n, c in peers.items() if c is not self)
         self.can_get_and_set_state = not self._wallclock
         if not self.interface or self.can_config:
@@ -287,8 +288,9 @@ class CanBus(Component):
                             str(self.stuffing), fault=drop if isinstance(drop, FrameDrop)
                             else None)
         stepped = not (self._wallclock or getattr(run, "paced", False))
-        self.bus: BusRunner | SteppedBus | None = SteppedBus(self.name, model) if stepped \
-            else BusRunner(self.name, channel_of(id(run), self.name), model, self._closed)
+        channel = channel_of(id(run), self.name)
+        self.bus: BusRunner | SteppedBus | None = SteppedBus(self.name, model, channel) \
+            if stepped else BusRunner(self.name, channel, model, self._closed)
         self._nodes = {name: LsBusNode(name, peer, terminal, self._limits.get(name))
                        for name, (peer, terminal) in self.peers.items()}
         if stepped:
@@ -516,6 +518,7 @@ class CanBus(Component):
         bus, self.bus = getattr(self, "bus", None), None
         if isinstance(bus, SteppedBus):
             self.bus_done = bus
+            bus.close()
             self._closed(bus)
         elif bus is not None:
             self.bus_done = bus

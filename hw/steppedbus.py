@@ -14,23 +14,49 @@ from typing import Any
 
 import can
 
-from twmr.hw.canbus import BusCore, Participant
+from twmr.hw.canbus import BusCore, Participant, register, unregister
 from twmr.hw.cansim import BusEvent, CanBusModel
 
 
 class SteppedBus(BusCore):
-    """`model` for the bus block `name`, in run time [s]."""
+    """`model` for the bus block `name`, in run time [s]; reached as `channel` (python-can
+    interface `twmr`) until `close`."""
 
-    def __init__(self, name: str, model: CanBusModel):
+    in_run_time = True
+
+    def __init__(self, name: str, model: CanBusModel, channel: str = ""):
         super().__init__(name, model, 0.0)
+        self.channel = channel
+        #: run time the bus has been advanced to [s]: what a frame submitted without a time is
+        #: stamped with (it goes on the wire in the block's next step)
+        self.clock = 0.0
+        if channel:
+            register(channel, self)
 
     def join(self, member: Participant, keeps_open: bool = True) -> str:
         """Add `member`; its name on the bus (made unique with '#2', '#3', ...)."""
-        return self._add(member)
+        with self._cond:
+            return self._add(member)
+
+    def leave(self, name: str, flush: float = 0.5) -> None:
+        """`name` leaves; what it queued stays queued (the block's steps put it on the wire)."""
+        with self._cond:
+            self._members.pop(name, None)
+
+    def handed(self, name: str, timeout: float) -> bool:
+        """Frames go on the wire as the block steps, never on the wall clock: nothing to wait
+        for."""
+        return True
+
+    def close(self) -> None:
+        """No participant reaches the bus any more."""
+        if self.channel:
+            unregister(self.channel, self)
 
     def submit(self, sender: str, frame: can.Message, at: float | None = None) -> str:
-        """Queue `frame` of `sender` at run time `at` [s]; '' or why the bus refuses it."""
-        t = 0.0 if at is None else at
+        """Queue `frame` of `sender` at run time `at` [s] (default: `clock`); '' or why the
+        bus refuses it."""
+        t = self.clock if at is None else at
         problem = self.model.submit(sender, frame, t)
         if problem:
             self._record(BusEvent("bus_error", t, frame, sender, problem))
@@ -40,10 +66,12 @@ class SteppedBus(BusCore):
         """Every event up to run time `until` [s], recorded and handed to the participants."""
         events = self.model.advance(until)
         with self._cond:
+            self.clock = max(self.clock, until)
             for event in events:
                 if event.kind != "bus_error" or not math.isnan(event.start):
                     self._record(event)  # refusals were recorded at submission
-        self._dispatch(events, self._members)
+            members = dict(self._members)
+        self._dispatch(events, members)
 
     def next_time(self) -> float | None:
         """Run time [s] of the next event (None: nothing pending)."""
@@ -53,10 +81,10 @@ class SteppedBus(BusCore):
         """The model and the records, copied."""
         with self._cond:
             return copy.deepcopy((self.model, self.rows, self.counts, self._errors,
-                                  self.failures))
+                                  self.failures, self.clock))
 
     def restore(self, saved: Any) -> None:
         """Back to a `snapshot` (a copy of it: it can be restored again)."""
         with self._cond:
-            self.model, self.rows, self.counts, self._errors, self.failures = \
+            self.model, self.rows, self.counts, self._errors, self.failures, self.clock = \
                 copy.deepcopy(saved)
