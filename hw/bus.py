@@ -17,6 +17,9 @@ import can
 
 from twmr.core import STRING, Parameter
 
+#: the python-can interface name of bus blocks (entry point group `can.interface`)
+INTERFACE = "twmr"
+
 
 def bus_options(interface: str, channel: str, bitrate: int, can_config: str = "",
                 context: str = "default") -> dict[str, Any]:
@@ -73,8 +76,6 @@ class BusMember:
 def member_problems(block: Any, given: frozenset[str]) -> list[tuple[str, str, str]]:
     """`bus:` beside its own python-can options, our bus blocks' interface named directly, and
     an unknown python-can interface."""
-    from twmr.hw.canbus import INTERFACE
-
     own = sorted(given & {"interface", "channel", "can_config"})
     if block.bus and own:
         return [(own[0], f"bus: {block.bus} and {', '.join(own)} both say where the frames go.",

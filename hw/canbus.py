@@ -30,11 +30,9 @@ from typing import Any, ClassVar, Protocol
 
 import can
 
-from twmr.hw.bus import frame_text
+from twmr.hw.bus import INTERFACE, frame_text
 from twmr.hw.cansim import BusEvent, CanBusModel
 
-#: the python-can interface name of bus blocks (entry point group `can.interface`)
-INTERFACE = "twmr"
 _RUNNERS: dict[str, BusCore] = {}
 _RUNNERS_LOCK = threading.Lock()
 

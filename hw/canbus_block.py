@@ -43,8 +43,8 @@ from twmr.core.run import RunContext
 from twmr.fmi.lsbus import operations as ops
 from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
-from twmr.hw.bus import bus_options, describe, interface_problem
-from twmr.hw.canbus import INTERFACE, BusCore, BusRunner, FrameLog, Gateway, runner
+from twmr.hw.bus import INTERFACE, bus_options, describe, interface_problem
+from twmr.hw.canbus import BusCore, BusRunner, FrameLog, Gateway, runner
 from twmr.hw.cansim import STUFFING, CanBusModel, FrameDrop
 from twmr.hw.lsbus_node import LsBusNode, frame_of
 from twmr.hw.steppedbus import SteppedBus
