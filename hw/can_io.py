@@ -266,6 +266,11 @@ class CanIo(Component, BusMember):
         self._count = {name: 0 for name in self.tx}
         self._last_count: dict[tuple[int, bool], int] = {}
         self._rows: list[tuple[Any, ...]] = []
+        #: the frame log is kept (a log file asked for, a run folder to write it in)
+        self._logging = bool(self.log_file) and getattr(self, "_folder", None) is not None
+        #: per message sent: (signal, port) of the signals that are inputs
+        self._wired = {mp.name: tuple((s, p) for s, p in mp.ports.items() if p in self.variables)
+                       for mp in self.tx.values()}
         self._inbox: queue.SimpleQueue[tuple[can.Message, float]] = queue.SimpleQueue()
         self.canbus: Any = None
         self._notifier: Any = None
@@ -336,8 +341,8 @@ class CanIo(Component, BusMember):
         return True
 
     def _values(self, mp: MessagePorts) -> tuple[float, ...]:
-        return tuple(float(self.__dict__.get(p, math.nan)) for s, p in mp.ports.items()
-                     if p in self.variables)
+        d = self.__dict__
+        return tuple(float(d.get(p, math.nan)) for _, p in self._wired[mp.name])
 
     def _send_due(self, t: float, h: float) -> int:
         n = 0
@@ -349,7 +354,8 @@ class CanIo(Component, BusMember):
     def _send(self, mp: MessagePorts, t: float) -> int:
         import can
 
-        values = {s: float(self.__dict__[p]) for s, p in mp.ports.items() if p in self.variables}
+        d = self.__dict__
+        values = {s: float(d[p]) for s, p in self._wired[mp.name]}
         counter = self._counters.get(mp.name)
         frames = 0
         for data in self._frames(mp, values, counter):
@@ -360,8 +366,9 @@ class CanIo(Component, BusMember):
             except can.CanError as err:
                 raise HardwareError(self.name, t, f"sending {mp.name} failed: {err}. Fix: check "
                                     f"the bus (its state, its bitrate, CAN FD).") from err
-            host = time.time()
-            self._rows.append((t, host, math.nan, "tx", mp.key[0], bytes(data).hex(), mp.name))
+            if self._logging:
+                self._rows.append((t, time.time(), math.nan, "tx", mp.key[0], bytes(data).hex(),
+                                   mp.name))
             frames += 1
         stats = self._stats[mp.name]
         stats["sent"] += frames
@@ -423,8 +430,9 @@ class CanIo(Component, BusMember):
             stats = self._stats[mp.name]
             stats["seen"] += 1
             self.__dict__[f"{mp.name}.frames"] = stats["seen"]
-            self._rows.append((now, host, float(msg.timestamp), "rx", key[0],
-                               bytes(msg.data).hex(), mp.name))
+            if self._logging:
+                self._rows.append((now, host, float(msg.timestamp), "rx", key[0],
+                                   bytes(msg.data).hex(), mp.name))
         for key, mp in self.rx.items():
             age = now - self._seen[key]
             self.__dict__[f"{mp.name}.age"] = age

@@ -197,6 +197,13 @@ class MessagePorts:
     #: signals whose value was not finite, sent as their initial value
     not_finite: int = 0
     _ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
+    name: str = field(init=False)
+    #: (identifier, extended) as on the wire
+    key: tuple[int, bool] = field(init=False)
+    #: sent as CAN FD frames: the file says so, or the message is longer than 8 bytes
+    fd: bool = field(init=False)
+    #: the file's cycle time [s] (0: none)
+    cycle: float = field(init=False)
 
     @classmethod
     def of(cls, message: Any) -> MessagePorts:
@@ -204,24 +211,12 @@ class MessagePorts:
         ranges = {s.name: _range(s) for s in message.signals}
         return cls(message, ports, _pages(message.signal_tree), _ranges=ranges)
 
-    @property
-    def name(self) -> str:
-        return str(self.message.name)
-
-    @property
-    def key(self) -> tuple[int, bool]:
-        """(identifier, extended) as on the wire."""
-        return int(self.message.frame_id), bool(self.message.is_extended_frame)
-
-    @property
-    def fd(self) -> bool:
-        """Sent as CAN FD frames: the file says so, or the message is longer than 8 bytes."""
-        return bool(self.message.is_fd) or int(self.message.length) > 8
-
-    @property
-    def cycle(self) -> float:
-        """The file's cycle time [s] (0: none)."""
-        return float(self.message.cycle_time or 0) / 1e3
+    def __post_init__(self) -> None:
+        message = self.message
+        self.name = str(message.name)
+        self.key = (int(message.frame_id), bool(message.is_extended_frame))
+        self.fd = bool(message.is_fd) or int(message.length) > 8
+        self.cycle = float(message.cycle_time or 0) / 1e3
 
     def initial(self, signal: Any) -> float:
         """The signal's initial value (physical): the file's, else 0 brought into its range."""
