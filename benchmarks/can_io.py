@@ -93,8 +93,9 @@ def main() -> None:
           f"{loop_rate / bare_rate:.2f}); {per_step * 1e3:.3f} ms per step for the 20 messages "
           f"(runs {med['nodes']:.2f} s with the nodes, {med['bus']:.2f} s without)")
     print(json.dumps({"frames": frames, "received": seen, "loop_frames_per_s": loop_rate,
-                      "bare_frames_per_s": bare_rate, "ratio_loop_to_bare": loop_rate / bare_rate,
-                      "per_step_s": per_step, "with_nodes_s": med["nodes"], "bus_only_s": med["bus"],
+                      "bare_frames_per_s": bare_rate,
+                      "ratio_loop_to_bare": loop_rate / bare_rate, "per_step_s": per_step,
+                      "with_nodes_s": med["nodes"], "bus_only_s": med["bus"],
                       "spread_with_nodes_s": max(walls["nodes"]) - min(walls["nodes"])}))
 
 

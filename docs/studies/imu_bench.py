@@ -29,15 +29,13 @@ DROP = (10.0, 10.5)  # [s]: MM5_10_TX1 (0x70) lost on the bus
 def run(folder: Path, tag: str, bus: str = "") -> object:
     import twmr
 
-    text = SCENARIO.read_text(encoding="utf-8")
+    text = SCENARIO.read_text(encoding="utf-8").replace(
+        "dbc: can/abs.dbc", f"dbc: {SCENARIO.parent / 'can' / 'abs.dbc'}")
     if bus:
-        text = text.replace("parameters: {bitrate: 500000}", f"parameters: {{bitrate: 500000{bus}}}")
-    path = SCENARIO.parent / f".imu_bench_{tag}.yaml"  # beside can/abs.dbc
+        text = text.replace("{bitrate: 500000}", f"{{bitrate: 500000{bus}}}")
+    path = folder / f"{tag}.yaml"
     path.write_text(text, encoding="utf-8")
-    try:
-        return twmr.simulate(path, folder / tag)
-    finally:
-        path.unlink()
+    return twmr.simulate(path, folder / tag)
 
 
 def wire_values(folder: Path) -> np.ndarray:
