@@ -118,3 +118,45 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
     for _, _, data in got:
         assert sorted([data[:len(frame)], data[len(frame):]] if data.startswith("1")
                       else [data[:len(confirm)], data[len(confirm):]]) == sorted([confirm, frame])
+
+
+NODES_DBC = """VERSION ""
+BS_:
+BU_: Node1 Ecu
+BO_ 1 NodeFrame: 4 Node1
+ SG_ b0 : 0|8@1+ (1,0) [0|255] "" Ecu
+ SG_ b1 : 8|8@1+ (1,0) [0|255] "" Ecu
+ SG_ b2 : 16|8@1+ (1,0) [0|255] "" Ecu
+ SG_ b3 : 24|8@1+ (1,0) [0|255] "" Ecu
+BO_ 16 EcuFrame: 2 Ecu
+ SG_ level : 0|16@1+ (0.5,0) [0|1000] "V" Node1
+"""
+
+
+def test_a_can_io_node_and_a_published_ls_bus_node_hear_each_other(tmp_path: Path) -> None:
+    """The tool's node 1 (an FMI-LS-BUS FMU) and two `can_io` nodes of a database written for
+    its frame on our `can_bus` block: the receiving node decodes node 1's 01 02 03 04 at each of
+    its sends (0.3, 0.6, 0.9 s), and the frames the sending node puts on the bus reach node 1's
+    terminal as LS-BUS Transmit operations of identifier 0x10 with its encoded value."""
+    folder = corpus("lsbus")
+    (tmp_path / "nodes.dbc").write_text(NODES_DBC)
+    out = run(tmp_path, f"""
+components:
+  bus: {{kind: can_bus}}
+  n1: {{kind: fmu, parameters: {{path: {folder / 'node1.fmu'}}}}}
+  ecu: {{kind: can_io, parameters: {{dbc: nodes.dbc, receive: NodeFrame, bus: bus}}}}
+  tx: {{kind: can_io, parameters: {{dbc: nodes.dbc, send: EcuFrame, bus: bus, period: 0.2}},
+       initial: {{EcuFrame.level: 12.5}}}}
+connections:
+  - n1.CanChannel -> bus.n1
+record: {{signals: [bus.n1.Tx_Data, ecu.NodeFrame.b0, ecu.NodeFrame.b3, ecu.NodeFrame.frames]}}
+experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
+""")
+    result = twmr.read_result(out)
+    assert list(result["ecu.NodeFrame.frames"][-1:]) == [3]
+    assert result["ecu.NodeFrame.b0"][-1] == 1 and result["ecu.NodeFrame.b3"][-1] == 4
+    # CAN Transmit: op code 0x10, length 18, identifier 0x10, standard, data frame, 2 bytes,
+    # 25 = 12.5 V / 0.5 (every field little-endian, as FMI-LS-BUS lays operations out)
+    transmit = "10000000" "12000000" "10000000" "00" "00" "0200" "1900"
+    to_node = [d for _, p, d in ours(out) if p == "bus.n1.Tx_Data"]
+    assert sum(d.count(transmit) for d in to_node) == 5  # sent at 0, 0.2, ..., 0.8 s
