@@ -28,6 +28,7 @@ import numpy as np
 
 from twmr.core.errors import ComponentError, CosimError, FmuTerminated
 from twmr.core.port import BINARY
+from twmr.core.raised import described
 from twmr.core.run import Options, RunContext
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
@@ -425,10 +426,9 @@ class Execution:
                     name, t, f"{call} called exit ({exc.code!r}), which would end twmr with "
                     f"nothing said. Fix: raise an exception (or return) instead of exiting; "
                     f"the results up to it are saved.") from None
-            raise ComponentError(
-                name, t, f"{call} raised {type(exc).__name__}: {exc}. Fix: check the component's "
-                f"inputs and parameters at that time (the results up to it are saved)."
-            ) from exc
+            raise ComponentError(name, t, described(
+                call, exc, "check the component's inputs and parameters at that time (the "
+                "results up to it are saved).")) from exc
 
     def _completed(self, error: CosimError) -> int:
         """The base steps completed when `error` stopped a chunk: up to the time it was raised
@@ -517,8 +517,8 @@ class Execution:
             except (CosimError, KeyboardInterrupt):
                 raise
             except Exception as exc:  # noqa: BLE001 - every component failure is reported
-                raise ComponentError(name, t, f"{call}() raised {type(exc).__name__}: {exc}. "
-                                     f"Fix: check the parameters of '{name}'.") from exc
+                raise ComponentError(name, t, described(
+                    f"{call}()", exc, f"check the parameters of '{name}'.")) from exc
 
     def _hardware_last(self) -> list[str]:
         """The components in order, those that need real time (drives, buses) last: started
