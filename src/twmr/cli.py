@@ -101,13 +101,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     if s.get("stopped_by"):
         log.info("%s asked to end the simulation at t = %g s (experiment.fmu_terminate: stop)",
                  s["stopped_by"]["component"], s["stopped_by"]["time"])
-    log.info("done: %d steps in %.2f s (%.1fx real time); results in %s/", s["steps_done"],
-             s["wall_time_s"], s["realtime_factor"], result.folder)
     figures = s.get("pacing") or {}
+    compiled = ""
     if figures.get("algorithm.compiled"):
-        log.info("compiled step loop (numba): compiled or loaded in %.3f s",
-                 figures.get("algorithm.compile_s", float("nan")))
-    elif figures.get("algorithm.not_compiled"):
+        compiled = (f", after {figures.get('algorithm.compile_s', float('nan')):.2f} s to "
+                    f"compile the step loop (numba; or load it from its cache)")
+    log.info("done: %d steps in %.2f s (%.1fx real time)%s; results in %s/", s["steps_done"],
+             s["wall_time_s"], s["realtime_factor"], compiled, result.folder)
+    if figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
     statistics = lines(s.get("statistics") or {})
     if statistics:

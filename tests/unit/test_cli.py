@@ -139,3 +139,13 @@ def test_ctrl_c_inside_generated_code_still_exits_with_status_130(tmp_path) -> N
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 130, done
     assert done.stderr.startswith("interrupted (Ctrl-C) after "), done.stderr
+
+
+def test_the_done_line_says_how_long_the_compile_before_the_steps_took(tmp_path, capsys
+                                                                       ) -> None:
+    assert main(["run", str(FIXTURE), "--out", str(tmp_path), "--compiled", "on"]) == 0
+    err = capsys.readouterr().err
+    done = [line for line in err.splitlines() if line.startswith("done: ")]
+    compile_s = json.loads((tmp_path / "summary.json").read_text())["pacing"][
+        "algorithm.compile_s"]
+    assert len(done) == 1 and f"after {compile_s:.2f} s to compile the step loop" in done[0]
