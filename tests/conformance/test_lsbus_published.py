@@ -160,3 +160,29 @@ experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
     transmit = "10000000" "12000000" "10000000" "00" "00" "0200" "1900"
     to_node = [d for _, p, d in ours(out) if p == "bus.n1.Tx_Data"]
     assert sum(d.count(transmit) for d in to_node) == 5  # sent at 0, 0.2, ..., 0.8 s
+
+
+def test_check_notes_the_pre_release_once_per_fmu(tmp_path: Path, capsys: pytest.CaptureFixture
+                                                   ) -> None:
+    """The trio says FMI-LS-BUS 1.0.0-beta.1 in each manifest and each Binary's MIME type: one
+    note per FMU naming where, not one per variable."""
+    from twmr.cli import main
+
+    folder = corpus("lsbus")
+    path = tmp_path / "trio.yaml"
+    path.write_text(f"""
+components:
+  bus: {{kind: fmu, parameters: {{path: {folder / 'bus.fmu'}}}}}
+  n1: {{kind: fmu, parameters: {{path: {folder / 'node1.fmu'}}}}}
+  n2: {{kind: fmu, parameters: {{path: {folder / 'node2.fmu'}}}}}
+connections:
+  - n1.CanChannel -> bus.Node1
+  - n2.CanChannel -> bus.Node2
+open: [bus.BusErrorProbability]
+experiment: {{start: 0.0, stop: 1.0, step: 0.1}}
+""")
+    assert main(["check", str(path)]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "pre-release" in line]
+    assert len(notes) == 3
+    assert "'bus.fmu' says FMI-LS-BUS 1.0.0-beta.1" in notes[0]
+    assert "the MIME type of Node2.Rx_Data" in notes[0]

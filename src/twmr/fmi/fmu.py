@@ -206,9 +206,10 @@ class FmuComponent(Component):
         need = {"Tx_Data": ("output", "Binary"), "Rx_Data": ("input", "Binary"),
                 "Tx_Clock": ("output", "Clock"), "Rx_Clock": ("input", "Clock")}
         found: dict[str, dict[str, str]] = {}
-        for t in bus_terminals(self.source_path, label):
-            for note in t.notes:
-                log.warning("note: component '%s': %s", label, note)
+        terminals = bus_terminals(self.source_path, label)
+        for note in dict.fromkeys(n for t in terminals for n in t.notes):  # one per cause
+            log.warning("note: component '%s': %s", label, note)
+        for t in terminals:
             for member, (kind, type_) in need.items():
                 p = ports.get(t.members[member])
                 if p is None or p.kind != kind or p.fmi_type != type_:

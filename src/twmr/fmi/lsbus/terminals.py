@@ -74,13 +74,13 @@ def bus_terminals(path: Path, instance: str) -> list[BusTerminal]:
         raise FmuError(instance, None, f"'{path.name}' has LS-BUS network terminals "
                        f"({', '.join(str(t.get('name')) for t in found)}) but no {MANIFEST}. "
                        f"Fix: add the manifest of FMI-LS-BUS to the FMU (or ask its vendor).")
-    notes: list[str] = []
+    betas: dict[str, list[str]] = {}  # pre-release version -> where the FMU says it
     m = _parse(manifest, path, MANIFEST, instance)
     name, version = m.get(f"{_LS}fmi-ls-name"), m.get(f"{_LS}fmi-ls-version") or ""
     if name != LS_NAME:
         raise FmuError(instance, None, f"'{path.name}': {MANIFEST} names the layered standard "
                        f"'{name}', not '{LS_NAME}'. Fix: correct the manifest.")
-    notes += _version_note(path, instance, version, "the LS-BUS manifest")
+    _check_version(path, instance, version, "the LS-BUS manifest", betas)
     mimes = _mime_types(path)
     terminals = []
     for t in found:
@@ -92,7 +92,6 @@ def bus_terminals(path: Path, instance: str) -> list[BusTerminal]:
             raise FmuError(instance, None, f"'{path.name}': bus terminal '{tname}' lacks "
                            f"member(s) {', '.join(missing)} (an LS-BUS network terminal has "
                            f"{', '.join(MEMBERS)}). Fix: correct its terminalsAndIcons.xml.")
-        term_notes = list(notes)
         for member in ("Tx_Data", "Rx_Data"):
             var = members[member]
             if var not in mimes:
@@ -106,9 +105,12 @@ def bus_terminals(path: Path, instance: str) -> list[BusTerminal]:
                                f"({var}) has MIME type '{mimes[var]}', not CAN ('{CAN_MIME}'); "
                                f"this importer runs CAN bus terminals only. Fix: use a CAN "
                                f"network FMU, or leave this FMU's bus unconnected.")
-            term_notes += _version_note(path, instance, mversion, f"{var}'s MIME type")
-        terminals.append(BusTerminal(tname, members, version,
-                                     list(dict.fromkeys(term_notes))))
+            _check_version(path, instance, mversion, f"the MIME type of {var}", betas)
+        terminals.append(BusTerminal(tname, members, version, []))
+    notes = [f"'{path.name}' says FMI-LS-BUS {v}, a pre-release of {VERSION} ({', '.join(w)}); "
+             f"its operations are read in the {VERSION} layout." for v, w in betas.items()]
+    for terminal in terminals:
+        terminal.notes.extend(notes)
     return terminals
 
 
@@ -137,12 +139,15 @@ def _mime_types(path: Path) -> dict[str, str | None]:
     return {str(v.get("name")): v.get("mimeType") for v in root.iter("Binary")}
 
 
-def _version_note(path: Path, instance: str, version: str, what: str) -> list[str]:
+def _check_version(path: Path, instance: str, version: str, what: str,
+                   betas: dict[str, list[str]]) -> None:
+    """`what` of the FMU says FMI-LS-BUS `version`: noted in `betas` when a pre-release of the
+    version read, FmuError when another version."""
     if version == VERSION:
-        return []
+        return
     if version.startswith(f"{VERSION}-beta"):
-        return [f"'{path.name}': {what} says FMI-LS-BUS {version}, a pre-release of {VERSION}; "
-                f"its operations are read in the {VERSION} layout."]
+        betas.setdefault(version, []).append(what)
+        return
     raise FmuError(instance, None, f"'{path.name}': {what} says FMI-LS-BUS version "
                    f"'{version}'; this importer knows {VERSION} (and its 1.0.0-beta "
                    f"pre-releases). Fix: use an FMU of FMI-LS-BUS {VERSION}.")
