@@ -18,6 +18,7 @@ import logging
 import math
 import operator
 import os
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -269,6 +270,23 @@ class FmuComponent(Component):
         self._given.add(name)
         if name in self.sizing_parameters:
             self._resize()
+
+    def unknown_parameter(self, name: str) -> tuple[str, str] | None:
+        """A parameter a twmr export fixed in the FMU's code (its description says "Compiled
+        with name = value"): what it was fixed to, and the export command that changes it."""
+        md = self.md
+        if not str(md.generationTool or "").startswith("twmr-cosim"):
+            return None
+        fixed = re.search(r"Compiled with (.*)\.\s*$", str(md.description or ""))
+        values = dict(re.findall(r"(\w+) = ([^,]+)", fixed.group(1))) if fixed else {}
+        if name not in values:
+            return None
+        version = "3" if self.fmi3 else "2"
+        return (f"'{name}' is not a parameter of this FMU: twmr export fixed it to "
+                f"{values[name]} in the FMU's code.",
+                f"export the block again with the value you want: twmr export "
+                f"{md.modelName} --fmi {version} --set {name}=<value> --out "
+                f"{self.source_path}")
 
     def _resize(self) -> None:
         """Ports again with the structural parameters' present values; a port whose size changed
