@@ -19,8 +19,12 @@ def emulate_drive(args: argparse.Namespace) -> int:
     import can
 
     from twmr.hw.bus import bus_options, describe
-    from twmr.hw.link import DriveSpec, protocol
+    from twmr.hw.link import DriveSpec, option_parameters, protocol
 
+    given_options = _from_scenario(args) if args.scenario else {}
+    for key, default in DRIVE_DEFAULTS.items():
+        if getattr(args, key) is None:
+            setattr(args, key, default)
     link = protocol(args.protocol)
     nodes = tuple(args.node) if args.node else link.default_nodes
     problem = link.node_problem(nodes)
@@ -28,7 +32,9 @@ def emulate_drive(args: argparse.Namespace) -> int:
         raise CosimError(f"emulate-drive: {problem}. Fix: give --node ids the protocol can "
                          f"address ({link.node_range.start}..{link.node_range.stop - 1}), each "
                          f"once.")
-    given = protocol_options("emulate-drive", args.protocol, args.option)
+    given = {k: v for k, v in given_options.items()
+             if k in option_parameters(link.Options) or k in ("torque_limit", "heartbeat_timeout")}
+    given.update(protocol_options("emulate-drive", args.protocol, args.option))
     spec = DriveSpec.of(link, args, nodes=nodes, **given)
     for key, what, fix in link.check(spec):
         raise CosimError(f"emulate-drive: {_flag(key, given)}: {what} Fix: {fix}")
@@ -39,8 +45,9 @@ def emulate_drive(args: argparse.Namespace) -> int:
     except (OSError, ValueError, ImportError, can.CanError) as err:
         raise CosimError(f"emulate-drive: cannot start the emulated drives ({err}). Fix: check "
                          f"--interface/--channel, --can-config and --option.") from None
-    print(f"emulating {args.protocol} drives {list(nodes)} on {describe(options)}; Ctrl-C "
-          f"stops", file=sys.stderr)
+    settings = ", ".join(f"{k} {v}" for k, v in vars(spec.options).items())
+    print(f"emulating {args.protocol} drives {list(nodes)} on {describe(options)} (gear "
+          f"{spec.gear:g}; {settings}); Ctrl-C stops", file=sys.stderr)
     try:
         while True:
             time.sleep(1.0)
@@ -48,6 +55,58 @@ def emulate_drive(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     finally:
         emu.close()
+
+
+#: emulate-drive's settings when neither the command line nor --scenario gives them
+DRIVE_DEFAULTS: dict[str, Any] = {"protocol": "odrive", "interface": "virtual", "channel": "twmr",
+                                  "bitrate": 1_000_000, "can_context": "default", "gear": 1.0}
+#: a drive block's parameters that are emulate-drive's own flags (parameter -> attribute)
+_DRIVE_FLAGS = {"protocol": "protocol", "interface": "interface", "channel": "channel",
+                "bitrate": "bitrate", "can_config": "can_config", "can_context": "can_context",
+                "gear": "gear", "node_ids": "node"}
+
+
+def _from_scenario(args: argparse.Namespace) -> dict[str, Any]:
+    """The drive block of `--scenario` (`--component`, or its only `can_drive`) as the
+    defaults of the flags not given, reading the file as data (nothing of it runs); its
+    protocol's options as a dict (what -o gives overrides them). A drive on a `can_bus` block
+    takes the bus that block bridges."""
+    from twmr.scenario.loaders import load_yaml
+
+    path = Path(args.scenario)
+    if not path.is_file():
+        raise CosimError(f"emulate-drive: --scenario {path}: no such file. Fix: give the bench "
+                         f"scenario whose drives to emulate.")
+    spec = load_yaml(path)
+    drives = [n for n, c in spec.components.items() if c.kind.value == "can_drive"]
+    name = args.component or (drives[0] if len(drives) == 1 else "")
+    if not drives:
+        raise CosimError(f"emulate-drive: {path} has no kind: can_drive component. Fix: give "
+                         f"the bench scenario whose drives to emulate.")
+    if name not in drives:
+        asked = f" and none named '{args.component}'" if args.component else ""
+        raise CosimError(f"emulate-drive: {path} has can_drive components "
+                         f"{', '.join(drives)}{asked}. Fix: give --component NAME of one.")
+    params = {k: g.value for k, g in spec.components[name].parameters.items()}
+    bus = params.pop("bus", None)
+    if bus:
+        block = spec.components.get(str(bus))
+        bridged = {k: g.value for k, g in block.parameters.items()} if block else {}
+        if not (bridged.get("interface") or bridged.get("can_config")):
+            raise CosimError(f"emulate-drive: drive '{name}' of {path} is on can_bus '{bus}', "
+                             f"which bridges no python-can bus another process can join. Fix: "
+                             f"give '{bus}' interface/channel or can_config (docs/bench.md, "
+                             f"two processes).")
+        params.update({k: bridged[k] for k in ("interface", "channel", "bitrate", "can_config",
+                                                "can_context") if k in bridged})
+    for key, attr in _DRIVE_FLAGS.items():
+        if key in params and getattr(args, attr) in (None, []):
+            value = params.pop(key)
+            setattr(args, attr, [int(n) for n in value] if attr == "node" else value)
+    if args.can_config and not Path(args.can_config).is_absolute():
+        args.can_config = str(path.resolve().parent / args.can_config)
+    print(f"emulate-drive: the drives of '{name}' in {path}", file=sys.stderr)
+    return params
 
 
 def replay(args: argparse.Namespace) -> int:
@@ -216,15 +275,19 @@ def register(subparsers: argparse._SubParsersAction, common: argparse.ArgumentPa
     """Add `emulate-drive` and `replay` to the command line."""
     em = subparsers.add_parser("emulate-drive", parents=[common],
                                help="emulated drives on a CAN bus (no hardware)")
-    em.add_argument("--protocol", choices=protocols(), default="odrive")
-    em.add_argument("--interface", default="virtual")
-    em.add_argument("--channel", default="twmr")
-    em.add_argument("--bitrate", type=int, default=1_000_000)
+    em.add_argument("--scenario", help="a bench scenario: its can_drive's protocol, node ids, "
+                    "options (torque constant, firmware, ...) and bus are the defaults of the "
+                    "flags not given")
+    em.add_argument("--component", help="with --scenario: which can_drive (if it has several)")
+    em.add_argument("--protocol", choices=protocols(), help="default odrive")
+    em.add_argument("--interface", help="default virtual")
+    em.add_argument("--channel", help="default twmr")
+    em.add_argument("--bitrate", type=int, help="default 1000000")
     em.add_argument("--can-config", help="python-can config file (replaces interface/channel)")
-    em.add_argument("--can-context", default="default", help="section of --can-config")
+    em.add_argument("--can-context", help="section of --can-config (default 'default')")
     em.add_argument("-o", "--option", action="append", default=[], metavar="NAME=VALUE",
                     help=OPTION_HELP)
-    em.add_argument("--gear", type=float, default=1.0)
+    em.add_argument("--gear", type=float, help="default 1")
     em.add_argument("--node", type=int, action="append", default=None,
                     help="axis node id (repeatable; default: the protocol's, ODrive 0 and 1, "
                     "CiA 402 1 and 2)")

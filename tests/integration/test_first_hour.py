@@ -27,3 +27,36 @@ def test_a_parameter_the_export_fixed_says_how_to_export_again(tmp_path: Path) -
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "'drive' is not a parameter of this FMU: twmr export fixed it to auto" in done.stderr
     assert f"twmr export asmc --fmi 3 --set drive=<value> --out {fmu}" in done.stderr
+
+
+def test_emulate_drive_takes_the_drives_of_a_scenario(tmp_path: Path) -> None:
+    """The shipped bench says torque constant 0.8 N.m/A and a 50 rad/s speed limit; the
+    emulator's own defaults are 0.04 and 200, which clipped the bench's torques at 2 N.m."""
+    (tmp_path / "can.ini").write_text("[default]\ninterface = udp_multicast\n"
+                                      "channel = 239.74.163.9\nport = 43119\n")
+    bench = (ROOT / "scenarios" / "bench_odrive_trajectory1.yaml").read_text().replace(
+        "interface: virtual, channel: bench,", "can_config: can.ini,")
+    (tmp_path / "bench.yaml").write_text(bench)
+    proc = subprocess.Popen([*TWMR, "emulate-drive", "--scenario", str(tmp_path / "bench.yaml"),
+                             "--node", "3"], stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stderr is not None
+        lines = [proc.stderr.readline() for _ in range(2)]
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    assert "the drives of 'motor'" in lines[0]
+    # the node given on the command line wins; the rest is the scenario's
+    assert lines[1].startswith("emulating odrive drives [3] on udp_multicast:239.74.163.9")
+    assert "torque_constant 0.8" in lines[1] and "speed_limit 50.0" in lines[1]
+    assert "firmware 0.6.10" in lines[1] and "encoder polled" in lines[1]
+
+
+def test_emulate_drive_names_the_drives_to_choose_from(tmp_path: Path) -> None:
+    text = (ROOT / "scenarios" / "bench_odrive_trajectory1.yaml").read_text()
+    (tmp_path / "two.yaml").write_text(text.replace("  plant:\n", "  motor2:\n    kind: can_drive\n"
+                                                    "    parameters: {channel: other}\n  plant:\n", 1))
+    done = subprocess.run([*TWMR, "emulate-drive", "--scenario", str(tmp_path / "two.yaml")],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "has can_drive components motor, motor2. Fix: give --component NAME" in done.stderr
