@@ -54,8 +54,8 @@ def test_emulate_drive_takes_the_drives_of_a_scenario(tmp_path: Path) -> None:
 
 def test_emulate_drive_names_the_drives_to_choose_from(tmp_path: Path) -> None:
     text = (ROOT / "scenarios" / "bench_odrive_trajectory1.yaml").read_text()
-    (tmp_path / "two.yaml").write_text(text.replace("  plant:\n", "  motor2:\n    kind: can_drive\n"
-                                                    "    parameters: {channel: other}\n  plant:\n", 1))
+    second = "  motor2:\n    kind: can_drive\n    parameters: {channel: other}\n  plant:\n"
+    (tmp_path / "two.yaml").write_text(text.replace("  plant:\n", second, 1))
     done = subprocess.run([*TWMR, "emulate-drive", "--scenario", str(tmp_path / "two.yaml")],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1 and "Traceback" not in done.stderr
