@@ -194,7 +194,7 @@ class OdriveLink(Link):
                 self._latch(Fault(node, f"axis error "
                                   f"{p.axis_error_text(beat.axis_error, self.firmware)}, state "
                                   f"{beat.axis_state} (heartbeat)",
-                                  "read the drive's errors, then Clear_Errors"))
+                                  p.axis_error_fix(beat.axis_error, self.firmware)))
 
     def _malformed(self, msg: can.Message | None, exc: Exception) -> None:
         """A frame that cannot be decoded: a fault of the drive that sent it."""
@@ -292,10 +292,12 @@ class OdriveLink(Link):
                                   "bitrate; python-can's virtual bus reaches no other process "
                                   "(use udp_multicast or socketcan there)"))
         what = (f"its last heartbeat reports axis state {state.axis_state}, axis error "
-                f"0x{state.axis_error:x}" if state.axis_state != p.AXIS_CLOSED_LOOP else
+                f"{p.axis_error_text(state.axis_error, self.firmware)}"
+                if state.axis_state != p.AXIS_CLOSED_LOOP else
                 "it reports closed loop but sent no encoder estimates")
-        raise LinkError(Fault(late, f"not in closed loop after {timeout:g} s ({what})",
-                              "check power, node ids, firmware version and the axis errors"))
+        fix = p.axis_error_fix(state.axis_error, self.firmware) if state.axis_error else \
+            "check power, node ids and the firmware version (firmware:)"
+        raise LinkError(Fault(late, f"not in closed loop after {timeout:g} s ({what})", fix))
 
     def command(self, torques: Sequence[float]) -> tuple[float, ...]:
         """Send wheel torques [N.m] (and the encoder requests); the torques the drives receive."""

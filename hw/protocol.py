@@ -254,6 +254,37 @@ def axis_error_text(code: int, version: str) -> str:
     return f"0x{code:x}" + (f" ({' | '.join(names)})" if names else "")
 
 
+#: what to do about an axis error bit (by its name in the firmware's DBC)
+_AXIS_ERROR_FIX = {
+    "WATCHDOG_TIMER_EXPIRED": "the drive heard no torque command within its axis watchdog "
+    "(drive_watchdog, set by the host; or the one saved in the drive): the host fell behind "
+    "(a loaded machine, a long first step) or frames were lost. Give the watchdog room "
+    "(drive_watchdog: 0.5) or run on a quieter machine, then Clear_Errors",
+    "ESTOP_REQUESTED": "an Estop frame reached the drive (the host sends one when a run stops "
+    "on a fault; so may another node on the bus): find the first fault in the run's log, "
+    "then Clear_Errors",
+    "MISSING_INPUT": "the drive's input source (the CAN torque command) went missing: check "
+    "that the host sends Set_Input_Torque each period and that no frame is lost",
+    "DC_BUS_UNDER_VOLTAGE": "the supply voltage sagged: check the power supply and its cabling",
+    "DC_BUS_OVER_VOLTAGE": "the supply voltage rose (braking energy with no brake resistor): "
+    "check the brake resistor and its configuration",
+}
+
+
+def axis_error_fix(code: int, version: str) -> str:
+    """The fix of an axis error: that of its first bit with a known cause, else reading the
+    drive's errors (odrivetool's dump_errors) and Clear_Errors."""
+    try:
+        bits = _axis_error_bits(firmware_line(version))
+    except Exception:  # noqa: BLE001 - the generic fix stands without names
+        bits = {}
+    for bit, name in sorted(bits.items()):
+        if code & bit and name in _AXIS_ERROR_FIX:
+            return _AXIS_ERROR_FIX[name]
+    return "read the drive's errors (odrivetool: dump_errors), remove their cause, then " \
+        "Clear_Errors"
+
+
 def decode_heartbeat(data: bytes, version: str) -> Heartbeat:
     values = _HEARTBEAT[firmware_line(version)].unpack_from(data)
     return Heartbeat(values[0], values[1], values[2])

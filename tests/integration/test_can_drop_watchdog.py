@@ -33,6 +33,9 @@ def test_a_dropped_torque_frame_trips_the_drive_watchdog(tmp_path: Path) -> None
                                         r"\(WATCHDOG_TIMER_EXPIRED\), state 1") as err:
         simulate(tmp_path / "drop.yaml", out=tmp_path / "run")
     assert "Torque set to zero and drives disabled" in str(err.value)
+    # the fix is the watchdog's, not a generic one
+    assert "Fix: the drive heard no torque command within its axis watchdog" in str(err.value)
+    assert "drive_watchdog: 0.5" in str(err.value)
 
     log = read_log(tmp_path / "run.incomplete" / "can0_frames.arrows")
     lost = log[log.event == "dropped"]

@@ -104,3 +104,12 @@ def test_a_dbc_with_another_layout_is_refused(tmp_path) -> None:
     path.write_text(moved)
     with pytest.raises(ValueError, match="Set_Input_Torque"):
         p.check_layout("0.6.10", path)
+
+
+def test_an_axis_error_comes_with_the_fix_of_its_cause_on_each_firmware_line() -> None:
+    # the watchdog bit is 0x800 on 0.5.x and 0x1000000 on 0.6.x (the DBCs' value tables)
+    for version, bit in (("0.5.6", 0x800), ("0.6.10", 0x1000000)):
+        assert "axis watchdog" in p.axis_error_fix(bit, version)
+        assert "axis watchdog" not in p.axis_error_fix(bit << 1, version)
+    assert p.axis_error_fix(0x20, "0.6.10").startswith("read the drive's errors")  # DRV_FAULT
+    assert "Estop frame" in p.axis_error_fix(0x2000000 | 0x20, "0.6.10")
