@@ -60,3 +60,29 @@ def test_emulate_drive_names_the_drives_to_choose_from(tmp_path: Path) -> None:
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert "has can_drive components motor, motor2. Fix: give --component NAME" in done.stderr
+
+
+SWEEP = '''import twmr
+
+{indent}runs = twmr.sweep({scenario!r}, {{"plant.scale": "uniform:1:1.25"}}, samples=2,
+{indent}                  out={out!r}, workers=1, overrides=["experiment.stop=0.2"])
+{indent}print("rows", len(runs.frame()))
+'''
+
+
+@pytest.mark.parametrize("guarded", [False, True])
+def test_a_sweep_script_without_the_main_guard_is_told_before_any_worker_starts(
+        tmp_path: Path, guarded: bool) -> None:
+    text = SWEEP.format(indent="    " if guarded else "", out=str(tmp_path / "out"),
+                        scenario=str(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml"))
+    if guarded:
+        text = text.replace("\n    runs", '\nif __name__ == "__main__":\n    runs', 1)
+    (tmp_path / "study.py").write_text(text)
+    done = subprocess.run([sys.executable, str(tmp_path / "study.py")], capture_output=True,
+                          text=True, timeout=240, cwd=tmp_path)
+    if guarded:
+        assert done.returncode == 0 and "rows 2" in done.stdout, done.stderr[-2000:]
+        return
+    assert done.returncode == 1
+    assert f"{tmp_path / 'study.py'} line 3 starts local worker processes" in done.stderr
+    assert "Nanny" not in done.stderr and len(done.stderr.splitlines()) < 20

@@ -41,6 +41,7 @@ from twmr.sweeps.folder import (
     open_journal,
     write_table,
 )
+from twmr.sweeps.main_guard import unguarded_call
 from twmr.sweeps.run import RunTask, execute_batch
 from twmr.sweeps.spec import SweepError, SweepSpec, Vary, run_id
 
@@ -152,6 +153,13 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
                                 or workers < 1):
         raise SweepError(f"--workers {workers!r}: give a whole number of at least 1 (or leave "
                          f"it out: one per core).")
+    unguarded = unguarded_call()
+    if unguarded is not None:
+        raise SweepError(f"{unguarded[0]} line {unguarded[1]} starts local worker processes at "
+                         f"the script's top level; each worker imports the script again "
+                         f"(multiprocessing's spawn) and would start its own. Fix: put that "
+                         f"call, and what it needs, under `if __name__ == \"__main__\":` (or "
+                         f"give scheduler= a running cluster).")
     n = workers or os.cpu_count() or 1
     cluster = None
     try:
