@@ -102,7 +102,7 @@ def scenario(bench: str, case: Case, parts: dict[str, Path]) -> str:
     text = (SCENARIOS / bench).read_text(encoding="utf-8")
     text = sub(text, "stop: 10.0", f"stop: {STOP}")
     if "lsbus" in bench:
-        text = sub(text, "path: ../fmus/asmc_odrive.fmu", f"path: {parts['ctrl']}, "
+        text = sub(text, "path: ../fmus/asmc_odrive.fmu", f"path: {parts['ctrl']}\n      "
                    f"drive.watchdog_periods: {case.host_watchdog}")
         text = sub(text, "encoder_period: 0.0}", f"encoder_period: 0.0, watchdog: "
                    f"{DRIVE_WATCHDOG}}}")

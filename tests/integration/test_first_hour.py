@@ -86,3 +86,24 @@ def test_a_sweep_script_without_the_main_guard_is_told_before_any_worker_starts(
     assert done.returncode == 1
     assert f"{tmp_path / 'study.py'} line 3 starts local worker processes" in done.stderr
     assert "Nanny" not in done.stderr and len(done.stderr.splitlines()) < 20
+
+
+def test_the_shipped_ls_bus_bench_says_the_one_command_that_builds_its_fmu(
+        tmp_path: Path) -> None:
+    """On a fresh clone the controller FMU of the LS-BUS bench does not exist yet: `twmr check`
+    says the command (the scenario's `built_by:`), and that command, run from the scenario's
+    folder, makes the scenario valid."""
+    (tmp_path / "scenarios").mkdir()
+    text = (ROOT / "scenarios" / "bench_odrive_lsbus_trajectory1.yaml").read_text()
+    path = tmp_path / "scenarios" / "lsbus.yaml"
+    path.write_text(text)
+    done = subprocess.run([*TWMR, "check", str(path)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    command = done.stderr.split("Fix: run it once, from the scenario's folder: ")[1].strip()
+    assert command.startswith("twmr export asmc --fmi 3 --can odrive --out ../fmus/")
+    subprocess.run([*TWMR, *command.split()[1:]], cwd=path.parent, check=True, timeout=240,
+                   capture_output=True)
+    done = subprocess.run([*TWMR, "check", str(path)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr

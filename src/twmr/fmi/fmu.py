@@ -85,7 +85,8 @@ class FmuComponent(Component):
     #: a port without unit here means the FMU declares none (wiring it to a unit is warned about)
     generic_units = False
     construction_parameters = ("path", "interface", "solver", "rtol", "atol", "max_step",
-                               "solver_step", "isolate", "timeout", "compile", "compile_timeout")
+                               "solver_step", "isolate", "timeout", "compile", "compile_timeout",
+                               "built_by")
     #: beside the ports, a saved state holds the time, the inputs `evaluate` set and (event
     #: mode) the clocks' next ticks and the next time event
     state_attributes = ("_t", "_sent", "_clock_due", "_time_event")
@@ -232,6 +233,11 @@ class FmuComponent(Component):
         p = Path(str(path))
         rest = {k: v for k, v in construction.items() if k != "path"}
         full = p if p.is_absolute() else base_dir / p
+        built_by = rest.pop("built_by", "")
+        if built_by and not full.exists():
+            raise FmuError(name, None, f"FMU file '{full}' not found: it is built by a command "
+                           f"(built_by:). Fix: run it once, from the scenario's folder: "
+                           f"{built_by}")
         isolate = rest.pop("isolate", False)
         if not isinstance(isolate, bool):
             raise FmuError(name, None, f"isolate: {isolate!r} is not true or false. Fix: write "
