@@ -123,6 +123,11 @@ class TrackingController(Component):
                                        "factor (keeps the direction of tau)")
 
     pose = Input(size=3, unit=("m", "m", "rad"), description="(x_M, y_M, theta)")
+
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """The wheel torques within +-torque_limit (when there is one)."""
+        limit = float(self.torque_limit)
+        return {"torque": (-limit, limit)} if limit > 0 else {}
     wheel_speed = Input(size=2, unit="rad/s", description="nu = (phi_R', phi_L')")
     ref_position = Input(size=2, unit="m", description="(x_T, y_T)")
     ref_velocity = Input(size=2, unit="m/s", description="(x_T', y_T')")

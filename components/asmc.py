@@ -68,11 +68,14 @@ class AsmcController(TrackingController):
 
     kind = "asmc"
     eta = Parameter(0.1, min=0.0, description="adaptation gain, eq. (33) (Table II: 7)")
-    d_hat0 = Parameter((0.0, 0.0), size=2, description="initial adaptive estimate d_hat(0)")
-    d_hat_limit = Parameter(0.0, min=0.0, description="projection: |d_hat_i| <= this; 0 = none")
+    d_hat0 = Parameter((0.0, 0.0), size=2, unit="m/s2",
+                       description="initial adaptive estimate d_hat(0)")
+    d_hat_limit = Parameter(0.0, unit="m/s2", min=0.0,
+                            description="projection: |d_hat_i| <= this; 0 = none")
     hold_saturated = Parameter(True, type=BOOLEAN,
                                description="anti-windup: hold d_hat while the torque is limited")
-    d_hat = Output(size=2, description="adaptive estimate of d, eq. (33)")
+    d_hat = Output(size=2, unit="m/s2", description="adaptive estimate of d, eq. (33): an "
+                   "acceleration of the look-ahead point, as each term of eq. (32)")
 
     def initialize(self) -> None:
         self.d_hat = tuple(self.d_hat0)

@@ -146,6 +146,11 @@ class MotorDriver(Component):
     measured_speed = Output(size=2, unit="rad/s", description="encoder speed, end of step")
     angle = Output(size=2, unit="rad", description="encoder angle, end of step")
 
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """Ideal mode: the applied torques within +-torque_max (when there is one)."""
+        limit = float(self.torque_max)
+        return {"torque": (-limit, limit)} if self.mode == "ideal" and limit > 0 else {}
+
     def initialize(self) -> None:
         if self.mode not in MODES:
             raise ValueError(f"unknown mode '{self.mode}'; use {' or '.join(map(repr, MODES))}")

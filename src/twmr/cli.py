@@ -150,12 +150,12 @@ def _live_view(args: argparse.Namespace) -> Any:
 
 
 def _plots(result: Any, title: str) -> None:
-    from twmr.plots import plot_result, plot_timing
+    from twmr.plots import event_marks, plot_result, plot_timing
 
     folder = result.folder
     if len(result):
         plot_result(result.data, result.units, folder / "plots", title=title,
-                    ports=result.summary.get("ports"))
+                    ports=result.summary.get("ports"), marks=event_marks(result.summary))
     lateness = folder / "lateness_us.npy"
     if lateness.is_file():
         import numpy as np
@@ -202,14 +202,29 @@ def cmd_components(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from twmr.plots import plot_result
+    from twmr.plots import event_marks, plot_result
     from twmr.result import read_result
 
-    path = Path(args.result)
-    result = read_result(path)
-    out = Path(args.out) if args.out else (path if path.is_dir() else path.parent) / "plots"
-    for p in plot_result(result.data, result.units, out, title=path.stem,
-                         ports=result.summary.get("ports")):
+    paths = [Path(p) for p in args.result]
+    results = [read_result(p) for p in paths]
+    first = paths[0]
+    out = Path(args.out) if args.out else (first if first.is_dir() else first.parent) / "plots"
+    if len(results) == 1 and not args.signals:
+        for p in plot_result(results[0].data, results[0].units, out, title=first.stem,
+                             ports=results[0].summary.get("ports"),
+                             marks=event_marks(results[0].summary)):
+            print(p)
+        return 0
+    labels = [p.stem if p.stem not in ("result", "") else p.parent.name for p in paths]
+    try:
+        plotted = results[0].plot(args.signals or None, label=labels[0],
+                                  others=dict(zip(labels[1:], results[1:], strict=True)))
+    except KeyError as err:
+        raise CosimError(f"--signals {args.signals!r}: {err.args[0]}. Fix: name recorded "
+                         f"signals (twmr plot with one result draws them all).") from None
+    from twmr.plots import save
+
+    for p in save(plotted, out / "overlay.png"):
         print(p)
     return 0
 
@@ -600,7 +615,10 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     k.set_defaults(fn=cmd_components)
     pl = sub.add_parser("plot", parents=[common],
                         help="plot a result (folder, .arrows, .csv, .mat or .parquet)")
-    pl.add_argument("result")
+    pl.add_argument("result", nargs="+", help="one result, or several to overlay")
+    pl.add_argument("--signals", help="what to draw, one panel per signal ('a,b'; a vector "
+                    "port stands for its elements; 'a+b' in one panel): one figure, "
+                    "overlay.png, with every result in it")
     pl.add_argument("--out")
     pl.set_defaults(fn=cmd_plot)
     fi = sub.add_parser("fit", parents=[common],

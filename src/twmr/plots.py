@@ -100,21 +100,42 @@ def is_planar_position(port: str, units: list[str]) -> bool:
     return units == ["m", "m"] and re.search(r"pos|path|xy|point", name) is not None
 
 
+def event_marks(summary: Mapping[str, Any]) -> list[tuple[float, str]]:
+    """(time, text) of each event of a run's summary: a parameter set, a fault's start and end."""
+    marks: list[tuple[float, str]] = []
+    for event in summary.get("events") or []:
+        what = f"{event.get('port')} {event.get('fault')}"
+        marks.append((float(event["at"]), what))
+        if event.get("until") is not None:
+            marks.append((float(event["until"]), f"{what} ends"))
+    return marks
+
+
 def plot_result(data: np.ndarray, units: Mapping[str, str], out_dir: str | Path,
-                title: str = "", ports: Mapping[str, Mapping[str, str]] | None = None
-                ) -> list[Path]:
+                title: str = "", ports: Mapping[str, Mapping[str, Any]] | None = None,
+                marks: list[tuple[float, str]] | None = None) -> list[Path]:
     """Write the figures of a result (`result_figures`) into `out_dir`: `<port>.png/.svg` per
     recorded port and `xy.png/.svg` when a planar position is recorded; the paths written."""
     written: list[Path] = []
-    for name, fig in result_figures(data, units, title, ports).items():
+    for name, fig in result_figures(data, units, title, ports, marks).items():
         written += save(fig, Path(out_dir) / f"{name}.png")
     return written
 
 
+def _mark(ax: Any, marks: list[tuple[float, str]] | None) -> None:
+    """Events as vertical lines with their text."""
+    for t, text in marks or []:
+        ax.axvline(t, lw=0.8, color="#D55E00", alpha=0.7)
+        ax.annotate(text, (t, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
+                    rotation=90, va="top", ha="right", color="#D55E00")
+
+
 def result_figures(data: np.ndarray, units: Mapping[str, str], title: str = "",
-                   ports: Mapping[str, Mapping[str, str]] | None = None) -> dict[str, Any]:
+                   ports: Mapping[str, Mapping[str, Any]] | None = None,
+                   marks: list[tuple[float, str]] | None = None) -> dict[str, Any]:
     """The matplotlib figures of a result by file name ('plant_pose', 'xy'). `ports` gives each
-    port's description and type (a run's summary holds them)."""
+    port's description, type and limits (a run's summary holds them), drawn dashed; `marks`
+    ([(time, text)], `event_marks`) the events, as vertical lines."""
     plt = pyplot()
     ports = ports or {}
     t = np.asarray(data["time"])
@@ -135,6 +156,9 @@ def result_figures(data: np.ndarray, units: Mapping[str, str], title: str = "",
                 steps = "steps-post" if is_stepwise(data[c], info.get("type", "")) else "default"
                 ax.plot(t, data[c], label=names[c], drawstyle=steps, lw=1.2, **line_style(i))
                 i += 1
+            for value in info.get("limits") or ():
+                ax.axhline(value, ls="--", lw=0.8, color="0.4")
+            _mark(ax, marks)
             ax.set_ylabel(axis_label(port, unit))
             ax.grid(True, alpha=0.3)
             if len(cols) > 1:
@@ -148,7 +172,32 @@ def result_figures(data: np.ndarray, units: Mapping[str, str], title: str = "",
             planar.append((port, cols))
     if planar:
         figures["xy"] = _plot_xy(data, planar, ports, title)
+    if len(planar) > 1:
+        figures["xy_time"] = _plot_xy_time(data, planar, ports, title, marks)
     return figures
+
+
+def _plot_xy_time(data: np.ndarray, planar: list[tuple[str, list[str]]],
+                  ports: Mapping[str, Mapping[str, Any]], title: str,
+                  marks: list[tuple[float, str]] | None) -> Any:
+    """x and y of every planar position over time, together (the tracked path on its
+    reference)."""
+    plt = pyplot()
+    t = np.asarray(data["time"])
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.5, 5.2))
+    for k, (ax, axis) in enumerate(zip(axes, ("x", "y"), strict=True)):
+        for i, (port, cols) in enumerate(planar):
+            description = ports.get(port, {}).get("description", "")
+            ax.plot(t, data[cols[k]], lw=1.2, label=f"{port}: {description}" if description
+                    else port, **line_style(i))
+        _mark(ax, marks)
+        ax.set_ylabel(f"{axis} [m]")
+        ax.grid(True, alpha=0.3)
+    legend_outside(axes[0])
+    axes[1].set_xlabel("time [s]")
+    names = " and ".join(p for p, _ in planar)
+    axes[0].set_title(f"{f'{title}: ' if title else ''}{names} over time", fontsize=10)
+    return fig
 
 
 def _plot_xy(data: np.ndarray, planar: list[tuple[str, list[str]]],
@@ -210,3 +259,75 @@ def plot_timing(lateness_us: np.ndarray, period_s: float, path: str | Path,
                      f"{duration_text(float(np.percentile(late, 99)))} of their deadline; the "
                      f"latest {duration_text(float(late.max()))}", fontsize=10)
     return save(fig, path)[0]
+
+
+def panels_of(spec: str, columns: list[str]) -> list[list[str]]:
+    """The panels of an overlay from '--signals' text: panels separated by commas, the signals
+    of one panel by '+'; a vector port stands for its elements ('plant.pose' ->
+    'plant.pose[1]', ...), each element in a panel of its own unless joined by '+'. KeyError
+    naming a signal that no result has."""
+    panels: list[list[str]] = []
+    for part in (p.strip() for p in spec.split(",")):
+        if not part:
+            continue
+        members = [m.strip() for m in part.split("+") if m.strip()]
+        expanded = [_columns_of(m, columns) for m in members]
+        if len(members) == 1:
+            panels += [[c] for c in expanded[0]]
+        else:  # a+b: element i of each together
+            for row in zip(*expanded, strict=False):
+                panels.append(list(row))
+    return panels
+
+
+def _columns_of(name: str, columns: list[str]) -> list[str]:
+    if name in columns:
+        return [name]
+    found = [c for c in columns if c.startswith(f"{name}[") and c.endswith("]")]
+    if not found:
+        from twmr.registry import suggest
+
+        raise KeyError(f"no signal '{name}'{suggest(name, sorted(group_ports(columns)))}")
+    return found
+
+
+def overlay_figure(results: list[tuple[str, Any]], panels: list[list[str]],
+                   marks: list[tuple[float, str]] | None = None) -> Any:
+    """One figure, a panel per entry of `panels` (its signals together), every result
+    (label, `Result`) drawn in each with its own line style; the limits of each port (the
+    results' summaries) as dashed lines, `marks` ([(time, text)]: events) as vertical lines."""
+    plt = pyplot()
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, squeeze=False,
+                             figsize=(8, 1.2 + 1.9 * len(panels)))
+    for ax, panel in zip(axes[:, 0], panels, strict=True):
+        i = 0
+        units = set()
+        for label, result in results:
+            for signal in panel:
+                if signal not in result.columns:
+                    continue
+                units.add(result.units.get(signal, ""))
+                name = signal if len(results) == 1 else f"{label}: {signal}"
+                ax.plot(result.time, result[signal], lw=1.2, label=name, **line_style(i))
+                i += 1
+        drawn = {v for _, r in results for s in panel
+                 for v in (r.summary.get("ports", {}).get(s.partition("[")[0], {})
+                           .get("limits") or ())}
+        for value in drawn:
+            ax.axhline(value, ls="--", lw=0.8, color="0.4")
+        _mark(ax, marks)
+        unit = units.pop() if len(units) == 1 else ""
+        ax.set_ylabel(axis_label(" + ".join(panel) if len(panel) < 3 else panel[0], unit),
+                      fontsize=8)
+        ax.grid(True, alpha=0.3)
+        if i > 1:
+            ax.legend(fontsize=7, frameon=False)
+        values = np.concatenate([np.abs(r[s]) for _, r in results for s in panel
+                                 if s in r.columns] or [np.zeros(1)])
+        finite = values[np.isfinite(values) & (values > 0)]
+        if finite.size and np.all(np.concatenate([r[s] for _, r in results for s in panel
+                                                  if s in r.columns]) > 0) and \
+                finite.max() / finite.min() > 1e3:
+            ax.set_yscale("log")  # positive values over more than three decades
+    axes[-1, 0].set_xlabel("time [s]")
+    return fig

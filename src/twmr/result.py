@@ -11,6 +11,7 @@ Recorded Binary ports (`result.binary`) are kept at their ticks (`twmr.observers
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -90,6 +91,19 @@ class Result:
             if self.binary else ""
         return (f"<Result {self.status}: {len(self)} rows x {len(self.columns) - 1} signals"
                 f"{span}{binary}{f', in {self.folder}' if self.folder else ''}>")
+
+    def plot(self, signals: str | None = None, others: Mapping[str, Result] | None = None,
+             label: str = "this run") -> Any:
+        """A matplotlib figure of `signals` ('a,b': a panel each, a vector port for its
+        elements, 'a+b' in one panel; default every recorded port) over time, with the runs in
+        `others` ({label: Result}) drawn in the same panels, the ports' limits dashed and this
+        run's events marked. KeyError naming a signal no run has."""
+        from twmr.plots import event_marks, group_ports, overlay_figure, panels_of
+
+        runs = [(label, self), *(others or {}).items()]
+        columns = sorted({c for _, r in runs for c in r.columns if c != "time"})
+        spec = signals or ",".join(group_ports(self.columns))
+        return overlay_figure(runs, panels_of(spec, columns), event_marks(self.summary))
 
     def _repr_html_(self) -> str:
         """A notebook's view: the status, the span and one row per signal with its unit and its

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 import twmr
-from twmr.plots import duration_text, is_stepwise, line_style, result_figures
+from twmr.plots import duration_text, is_stepwise, line_style, pyplot, result_figures
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -62,3 +62,59 @@ def test_staircases_are_steps_and_ten_lines_are_told_apart() -> None:
 def test_durations_read_in_their_unit() -> None:
     assert duration_text(187937.4) == "188 ms" and duration_text(12.34) == "12.3 us"
     assert duration_text(2.5e6) == "2.5 s"
+
+
+def _labels(ax: object) -> list[str]:
+    return [ln.get_label() for ln in ax.get_lines()  # type: ignore[attr-defined]
+            if not ln.get_label().startswith("_")]
+
+
+def test_limits_dashed_reference_over_time_and_events_marked(tmp_path: Path) -> None:
+    text = (ROOT / "scenarios" / "paper_trajectory1_asmc.yaml").read_text()
+    text += "events:\n  - {at: 1.0, set: plant.scale, value: 1.5}\n"
+    result = twmr.simulate(twmr.load(text, ["experiment.stop=2"]), tmp_path / "run")
+    from twmr.plots import event_marks
+
+    marks = event_marks(result.summary)
+    assert marks == [(1.0, "plant.scale set")]
+    figures = result_figures(result.data, result.units, "paper", result.summary.get("ports"),
+                             marks)
+    torque = figures["ctrl_torque"].axes[0]
+    dashed = sorted(ln.get_ydata()[0] for ln in torque.get_lines() if ln.get_linestyle() == "--")
+    assert dashed == [-48.0, 48.0]  # the controller's torque_limit
+    vertical = [ln.get_xdata()[0] for ln in torque.get_lines()
+                if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == ln.get_xdata()[1]]
+    assert vertical == [1.0]  # the event
+    x_axis, y_axis = figures["xy_time"].axes
+    assert [lb.split(":")[0] for lb in _labels(x_axis)] == ["ref.position", "plant.pose"]
+    assert x_axis.get_ylabel() == "x [m]" and y_axis.get_ylabel() == "y [m]"
+    pyplot().close("all")
+
+
+def test_results_overlaid_on_chosen_signals(tmp_path: Path) -> None:
+    first = _paper(tmp_path)
+    other = twmr.simulate(twmr.load(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml",
+                                    ["experiment.stop=2", "ctrl.k=20"]), tmp_path / "k20")
+    fig = first.plot("ref.position[1]+plant.pose[1],ctrl.torque", others={"k20": other},
+                     label="nominal")
+    panels = fig.axes
+    assert len(panels) == 3  # x together, then each torque element
+    assert _labels(panels[0]) == ["nominal: ref.position[1]", "nominal: plant.pose[1]",
+                                  "k20: ref.position[1]", "k20: plant.pose[1]"]
+    assert _labels(panels[2]) == ["nominal: ctrl.torque[2]", "k20: ctrl.torque[2]"]
+    assert panels[1].get_ylabel() == "ctrl.torque[1] [N.m]"
+    assert not np.array_equal(panels[1].get_lines()[0].get_ydata(),
+                              panels[1].get_lines()[1].get_ydata())
+    pyplot().close("all")
+
+
+def test_twmr_plot_overlays_results_and_names_an_unknown_signal(tmp_path: Path, capsys
+                                                                ) -> None:
+    from twmr.cli import main
+
+    _paper(tmp_path)
+    run = str(tmp_path / "run")
+    assert main(["plot", run, run, "--signals", "plant.pose", "--out", str(tmp_path / "p")]) == 0
+    assert (tmp_path / "p" / "overlay.png").is_file()
+    assert main(["plot", run, "--signals", "ctrl.torqe"]) == 1
+    assert "did you mean 'ctrl.torque'" in capsys.readouterr().err

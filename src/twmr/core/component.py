@@ -390,6 +390,11 @@ class Component:
         option of another protocol); None: nothing to say beyond the known names."""
         return None
 
+    def limits(self) -> dict[str, tuple[float, float]]:
+        """Output port -> (lowest, highest) value its parameters allow it (a torque limit), for
+        plots to draw; {}: none."""
+        return {}
+
     def check_step(self, h: float) -> list[tuple[str, str, str]]:
         """Problems of the parameters with communication steps of h [s] (the base step times
         the component's step_multiple), found when the scenario is built, as `check`'s."""

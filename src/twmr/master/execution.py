@@ -571,9 +571,10 @@ class Execution:
                 except BaseException:  # noqa: BLE001 - terminate every component whatever fails
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
 
-    def _recorded_ports(self) -> dict[str, dict[str, str]]:
-        """Description and type of each recorded port ('plant.pose'), for plots and readers."""
-        ports: dict[str, dict[str, str]] = {}
+    def _recorded_ports(self) -> dict[str, dict[str, Any]]:
+        """Description, type and limits (when its block has some) of each recorded port
+        ('plant.pose'), for plots and readers."""
+        ports: dict[str, dict[str, Any]] = {}
         for column in self.columns[1:] + self.ticks.names:
             name = column.partition("[")[0]
             owner, _, port = name.rpartition(".")
@@ -581,6 +582,9 @@ class Execution:
                 if owner in self.system.components else None
             if var is not None and name not in ports:
                 ports[name] = {"description": var.description, "type": var.type}
+                limits = self.system.components[owner].limits().get(port)
+                if limits is not None:
+                    ports[name]["limits"] = list(limits)
         return ports
 
     def _catch_stop_signals(self) -> dict[int, Any]:
