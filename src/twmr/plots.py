@@ -291,6 +291,14 @@ def _columns_of(name: str, columns: list[str]) -> list[str]:
     return found
 
 
+def spans_decades(values: Any, decades: float = 2.0) -> bool:
+    """Whether `values` (their finite ones) are all positive and span more than `decades`
+    powers of ten: drawn on a log axis, so that one large value does not flatten the rest."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return bool(v.size > 1 and np.all(v > 0) and v.max() / v.min() > 10.0 ** decades)
+
+
 def overlay_figure(results: list[tuple[str, Any]], panels: list[list[str]],
                    marks: list[tuple[float, str]] | None = None) -> Any:
     """One figure, a panel per entry of `panels` (its signals together), every result
@@ -322,12 +330,8 @@ def overlay_figure(results: list[tuple[str, Any]], panels: list[list[str]],
         ax.grid(True, alpha=0.3)
         if i > 1:
             ax.legend(fontsize=7, frameon=False)
-        values = np.concatenate([np.abs(r[s]) for _, r in results for s in panel
-                                 if s in r.columns] or [np.zeros(1)])
-        finite = values[np.isfinite(values) & (values > 0)]
-        if finite.size and np.all(np.concatenate([r[s] for _, r in results for s in panel
-                                                  if s in r.columns]) > 0) and \
-                finite.max() / finite.min() > 1e3:
-            ax.set_yscale("log")  # positive values over more than three decades
+        if spans_decades(np.concatenate([r[s] for _, r in results for s in panel
+                                         if s in r.columns] or [np.zeros(1)])):
+            ax.set_yscale("log")
     axes[-1, 0].set_xlabel("time [s]")
     return fig

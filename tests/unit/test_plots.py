@@ -118,3 +118,12 @@ def test_twmr_plot_overlays_results_and_names_an_unknown_signal(tmp_path: Path, 
     assert (tmp_path / "p" / "overlay.png").is_file()
     assert main(["plot", run, "--signals", "ctrl.torqe"]) == 1
     assert "did you mean 'ctrl.torque'" in capsys.readouterr().err
+
+
+def test_values_over_decades_go_on_a_log_axis() -> None:
+    from twmr.plots import spans_decades
+
+    assert spans_decades([0.1, 0.12, 0.2, 40.0])  # one bad trial among good ones
+    assert not spans_decades([0.1, 0.12, 0.2, 5.0])  # within two decades
+    assert not spans_decades([-1.0, 0.1, 40.0])  # not all positive
+    assert spans_decades([np.nan, 1e-3, 1.0])  # what is not finite is left out

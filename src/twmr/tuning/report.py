@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twmr.plots import legend_outside, line_style, pyplot, save
+from twmr.plots import legend_outside, line_style, pyplot, save, spans_decades
 from twmr.tuning.objective import parse_param
 from twmr.tuning.study import DESCRIPTION, TRIALS
 
@@ -39,6 +39,9 @@ def tune_report(folder: Path, out: Path | None = None) -> list[Path]:
                 label="best so far", **line_style(0))
     ax.set_xlabel("trial")
     ax.set_ylabel(label)
+    log_objective = spans_decades(trials["objective"])
+    if log_objective:
+        ax.set_yscale("log")
     legend_outside(ax)
     written += save(fig, out / "history")
 
@@ -47,6 +50,8 @@ def tune_report(folder: Path, out: Path | None = None) -> list[Path]:
         ax.scatter(ok[p.name], ok["objective"], s=10, c=ok["trial"], cmap="viridis")
         if p.kind == "log":
             ax.set_xscale("log")
+        if log_objective:
+            ax.set_yscale("log")
         ax.set_xlabel(p.name)
         ax.set_ylabel(label)
     written += save(fig, out / "scatter")
