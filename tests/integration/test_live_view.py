@@ -43,15 +43,16 @@ def browser():
     driver.quit()
 
 
-def _start_run(out: Path) -> tuple[subprocess.Popen[str], str, list[str]]:
+def _start_run(out: Path, stop: float = 8.0, pace: str = "true"
+               ) -> tuple[subprocess.Popen[str], str, list[str]]:
     """A paced paper run with a live view on a free port; the process, the page's URL and the
     lines of stderr so far (filled on by a thread)."""
     env = {**os.environ, "TWMR_CACHE_DIR": os.environ.get("TWMR_CACHE_DIR",
                                                           str(out.parent / "cache"))}
     proc = subprocess.Popen(
         [sys.executable, "-m", "twmr.cli", "run", str(SCENARIO), "--set",
-         "experiment.realtime=true", "--set", "experiment.stop=8", "--live", "127.0.0.1:0",
-         "--live-keep", "--format", "none", "--out", str(out)],
+         f"experiment.realtime={pace}", "--set", f"experiment.stop={stop}", "--live",
+         "127.0.0.1:0", "--live-keep", "--format", "none", "--out", str(out)],
         stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env, cwd=out.parent)
     lines: list[str] = []
     found = threading.Event()
@@ -134,3 +135,37 @@ def test_live_page_streams_a_paced_run(browser, tmp_path):
     assert np.array_equal(stored[at], page)  # every drawn row is a recorded row, bit for bit
     if dropped == 0:
         assert len(page) == len(stored)
+
+
+def test_the_xy_view_holds_the_path_with_more_points_than_pixels(browser, tmp_path):
+    """13.6 s of the paper run is 1361 rows at the scenario's decimation: more than four points
+    per pixel of the XY view's width, where uPlot draws a min and a max per pixel column as if x
+    were sorted, and the path collapsed into two vertical lines. The path on the canvas spans
+    the plot's width."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    proc, url, _ = _start_run(tmp_path / "run", stop=13.6, pace="4")
+    try:
+        browser.get(url)
+        WebDriverWait(browser, 120, poll_frequency=0.5).until(
+            lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
+        rows = browser.execute_script("return twmrLive.data[0].length;")
+        assert rows > 4 * browser.execute_script("return twmrLive.xy.bbox.width;")
+        browser.execute_script("twmrLive.xy.redraw();")
+        columns = browser.execute_script("""
+            const u = twmrLive.xy, c = u.ctx.canvas, b = u.bbox;
+            const img = u.ctx.getImageData(b.left, b.top, b.width, b.height).data;
+            const want = [0x00, 0x72, 0xB2];  // the first series' colour, COLOURS[0]
+            const hit = new Set();
+            for (let i = 0; i < img.length; i += 4) {
+              if (Math.abs(img[i] - want[0]) + Math.abs(img[i + 1] - want[1]) +
+                  Math.abs(img[i + 2] - want[2]) < 40 && img[i + 3] > 200)
+                hit.add((i / 4) % b.width);
+            }
+            return [hit.size, b.width];""")
+        browser.save_screenshot(str(tmp_path / "xy.png"))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    hit, width = columns
+    assert hit > 0.25 * width, (hit, width)  # the reference runs across (collapsed: 2-3)
