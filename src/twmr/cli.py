@@ -189,6 +189,19 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_diagram(args: argparse.Namespace) -> int:
+    from twmr.api import load
+    from twmr.diagram import diagram_svg
+
+    path = Path(args.scenario)
+    system = load(path, args.set).system
+    out = Path(args.out) if args.out else path.with_suffix(".svg")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(diagram_svg(system, title=path.name), encoding="utf-8")
+    print(out)
+    return 0
+
+
 def cmd_components(args: argparse.Namespace) -> int:
     from twmr.registry import kinds, suggest
     from twmr.scenario.listing import kinds_table
@@ -606,6 +619,16 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                    help="import the scenario's own Python blocks to check them (importing runs "
                    "their code; without it they are refused)")
     c.set_defaults(fn=cmd_check)
+    dg = sub.add_parser("diagram", parents=[common],
+                        help="draw a scenario as SVG: blocks, ports with units, wires, step "
+                        "order, subsystems, algebraic loops")
+    dg.add_argument("scenario")
+    with_set(dg)
+    dg.add_argument("--out", help="the SVG file (default: the scenario's name, .svg)")
+    dg.add_argument("--trust-code", action="store_true",
+                    help="import the scenario's own Python blocks to draw them (importing runs "
+                    "their code; without it they are refused)")
+    dg.set_defaults(fn=cmd_diagram)
     k = sub.add_parser("components", parents=[common],
                        help="list component kinds with ports, parameters, units")
     k.add_argument("kinds", nargs="*")

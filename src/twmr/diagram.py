@@ -1,0 +1,192 @@
+"""`twmr diagram`: a built scenario drawn as SVG — each block with its kind, step number and ports
+with their units, each wire from output to input (unit conversions in its tooltip), wires that
+feed back against the step order dashed, wires of algebraic loops in red, and the blocks of each
+subsystem framed. Laid out in layers: a block sits one layer right of the blocks that feed it
+forward in the step order. Every text from the scenario is escaped."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from html import escape
+from typing import Any
+
+BLOCK_W = 230.0  # [px]
+ROW_H = 17.0
+HEAD_H = 40.0
+GAP_X = 120.0
+GAP_Y = 36.0
+MARGIN = 40.0
+FRAME_PAD = 14.0
+
+
+CHAR_W = 6.3  # [px] of a character at the font size used, for widths
+LANE = 12.0  # [px] between the lanes of wires that feed back
+
+
+@dataclass
+class _Box:
+    name: str
+    x: float
+    y: float
+    h: float
+    inputs: list[str]
+    outputs: list[str]
+    w: float = BLOCK_W
+
+    def port_y(self, port: str) -> float:
+        rows = self.inputs if port in self.inputs else self.outputs
+        return self.y + HEAD_H + ROW_H * (rows.index(port) + 0.5)
+
+
+def _ports(comp: Any, kinds: tuple[str, ...]) -> list[str]:
+    return [n for n, v in comp.variables.items() if v.kind in kinds]
+
+
+def _label(var: Any, name: str) -> str:
+    unit = var.unit
+    if isinstance(unit, tuple):
+        unit = ", ".join(dict.fromkeys(u or "1" for u in unit)) if any(unit) else ""
+    size = f"[{var.size}]" if getattr(var, "size", 1) and var.size > 1 else ""
+    return f"{name}{size} [{unit}]" if unit else f"{name}{size}"
+
+
+def _layers(system: Any) -> dict[str, int]:
+    """Layer of each block: 0 for a block no earlier block feeds, else one more than the
+    deepest of the blocks before it in the step order that feed it."""
+    rank = {n: i for i, n in enumerate(system.order)}
+    feeds: dict[str, set[str]] = {n: set() for n in system.order}
+    for c in system.connections:
+        if c.src in rank and c.dst in rank and rank[c.src] < rank[c.dst]:
+            feeds[c.dst].add(c.src)
+    layer: dict[str, int] = {}
+    for name in system.order:
+        layer[name] = 1 + max((layer[s] for s in feeds[name]), default=-1)
+    return layer
+
+
+def _loop_ports(system: Any) -> set[tuple[str, str]]:
+    from twmr.scenario.graph import find_loops
+
+    try:
+        loops, stuck = find_loops(system.components, system.connections)
+    except Exception:  # noqa: BLE001 - a drawing without the highlight is still a drawing
+        return set()
+    return {p for loop in loops for p in loop.ports} | {p for cycle in stuck for p in cycle}
+
+
+def diagram_svg(system: Any, title: str = "") -> str:
+    """The SVG text of `system` (a built `twmr.scenario.system.System`)."""
+    layer = _layers(system)
+    columns: dict[int, list[str]] = {}
+    for name in system.order:
+        columns.setdefault(layer[name], []).append(name)
+    boxes: dict[str, _Box] = {}
+    x = MARGIN
+    for _, names in sorted(columns.items()):
+        y = MARGIN + 30.0
+        made = []
+        for name in names:
+            comp = system.components[name]
+            ins, outs = _ports(comp, ("input",)), _ports(comp, ("state", "output"))
+            h = HEAD_H + ROW_H * max(len(ins), len(outs), 1) + 6.0
+            longest = [max((len(_label(comp.variables[p], p)) for p in ports), default=0)
+                       for ports in (ins, outs)]
+            w = max(BLOCK_W, CHAR_W * (sum(longest) + 4), CHAR_W * (len(name) + 8))
+            made.append(_Box(name, x, y, h, ins, outs, w))
+            y += h + GAP_Y
+        span = max(b.w for b in made)
+        for box in made:
+            boxes[box.name] = box
+        x += span + GAP_X
+    rank = {n: i for i, n in enumerate(system.order)}
+    wires = [c for c in system.connections if c.src in boxes and c.dst in boxes]
+    back = [c for c in wires if rank[c.src] >= rank[c.dst]]
+    bottom = max((b.y + b.h for b in boxes.values()), default=100.0) + GAP_Y
+    width = x - GAP_X + MARGIN
+    height = bottom + LANE * len(back) + MARGIN
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" '
+           f'height="{height:.0f}" viewBox="0 0 {width:.0f} {height:.0f}" '
+           f'font-family="sans-serif" font-size="11">',
+           "<style>.block rect.body{fill:#fff;stroke:#333}.block text.head{font-weight:bold}"
+           ".wire{fill:none;stroke:#0072B2;stroke-width:1.3}.wire.feedback{stroke-dasharray:5 3}"
+           ".wire.loop{stroke:#D55E00;stroke-width:2}.frame{fill:none;stroke:#999;"
+           "stroke-dasharray:4 3}</style>",
+           f'<text x="{MARGIN}" y="{MARGIN - 14}" font-size="14">{escape(title)}</text>']
+    out += _frames(boxes)
+    loop = _loop_ports(system)
+    for c in wires:
+        a, b = boxes[c.src], boxes[c.dst]
+        x0, y0 = a.x + a.w, a.port_y(c.src_port)
+        x1, y1 = b.x, b.port_y(c.dst_port)
+        feedback = c in back
+        if feedback:  # out to the right, along a lane under the blocks, in from the left
+            lane = bottom + LANE * back.index(c)
+            step = 8.0 + 3.0 * (back.index(c) % 6)
+            path = (f"M{x0:.1f},{y0:.1f} H{x0 + step:.1f} V{lane:.1f} H{x1 - step:.1f} "
+                    f"V{y1:.1f} H{x1:.1f}")
+        else:
+            bend = max(40.0, (x1 - x0) / 2)
+            path = (f"M{x0:.1f},{y0:.1f} C{x0 + bend:.1f},{y0:.1f} {x1 - bend:.1f},{y1:.1f} "
+                    f"{x1:.1f},{y1:.1f}")
+        classes = "wire" + (" feedback" if feedback else "") + \
+            (" loop" if (c.src, c.src_port) in loop and (c.dst, c.dst_port) in loop else "")
+        tip = str(c) + (f" (converted: x {c.gain:g}{f' + {c.offset:g}' if c.offset else ''})"
+                        if (c.gain, c.offset) != (1.0, 0.0) else "")
+        out.append(f'<path class="{classes}" data-src="{escape(c.src)}.{escape(c.src_port)}" '
+                   f'data-dst="{escape(c.dst)}.{escape(c.dst_port)}" d="{path}">'
+                   f'<title>{escape(tip)}</title></path>')
+    for name in system.order:
+        out.append(_block(system.components[name], boxes[name], rank[name] + 1,
+                          system.multiple(name)))
+    out.append("</svg>")
+    return "\n".join(out)
+
+
+def _frames(boxes: dict[str, _Box]) -> list[str]:
+    """A dashed frame around the blocks of each subsystem ('robot.plant', 'robot.slip': robot),
+    outer subsystems first."""
+    groups: dict[str, list[_Box]] = {}
+    for box in boxes.values():
+        parts = box.name.split(".")
+        for depth in range(1, len(parts)):
+            groups.setdefault(".".join(parts[:depth]), []).append(box)
+    out = []
+    for name, members in sorted(groups.items(), key=lambda kv: kv[0].count(".")):
+        pad = FRAME_PAD * (1 + 0.5 * (3 - min(3, name.count("."))))
+        x0 = min(b.x for b in members) - pad
+        y0 = min(b.y for b in members) - pad - 14
+        x1 = max(b.x + b.w for b in members) + pad
+        y1 = max(b.y + b.h for b in members) + pad
+        out.append(f'<g class="subsystem" data-name="{escape(name)}"><rect class="frame" '
+                   f'x="{x0:.1f}" y="{y0:.1f}" width="{x1 - x0:.1f}" height="{y1 - y0:.1f}" '
+                   f'rx="8"/><text x="{x0 + 8:.1f}" y="{y0 + 13:.1f}" fill="#666">subsystem '
+                   f'{escape(name)}</text></g>')
+    return out
+
+
+def _block(comp: Any, box: _Box, step: int, multiple: int) -> str:
+    kind = getattr(comp, "kind", "") or type(comp).__name__
+    every = f", every {multiple} steps" if multiple > 1 else ""
+    parts = [f'<g class="block" id="block-{escape(box.name)}" data-name="{escape(box.name)}" '
+             f'data-kind="{escape(str(kind))}" data-step="{step}">',
+             f'<rect class="body" x="{box.x:.1f}" y="{box.y:.1f}" width="{box.w:.0f}" '
+             f'height="{box.h:.1f}" rx="4"/>',
+             f'<text class="head" x="{box.x + 8:.1f}" y="{box.y + 16:.1f}">'
+             f'{escape(box.name)}</text>',
+             f'<text x="{box.x + 8:.1f}" y="{box.y + 31:.1f}" fill="#555">{escape(str(kind))} · '
+             f'step {step}{every}</text>',
+             f'<text x="{box.x + box.w - 8:.1f}" y="{box.y + 16:.1f}" text-anchor="end" '
+             f'fill="#999">#{step}</text>']
+    for port in box.inputs:
+        y = box.port_y(port)
+        parts.append(f'<g class="port input" data-port="{escape(box.name)}.{escape(port)}">'
+                     f'<circle cx="{box.x:.1f}" cy="{y:.1f}" r="3" fill="#333"/><text '
+                     f'x="{box.x + 8:.1f}" y="{y + 4:.1f}">'
+                     f'{escape(_label(comp.variables[port], port))}</text></g>')
+    for port in box.outputs:
+        y = box.port_y(port)
+        parts.append(f'<g class="port output" data-port="{escape(box.name)}.{escape(port)}">'
+                     f'<circle cx="{box.x + box.w:.1f}" cy="{y:.1f}" r="3" fill="#333"/><text '
+                     f'x="{box.x + box.w - 8:.1f}" y="{y + 4:.1f}" text-anchor="end">'
+                     f'{escape(_label(comp.variables[port], port))}</text></g>')
+    parts.append("</g>")
+    return "".join(parts)
