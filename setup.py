@@ -1,7 +1,8 @@
 """Package discovery and package data, computed from the tree so the wheel cannot drift from it.
 
-Three source roots form one ``twmr`` package: ``src/twmr`` (the engine), ``components`` (the
-paper's blocks, ``twmr.components``) and ``hw`` (drives and buses, ``twmr.hw``). Every folder with
+Four source roots form one ``twmr`` package: ``src/twmr`` (the engine), ``components`` (the
+paper's blocks, ``twmr.components``), ``hw`` (drives and buses, ``twmr.hw``) and ``ros2`` (ROS 2
+topics over DDS, ``twmr.ros2``). Every folder with
 an ``__init__.py`` under them is a package; every other file under a package's folder (C sources
 and headers, schemas, web assets, drive descriptions) ships with it as package data.
 """
@@ -12,7 +13,8 @@ import os
 
 from setuptools import setup
 
-ROOTS = {"twmr": "src/twmr", "twmr.components": "components", "twmr.hw": "hw"}
+ROOTS = {"twmr": "src/twmr", "twmr.components": "components", "twmr.hw": "hw",
+         "twmr.ros2": "ros2"}
 SKIPPED_DIRS = {"__pycache__"}
 SKIPPED_SUFFIXES = (".py", ".pyc", ".pyo", ".so")
 

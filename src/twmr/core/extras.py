@@ -1,6 +1,7 @@
 """The optional parts of the install (`pip install 'twmr-cosim[EXTRA]'`) and the error that names
 the extra when a part is missing: plots (matplotlib), sweeps on Dask, tuning (Optuna), the live
-view (websockets) and CAN drives (python-can, canopen, cantools)."""
+view (websockets), CAN drives (python-can, canopen, cantools) and ROS 2 topics (cyclonedds,
+rosbags)."""
 from __future__ import annotations
 
 import importlib
@@ -11,7 +12,7 @@ from twmr.core.errors import CosimError
 #: the extra that installs each optional top-level module
 EXTRA_OF = {"matplotlib": "plot", "dask": "cluster", "distributed": "cluster",
             "optuna": "tune", "websockets": "live", "can": "hw", "canopen": "hw",
-            "cantools": "hw"}
+            "cantools": "hw", "cyclonedds": "ros2", "rosbags": "ros2"}
 
 
 def missing(err: ImportError, what: str) -> CosimError | None:
