@@ -120,6 +120,21 @@ def leaf_fields(type_name: str, distro: str = "humble", prefix: str = ""
     return out
 
 
+def sequence_fields(type_name: str, distro: str = "humble", prefix: str = "") -> list[str]:
+    """Paths of the sequences of numbers of a message ('position', 'velocity'): a port of a
+    size given in `fields:` ('velocity:2') reads or writes their first elements."""
+    from rosbags.typesys.base import Nodetype
+
+    out: list[str] = []
+    for name, (kind, detail) in typestore(distro).fielddefs[type_name][1]:
+        if kind == Nodetype.SEQUENCE and detail[0][0] == Nodetype.BASE and \
+                detail[0][1][0] in NUMERIC:
+            out.append(f"{prefix}{name}")
+        elif kind == Nodetype.NAME:
+            out += sequence_fields(detail, distro, f"{prefix}{name}.")
+    return out
+
+
 def time_fields(type_name: str, distro: str = "humble", prefix: str = "") -> list[str]:
     """Paths of the builtin_interfaces/msg/Time fields of a message ('header.stamp',
     'clock'), outermost first."""
@@ -191,8 +206,12 @@ def set_field(message: Any, path: str, value: Any) -> None:
 
     if isinstance(old, str):
         setattr(holder, name, str(value))
-    elif isinstance(old, (list, tuple)):
+    elif isinstance(value, str) and isinstance(old, list):  # a sequence of strings: 'a|b'
+        setattr(holder, name, value.split("|") if value else [])
+    elif isinstance(old, (list, tuple)) and len(old) == len(value):
         setattr(holder, name, [like(o, v) for o, v in zip(old, value, strict=True)])
+    elif isinstance(old, list):  # a sequence, as long as the port
+        setattr(holder, name, [float(v) for v in value])
     else:
         setattr(holder, name, like(old, value))
 

@@ -39,6 +39,8 @@ class Publications:
 
     def __init__(self) -> None:
         self.count = 0
+        #: the run's DDS writers (a lockstep reader waits for their subscribers to match)
+        self.writers: list[Any] = []
         self._lock = threading.Lock()
 
     def wrote(self) -> None:

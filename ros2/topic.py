@@ -33,6 +33,7 @@ from twmr.ros2.messages import (
     default_message,
     get_field,
     leaf_fields,
+    sequence_fields,
     set_field,
     set_time,
     time_fields,
@@ -40,6 +41,8 @@ from twmr.ros2.messages import (
 from twmr.ros2.participant import QOS_PROFILES, participant, publications, qos
 
 DIRECTIONS = ("subscribe", "publish")
+#: how long a lockstep reader, its peer found, lets the run's writers find their subscribers [s]
+MATCH_GRACE = 1.0
 
 
 class Ros2Topic(Component):
@@ -90,6 +93,18 @@ class Ros2Topic(Component):
             return
         chosen = [p.strip() for p in self.fields.split(",") if p.strip()]
         sizes = dict(known)
+        sequences = sequence_fields(self.message, self.distro)
+        for i, entry in enumerate(chosen):
+            path, sep, count = entry.partition(":")
+            path = path.strip()
+            if sep and path in sequences and count.strip().isdigit() and int(count) > 0:
+                sizes[path] = int(count)
+                chosen[i] = path
+            elif sep or path in sequences:
+                self.problem = (f"'{entry}': a sequence field of '{self.message}' is given "
+                                f"with the number of elements its port has, e.g. "
+                                f"'{path}:2' (sequences: {', '.join(sequences) or 'none'})")
+                return
         for path in chosen:
             if path not in sizes:
                 from twmr.registry import suggest
@@ -132,7 +147,7 @@ class Ros2Topic(Component):
             return [("message", "no message type is given.", "give message: pkg/msg/Name, "
                      "e.g. geometry_msgs/msg/Twist.")]
         if self.problem:
-            key = "fields" if "no numeric field" in self.problem else "message"
+            key = "fields" if "field" in self.problem else "message"
             return [(key, self.problem + ".", "give a type and fields that rosbags' type store "
                      "has (the closest are named above).")]
         problems: list[tuple[str, str, str]] = []
@@ -198,6 +213,7 @@ class Ros2Topic(Component):
         self._writer = self._reader = None
         if self.direction == "publish":
             self._writer = DataWriter(dp, topic, qos=qos(self.qos))
+            self._published.writers.append(self._writer)
             self._template = default_message(self.message, self.distro)
             for path, value in self._constants().items():
                 set_field(self._template, path, value)
@@ -216,6 +232,29 @@ class Ros2Topic(Component):
         if self.direction == "subscribe":
             self.__dict__["age"] = 0.0
             self.__dict__["received"] = 0
+            if self.lockstep:
+                self._meet_the_peer()
+
+    def _meet_the_peer(self) -> None:
+        """Before the first step: the peer's writer of this topic has matched this reader
+        (within `timeout`), and then the run's writers their subscribers (within MATCH_GRACE
+        more): a sample written before its reader matched is lost, and lockstep would wait
+        for an answer to it."""
+        deadline = time.monotonic() + float(self.timeout)
+        assert self._reader is not None
+        while self._reader.get_subscription_matched_status().current_count == 0:
+            if time.monotonic() > deadline:
+                raise ComponentError(self.name, self.start_time, (
+                    f"lockstep: no publisher of {self.topic} ({self.message}) appeared on ROS 2 "
+                    f"domain {self.domain_id} within {self.timeout:g} s. Fix: start the "
+                    f"controller first, check its topic name, type and QoS, or give a longer "
+                    f"timeout"))
+            time.sleep(0.01)
+        grace = time.monotonic() + MATCH_GRACE
+        while time.monotonic() < grace and any(
+                w.get_publication_matched_status().current_count == 0
+                for w in self._published.writers):
+            time.sleep(0.01)
 
     def do_step(self, t: float, h: float) -> None:
         """A publication writes the inputs at t; a subscription takes what came (in lockstep,
@@ -244,8 +283,12 @@ class Ros2Topic(Component):
         if samples:
             last = samples[-1]
             d = self.__dict__
-            for path, _ in self.paths:
-                d[path] = get_field(last, path)
+            for path, size in self.paths:
+                value = get_field(last, path)
+                if size > 1:  # a sequence: its first elements, NaN for those it lacks
+                    got = tuple(value) if isinstance(value, tuple) else (value,)
+                    value = (got + (math.nan,) * size)[:size]
+                d[path] = value
             self._taken += len(samples)
             d["received"] = self._taken
             self._t_last = t + h

@@ -3,7 +3,11 @@ its types written by hand after ROS 2's IDL (not twmr's code), with ROS 2's mang
 names. On each Odometry it answers one Twist (linear.x = 0.1 k, angular.z = -0.05 k for the k-th);
 at the end it writes what it received, decoded by rosbags' CDR deserializer, as JSON.
 
-    python ros2_peer.py DOMAIN REPLIES OUT.json
+    python ros2_peer.py DOMAIN REPLIES OUT.json [joints]
+
+With `joints` it is a ros2_control topic-based controller instead: on each JointState of
+/robot_joint_states it answers a JointState of wheel velocities (2, 1) rad/s on
+/robot_joint_commands, and keeps what it received.
 """
 import json
 import sys
@@ -13,11 +17,12 @@ from dataclasses import dataclass
 from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, uint32
+from cyclonedds.idl.types import array, float64, int32, sequence, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
+from rosbags.typesys import Stores, get_typestore
 
 
 @dataclass
@@ -70,17 +75,50 @@ class Odometry(IdlStruct, typename="nav_msgs::msg::dds_::Odometry_"):
 class Clock(IdlStruct, typename="rosgraph_msgs::msg::dds_::Clock_"):
     clock: Time
 
+
+@dataclass
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header
+    name: sequence[str]
+    position: sequence[float64]
+    velocity: sequence[float64]
+    effort: sequence[float64]
+
+STORE = get_typestore(Stores.ROS2_HUMBLE)
+
+
 def decoded(sample, type_name):
     """The sample's CDR bytes decoded by rosbags (ROS 2's own message definitions)."""
-    from rosbags.typesys import Stores, get_typestore
+    return STORE.deserialize_cdr(sample.serialize(), type_name)
 
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    return store.deserialize_cdr(sample.serialize(), type_name)
+
+def joints(dp, qos, replies, out):
+    """The ros2_control side: a velocity command per joint state."""
+    states = DataReader(dp, Topic(dp, "rt/robot_joint_states", JointState), qos=qos)
+    commands = DataWriter(dp, Topic(dp, "rt/robot_joint_commands", JointState), qos=qos)
+    print("ready", flush=True)
+    got = []
+    end = time.monotonic() + 120
+    while len(got) < replies and time.monotonic() < end:
+        for sample in states.take(N=100):
+            if not hasattr(sample, "serialize"):
+                continue
+            got.append(decoded(sample, "sensor_msgs/msg/JointState"))
+            commands.write(JointState(Header(Time(0, 0), ""), ["right_wheel_joint",
+                                      "left_wheel_joint"], [], [2.0, 1.0], []))
+        time.sleep(0.0002)
+    with open(out, "w") as f:
+        json.dump([{"name": list(m.name), "velocity": list(map(float, m.velocity)),
+                    "position": list(map(float, m.position)),
+                    "stamp": m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec} for m in got], f)
 
 
 domain, replies, out = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 dp = DomainParticipant(domain)
 qos = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(10))
+if sys.argv[4:] == ["joints"]:
+    joints(dp, qos, replies, out)
+    sys.exit(0)
 odom = DataReader(dp, Topic(dp, "rt/odom", Odometry), qos=qos)
 clock = DataReader(dp, Topic(dp, "rt/clock", Clock), qos=qos)
 cmd = DataWriter(dp, Topic(dp, "rt/cmd_vel", Twist), qos=qos)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twmr.api import load, simulate
+from twmr.api import load, read_result, simulate
 from twmr.core.errors import CosimError, ScenarioError
 
 pytest.importorskip("cyclonedds", reason="cyclonedds is in the [ros2] extra")
@@ -84,13 +84,24 @@ def test_a_ros2_peer_drives_the_run_in_lockstep_as_a_table_would(tmp_path: Path)
     np.testing.assert_array_equal(run["cmd.linear.x"][1:], [0.1 * k for k in range(STEPS)])
 
 
-def test_lockstep_stops_the_run_when_the_peer_does_not_answer(tmp_path: Path) -> None:
+def test_lockstep_stops_the_run_when_the_peer_is_absent_or_stops_answering(
+        tmp_path: Path) -> None:
     domain = random.randint(100, 200)
-    with pytest.raises(CosimError, match=r"lockstep: no sample on /cmd_vel "
-                       r"\(geometry_msgs/msg/Twist\) within 0\.3 s of the run's writes at "
-                       r"t = 0\.01 s: the peer stopped answering"):
-        simulate(load(scenario(domain, timeout=0.3)), tmp_path / "run")
-    assert (tmp_path / "run.incomplete").is_dir()  # what was computed is kept
+    with pytest.raises(CosimError, match=r"lockstep: no publisher of /cmd_vel "
+                       r"\(geometry_msgs/msg/Twist\) appeared on ROS 2 domain \d+ within 0\.5 s"):
+        simulate(load(scenario(domain, timeout=0.5)), tmp_path / "absent")
+    peer = subprocess.Popen([sys.executable, str(PEER), str(domain), "3",
+                             str(tmp_path / "peer.json")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert peer.stdout is not None and peer.stdout.readline().strip() == "ready"
+        with pytest.raises(CosimError, match=r"lockstep: no sample on /cmd_vel "
+                           r"\(geometry_msgs/msg/Twist\) within 2 s of the run's writes at "
+                           r"t = 0\.04 s: the peer stopped answering"):
+            simulate(load(scenario(domain, timeout=2.0)), tmp_path / "run")
+    finally:
+        peer.kill()
+    result = read_result(tmp_path / "run.incomplete")  # what was computed is kept
+    np.testing.assert_array_equal(result["cmd.linear.x"], [0.0, 0.0] + [0.1 * k for k in (1, 2, 3)])
 
 
 @pytest.mark.parametrize("change, key, text", [
@@ -109,3 +120,35 @@ def test_bad_configuration_fails_at_check(change: str, key: str, text: str) -> N
     with pytest.raises(ScenarioError) as info:
         load(bad)
     assert text in str(info.value)
+
+
+def test_the_robot_as_a_ros2_control_topic_based_system(tmp_path: Path) -> None:
+    """scenarios/ros2_control_robot.yaml with a controller that commands (2, 1) rad/s on
+    /robot_joint_commands at each joint state: the wheels reach the command (PI loops), and the
+    joint states the controller decoded (rosbags) name the joints and carry the wheel speeds
+    the run recorded, stamped with run time."""
+    domain = random.randint(100, 200)
+    out, n = tmp_path / "joints.json", 300
+    peer = subprocess.Popen([sys.executable, str(PEER), str(domain), str(n), str(out),
+                             "joints"], stdout=subprocess.PIPE, text=True)
+    scenario_path = Path(__file__).resolve().parents[2] / "scenarios" / "ros2_control_robot.yaml"
+    text = scenario_path.read_text().replace("direction: publish}", f"direction: publish, "
+                                             f"domain_id: {domain}}}").replace(
+        "timeout: 10.0}", f"timeout: 10.0, domain_id: {domain}}}").replace(
+        "constants: 'name=right_wheel_joint|left_wheel_joint'}",
+        f"constants: 'name=right_wheel_joint|left_wheel_joint', domain_id: {domain}}}")
+    assert text.count(f"domain_id: {domain}") == 4
+    try:
+        assert peer.stdout is not None and peer.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        run = simulate(load(text, [f"experiment.stop={n * 0.01}"]), tmp_path / "run")
+        peer.wait(timeout=60)
+    finally:
+        peer.kill()
+    got = json.loads(out.read_text())
+    assert len(got) == n
+    assert {tuple(m["name"]) for m in got} == {("right_wheel_joint", "left_wheel_joint")}
+    speed = np.stack([run["plant.wheel_speed[1]"], run["plant.wheel_speed[2]"]], axis=1)
+    np.testing.assert_allclose([m["velocity"] for m in got], speed[:n], rtol=0, atol=1e-12)
+    np.testing.assert_allclose([m["stamp"] for m in got], np.arange(n) * 0.01, atol=1e-9)
+    np.testing.assert_allclose(speed[-1], [2.0, 1.0], atol=0.1)  # the PI loops track it
