@@ -84,6 +84,13 @@ class TwmrPlant(Component):
     wheel_speed = State((0.0, 0.0), size=2, unit="rad/s", description="(phi_R', phi_L')")
     com = Output(size=2, unit="m", description="centre of mass (x_G, y_G), eq. (4)")
 
+    def bodies(self) -> dict[str, dict[str, float]]:
+        """The pose's vehicle, schematically: two wheels of radius r at +-b from M, a platform
+        between them reaching from M to G (a) and a little beyond."""
+        r, b, a = float(self.r), float(self.b), float(self.a)
+        return {"pose": {"wheel_radius": r, "half_track": b, "length": a + 2.0 * r,
+                         "width": max(2.0 * b - 0.2, 0.1), "height": 0.5 * r, "ahead": a / 2}}
+
     def initialize(self) -> None:
         k = self.scale
         self.m11, self.m12, self.q1, self.q2 = inertia(

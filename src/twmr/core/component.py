@@ -390,6 +390,12 @@ class Component:
         option of another protocol); None: nothing to say beyond the known names."""
         return None
 
+    def bodies(self) -> dict[str, dict[str, float]]:
+        """Output port holding a planar pose (x, y, heading) -> the dimensions [m] of the
+        vehicle it moves, for 3D views: `wheel_radius`, `half_track`, `length`, `width`,
+        `height`, `ahead` (how far the body's centre is ahead of the pose's point); {}: none."""
+        return {}
+
     def limits(self) -> dict[str, tuple[float, float]]:
         """Output port -> (lowest, highest) value its parameters allow it (a torque limit), for
         plots to draw; {}: none."""

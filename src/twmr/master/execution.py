@@ -572,8 +572,8 @@ class Execution:
                     log.warning("terminate() of '%s' failed", name, exc_info=True)
 
     def _recorded_ports(self) -> dict[str, dict[str, Any]]:
-        """Description, type and limits (when its block has some) of each recorded port
-        ('plant.pose'), for plots and readers."""
+        """Description, type, limits and body (when its block has them) of each recorded port
+        ('plant.pose'), for plots, 3D views and readers."""
         ports: dict[str, dict[str, Any]] = {}
         for column in self.columns[1:] + self.ticks.names:
             name = column.partition("[")[0]
@@ -582,9 +582,13 @@ class Execution:
                 if owner in self.system.components else None
             if var is not None and name not in ports:
                 ports[name] = {"description": var.description, "type": var.type}
-                limits = self.system.components[owner].limits().get(port)
+                comp = self.system.components[owner]
+                limits = comp.limits().get(port)
                 if limits is not None:
                     ports[name]["limits"] = list(limits)
+                body = comp.bodies().get(port)
+                if body is not None:
+                    ports[name]["body"] = dict(body)
         return ports
 
     def _catch_stop_signals(self) -> dict[int, Any]:

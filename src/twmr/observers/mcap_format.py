@@ -19,6 +19,8 @@ rerun and rosbag2 read.
   `summary.json` (`time_s` the same in seconds; frames of the set-up, before the start, have a
   negative `time_s` and log time 0).
 - Recorded Binary ports are left out (a note; they stay in `ticks.arrows`).
+- The 3D scene, in Foxglove's own schemas (`twmr.observers.mcap_scene`): `/tf`, the vehicle of
+  each recorded pose whose block describes it, and the recorded paths.
 - A `twmr.columns` metadata record holds the recorded column names and units in their order, so
   `read` gives back the columns of `result.arrows` exactly (JSON numbers round-trip float64).
 """
@@ -33,10 +35,13 @@ from typing import Any
 import numpy as np
 
 from twmr.core.jsonvalues import NON_FINITE, number
+from twmr.observers.mcap_scene import add_scene
 from twmr.observers.writers import ResultFormat
 
 _ELEMENT = re.compile(r"^(?P<port>.+)\[(?P<index>\d+)\]$")
 METADATA = "twmr.columns"
+#: the `kind` metadata of the 3D scene's channels
+SCENE = "scene"
 #: the `kind` metadata of a frame log's channel
 FRAMES = "can_frames"
 
@@ -139,6 +144,16 @@ def _add_frame_logs(writer: Any, folder: Path, start: float) -> None:
                                data=json.dumps({"time_s": t, **fields}).encode())
 
 
+def _ports(folder: Path) -> dict[str, Any]:
+    """The recorded ports' descriptions of the run in `folder` (its summary), {} without one."""
+    try:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    ports = summary.get("ports") if isinstance(summary, dict) else None
+    return ports if isinstance(ports, dict) else {}
+
+
 def log_time_ns(t: float) -> int:
     """A simulated time [s] as the integer nanoseconds of a log time."""
     return round(t * 1e9)
@@ -172,6 +187,7 @@ class Mcap(ResultFormat):
                                        sequence=sequence,
                                        data=json.dumps(channel.message(row)).encode())
             _add_frame_logs(writer, path.parent, float(values[0, 0]) if len(values) else 0.0)
+            add_scene(writer, columns, units, values, _ports(path.parent))
             writer.finish()
         return []
 
@@ -189,7 +205,7 @@ class Mcap(ResultFormat):
             where = {c: j for j, c in enumerate(columns)}
             rows: dict[int, np.ndarray] = {}
             for _schema, channel, message in reader.iter_messages(log_time_order=False):
-                if channel.metadata.get("kind") == FRAMES:
+                if channel.metadata.get("kind") in (FRAMES, SCENE):
                     continue
                 owner = channel.metadata.get("component", channel.topic.lstrip("/"))
                 row = rows.setdefault(message.sequence, np.full(len(columns), np.nan))

@@ -1,0 +1,126 @@
+"""The 3D scene of a result in MCAP, in Foxglove's well-known schemas (protobuf, through the
+Foxglove SDK: the extra `foxglove`), so Foxglove's 3D panel draws the robot:
+
+- `/tf` (`foxglove.FrameTransform`): for each recorded planar pose whose block describes its
+  vehicle (`Component.bodies`: the paper's plant does), the frame `<component>` in `world` at
+  every sample (x, y, 0; the heading as a rotation about z);
+- `/scene/<component>` (`foxglove.SceneUpdate`, once, at the first sample): the vehicle in its
+  frame — the platform as a box, each wheel as a cylinder, a caster as a sphere;
+- `/scene/paths` (`foxglove.SceneUpdate`, once): each recorded planar position (a reference
+  path) and each pose's path as a line in `world`.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from typing import Any
+
+import numpy as np
+
+log = logging.getLogger("twmr.run")
+
+#: the frame every path and vehicle frame is in
+WORLD = "world"
+
+
+def _planar(columns: list[str], units: list[str]) -> dict[str, list[int]]:
+    """Port -> the column indices of its x, y (and heading) of each planar position or pose."""
+    from twmr.plots import group_ports, is_planar_position
+
+    unit = dict(zip(columns, units, strict=True))
+    where = {c: j for j, c in enumerate(columns)}
+    return {port: [where[c] for c in cols] for port, cols in group_ports(columns).items()
+            if is_planar_position(port, [unit[c] for c in cols])}
+
+
+def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndarray,
+              ports: dict[str, Any]) -> list[str]:
+    """Add the scene's channels and messages to an MCAP `writer`; the topics written ([] when
+    the Foxglove SDK is missing, said once)."""
+    try:
+        import foxglove.messages as fm
+    except ImportError:
+        log.info("note: result.mcap has no 3D scene channels: they need the Foxglove SDK "
+                 "(pip install 'twmr-cosim[foxglove]')")
+        return []
+    planar = _planar(columns, units)
+    if not planar or not len(values):
+        return []
+
+    def channel(topic: str, kind: Any) -> int:
+        schema = kind.get_schema()
+        schema_id = writer.register_schema(schema.name, schema.encoding, schema.data)
+        return int(writer.register_channel(topic, "protobuf", schema_id, {"kind": "scene"}))
+
+    t = values[:, 0]
+    stamps = [round(float(x) * 1e9) for x in t]
+    topics: list[str] = []
+    paths = channel("/scene/paths", fm.SceneUpdate)
+    topics.append("/scene/paths")
+    lines = []
+    for k, (port, cols) in enumerate(planar.items()):
+        xy = values[:, cols[:2]]
+        points = [fm.Point3(x=float(x), y=float(y), z=0.0) for x, y in xy[:: max(1, len(xy)
+                                                                                 // 5000)]]
+        colour = _colour(k)
+        lines.append(fm.SceneEntity(
+            frame_id=WORLD, id=f"path {port}", frame_locked=False,
+            lines=[fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineStrip, thickness=2.0,
+                                    scale_invariant=True, points=points, color=colour)]))
+    writer.add_message(paths, log_time=stamps[0], publish_time=stamps[0], sequence=0,
+                       data=fm.SceneUpdate(entities=lines).encode())
+    bodies = {p: (cols, ports.get(p, {}).get("body")) for p, cols in planar.items()
+              if len(cols) == 3 and ports.get(p, {}).get("body")}
+    if not bodies:
+        return topics
+    tf = channel("/tf", fm.FrameTransform)
+    topics.append("/tf")
+    for port, (cols, body) in bodies.items():
+        frame = port.rpartition(".")[0] or port
+        scene = channel(f"/scene/{frame}", fm.SceneUpdate)
+        topics.append(f"/scene/{frame}")
+        writer.add_message(scene, log_time=stamps[0], publish_time=stamps[0], sequence=0,
+                           data=fm.SceneUpdate(entities=[_vehicle(fm, frame, body)]).encode())
+        for sequence, (stamp, row) in enumerate(zip(stamps, values[:, cols], strict=True)):
+            x, y, heading = (float(v) for v in row)
+            transform = fm.FrameTransform(
+                timestamp=fm.Timestamp(sec=stamp // 1_000_000_000, nsec=stamp % 1_000_000_000),
+                parent_frame_id=WORLD, child_frame_id=frame,
+                translation=fm.Vector3(x=x, y=y, z=0.0),
+                rotation=fm.Quaternion(x=0.0, y=0.0, z=math.sin(heading / 2),
+                                       w=math.cos(heading / 2)))
+            writer.add_message(tf, log_time=stamp, publish_time=stamp, sequence=sequence,
+                               data=transform.encode())
+    return topics
+
+
+def _colour(k: int) -> Any:
+    import foxglove.messages as fm
+
+    palette = ((0.0, 0.447, 0.698), (0.835, 0.369, 0.0), (0.0, 0.620, 0.451),
+               (0.8, 0.475, 0.655))
+    r, g, b = palette[k % len(palette)]
+    return fm.Color(r=r, g=g, b=b, a=1.0)
+
+
+def _vehicle(fm: Any, frame: str, body: dict[str, float]) -> Any:
+    """The vehicle in its own frame: x ahead, y to the left, z up, the pose's point at 0."""
+    r, b = body["wheel_radius"], body["half_track"]
+    upright = fm.Quaternion(x=math.sqrt(0.5), y=0.0, z=0.0, w=math.sqrt(0.5))  # axis along y
+    level = fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+    grey = fm.Color(r=0.55, g=0.55, b=0.6, a=0.9)
+    black = fm.Color(r=0.1, g=0.1, b=0.1, a=1.0)
+    wheels = [fm.CylinderPrimitive(
+        pose=fm.Pose(position=fm.Vector3(x=0.0, y=side * b, z=r), orientation=upright),
+        size=fm.Vector3(x=2 * r, y=2 * r, z=0.2 * r), bottom_scale=1.0, top_scale=1.0,
+        color=black) for side in (-1.0, 1.0)]
+    platform = fm.CubePrimitive(
+        pose=fm.Pose(position=fm.Vector3(x=body["ahead"], y=0.0, z=r + body["height"] / 2),
+                     orientation=level),
+        size=fm.Vector3(x=body["length"], y=body["width"], z=body["height"]), color=grey)
+    caster = fm.SpherePrimitive(
+        pose=fm.Pose(position=fm.Vector3(x=body["ahead"] + body["length"] / 2, y=0.0,
+                                         z=0.25 * r), orientation=level),
+        size=fm.Vector3(x=0.5 * r, y=0.5 * r, z=0.5 * r), color=black)
+    return fm.SceneEntity(frame_id=frame, id=f"vehicle {frame}", frame_locked=True,
+                          cubes=[platform], cylinders=wheels, spheres=[caster])

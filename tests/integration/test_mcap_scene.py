@@ -1,0 +1,57 @@
+"""The 3D scene in result.mcap, decoded with mcap-protobuf-support (Foxglove's protobuf schemas
+as the file carries them, not our code): the robot's frame at every recorded pose, its vehicle
+from the plant's own dimensions, the reference path as recorded."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twmr
+
+pytest.importorskip("foxglove", reason="the Foxglove SDK is in the [foxglove] extra")
+decoder = pytest.importorskip("mcap_protobuf.decoder", reason="mcap-protobuf-support is in "
+                              "the [test] extra")
+pytestmark = pytest.mark.timeout(120)
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_robot_moves_in_the_scene_as_recorded(tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    result = twmr.simulate(twmr.load(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml",
+                                     ["experiment.stop=2", "plant.b=0.6", "plant.r=0.2"]),
+                           tmp_path / "run", formats=("mcap",))
+    with open(tmp_path / "run" / "result.mcap", "rb") as stream:
+        reader = make_reader(stream, decoder_factories=[decoder.DecoderFactory()])
+        got: dict[str, list] = {}
+        for schema, channel, _, message in reader.iter_decoded_messages(
+                topics=["/tf", "/scene/plant", "/scene/paths"]):
+            got.setdefault(channel.topic, []).append((schema.name, message))
+    tf = got["/tf"]
+    assert {name for name, _ in tf} == {"foxglove.FrameTransform"}
+    assert len(tf) == len(result)
+    x = [m.translation.x for _, m in tf]
+    y = [m.translation.y for _, m in tf]
+    yaw = [2 * math.atan2(m.rotation.z, m.rotation.w) for _, m in tf]
+    np.testing.assert_allclose(x, result["plant.pose[1]"], atol=1e-12)
+    np.testing.assert_allclose(y, result["plant.pose[2]"], atol=1e-12)
+    np.testing.assert_allclose(np.unwrap(yaw), np.unwrap(result["plant.pose[3]"]), atol=1e-9)
+    assert {(m.parent_frame_id, m.child_frame_id) for _, m in tf} == {("world", "plant")}
+    (name, scene), = got["/scene/plant"]
+    assert name == "foxglove.SceneUpdate"
+    vehicle, = scene.entities
+    assert vehicle.frame_id == "plant" and vehicle.frame_locked
+    wheels = sorted((c.pose.position.y, c.size.x) for c in vehicle.cylinders)
+    assert wheels == [(-0.6, 0.4), (0.6, 0.4)]  # at +-b, diameter 2 r, as set
+    (_, paths), = got["/scene/paths"]
+    lines = {e.id: e.lines[0].points for e in paths.entities}
+    reference = lines["path ref.position"]
+    np.testing.assert_allclose([p.x for p in reference], result["ref.position[1]"], atol=1e-12)
+    np.testing.assert_allclose([p.y for p in reference], result["ref.position[2]"], atol=1e-12)
+    # the result read back from the MCAP is the recorded one: the scene is beside it
+    back = twmr.read_result(tmp_path / "run" / "result.mcap")
+    np.testing.assert_array_equal(back.values, result.values)
