@@ -77,3 +77,56 @@ def test_a_bad_address_is_one_line_naming_the_option() -> None:
 
     with pytest.raises(LiveAddressError, match=r"--foxglove 'x:y'.*Fix: e\.g\. --foxglove 8765"):
         FoxgloveServer("x:y")
+
+
+def _decoder(channel: dict):
+    """A decoder of the protobuf messages of an advertised channel, built from the schema it
+    carries (a FileDescriptorSet), with google.protobuf: not the SDK that encoded them."""
+    import base64
+
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    files = descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(channel["schema"]))
+    pool = descriptor_pool.DescriptorPool()
+    for proto in files.file:
+        pool.Add(proto)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(channel["schemaName"]))
+
+
+def test_a_client_gets_the_robots_frame_and_vehicle() -> None:
+    pytest.importorskip("google.protobuf")
+    body = {"wheel_radius": 0.15, "half_track": 0.75, "length": 0.6, "width": 1.3,
+            "height": 0.075, "ahead": 0.15}
+    run = RunStart(("time", "plant.pose[1]", "plant.pose[2]", "plant.pose[3]"),
+                   ("s", "m", "m", "rad"), 1e-3, 10,
+                   metadata={"ports": {"plant.pose": {"body": body}}})
+    rows = np.array([[0.0, 0.5, 0.0, -0.785], [0.001, 0.6, 0.1, -0.5]])
+    server = FoxgloveServer("0")
+    url = server.start()
+    try:
+        server.started(run)
+        with connect(url, subprotocols=["foxglove.sdk.v1"]) as ws:
+            channels = {c["topic"]: c for c in _advertised(ws)}
+            assert {"/tf", "/scene/plant"} <= set(channels)
+            assert channels["/tf"]["schemaName"] == "foxglove.FrameTransform"
+            assert channels["/tf"]["encoding"] == "protobuf"
+            wanted = ["/tf", "/scene/plant"]
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(wanted)]}))
+            ws.ping().wait(10)
+            server.rows(rows, len(rows))
+            got: dict[str, list] = {t: [] for t in wanted}
+            for _ in range(len(rows) + 1):
+                frame = ws.recv(timeout=10)
+                sub, _stamp = struct.unpack_from("<IQ", frame, 1)
+                topic = wanted[sub]
+                got[topic].append(_decoder(channels[topic]).FromString(frame[13:]))
+    finally:
+        server.close()
+    tf = got["/tf"]
+    assert [(m.translation.x, m.translation.y) for m in tf] == [(0.5, 0.0), (0.6, 0.1)]
+    assert [2 * np.arctan2(m.rotation.z, m.rotation.w) for m in tf] == pytest.approx(
+        [-0.785, -0.5])
+    (scene,) = got["/scene/plant"]
+    wheels = sorted(c.pose.position.y for c in scene.entities[0].cylinders)
+    assert wheels == [-0.75, 0.75]

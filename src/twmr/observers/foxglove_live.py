@@ -3,9 +3,11 @@ the Foxglove SDK's WebSocket server (`foxglove-sdk`, the extra `foxglove`).
 
 The channels are those of the MCAP export (`twmr.observers.mcap_format`): one per component,
 topic `/<component>`, JSON messages with a JSON Schema of its ports and units, log times the
-simulated time in nanoseconds. Open Foxglove, "Open connection", `ws://127.0.0.1:PORT`. The server
-binds 127.0.0.1 unless told otherwise; each client's backlog is bounded (`BACKLOG` messages, the
-oldest dropped), so the run never waits for a viewer.
+simulated time in nanoseconds; and, as there, `/tf` and the vehicle of each pose whose block
+describes it (`twmr.observers.mcap_scene`: Foxglove's 3D panel draws the robot). Open Foxglove,
+"Open connection", `ws://127.0.0.1:PORT`. The server binds 127.0.0.1 unless told otherwise; each
+client's backlog is bounded (`BACKLOG` messages, the oldest dropped), so the run never waits for
+a viewer.
 """
 from __future__ import annotations
 
@@ -18,11 +20,14 @@ from twmr.core.errors import CosimError
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.observers.live import parse_address
 from twmr.observers.mcap_format import ComponentChannel, component_channels, log_time_ns
+from twmr.observers.mcap_scene import transform, vehicle, vehicles
 
 log = logging.getLogger("twmr.live")
 
 #: messages waiting for one client; past it the oldest is dropped
 BACKLOG = 4096
+#: how often the vehicles' scene is sent again, for clients that join later [ns of run time]
+SCENE_EVERY_NS = 1_000_000_000
 
 
 class FoxgloveServer(Observer):
@@ -34,6 +39,10 @@ class FoxgloveServer(Observer):
         self._server: Any = None
         self._context: Any = None
         self._channels: list[tuple[Any, ComponentChannel]] = []
+        self._vehicles: list[tuple[str, list[int], dict[str, float]]] = []
+        self._tf: Any = None
+        self._scenes: list[tuple[Any, str, dict[str, float]]] = []
+        self._scene_due = 0
 
     def start(self) -> str:
         """Start serving; the address to open in Foxglove."""
@@ -63,12 +72,35 @@ class FoxgloveServer(Observer):
             (foxglove.Channel(c.topic, schema=c.schema, message_encoding="json",
                               context=self._context, metadata={"component": c.owner}), c)
             for c in component_channels(list(run.columns), list(run.units))]
+        self._scene_channels(run)
+
+    def _scene_channels(self, run: RunStart) -> None:
+        """`/tf` and `/scene/<component>` for each pose whose block describes its vehicle, in
+        Foxglove's own schemas (as in result.mcap, `twmr.observers.mcap_scene`)."""
+        from foxglove.channels import FrameTransformChannel, SceneUpdateChannel
+
+        self._vehicles = vehicles(list(run.columns), list(run.units),
+                                  run.metadata.get("ports", {}))
+        self._tf = FrameTransformChannel("/tf", context=self._context) \
+            if self._vehicles else None
+        self._scenes = [(SceneUpdateChannel(f"/scene/{frame}", context=self._context),
+                         frame, body) for frame, _, body in self._vehicles]
+        self._scene_due = 0
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
+        import foxglove.messages as fm
+
         for row in block:
             stamp = log_time_ns(float(row[0]))
             for channel, layout in self._channels:
                 channel.log(layout.message(row), log_time=stamp)
+            if self._tf is not None:
+                for frame, cols, _ in self._vehicles:
+                    self._tf.log(transform(frame, stamp, *row[cols]), log_time=stamp)
+            if self._scenes and stamp >= self._scene_due:  # a client that joins gets it soon
+                for channel, frame, body in self._scenes:
+                    channel.log(fm.SceneUpdate(entities=[vehicle(frame, body)]), log_time=stamp)
+                self._scene_due = stamp + SCENE_EVERY_NS
 
     def finished(self, outcome: Outcome) -> None:
         return
@@ -77,6 +109,11 @@ class FoxgloveServer(Observer):
         for channel, _ in self._channels:
             channel.close()
         self._channels = []
+        for scene, _, _ in self._scenes:
+            scene.close()
+        if self._tf is not None:
+            self._tf.close()
+        self._scenes, self._tf = [], None
 
     def close(self) -> None:
         """Stop the server (the channels first)."""

@@ -69,29 +69,42 @@ def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndar
                                     scale_invariant=True, points=points, color=colour)]))
     writer.add_message(paths, log_time=stamps[0], publish_time=stamps[0], sequence=0,
                        data=fm.SceneUpdate(entities=lines).encode())
-    bodies = {p: (cols, ports.get(p, {}).get("body")) for p, cols in planar.items()
-              if len(cols) == 3 and ports.get(p, {}).get("body")}
-    if not bodies:
+    moving = vehicles(columns, units, ports)
+    if not moving:
         return topics
     tf = channel("/tf", fm.FrameTransform)
     topics.append("/tf")
-    for port, (cols, body) in bodies.items():
-        frame = port.rpartition(".")[0] or port
+    for frame, cols, body in moving:
         scene = channel(f"/scene/{frame}", fm.SceneUpdate)
         topics.append(f"/scene/{frame}")
         writer.add_message(scene, log_time=stamps[0], publish_time=stamps[0], sequence=0,
-                           data=fm.SceneUpdate(entities=[_vehicle(fm, frame, body)]).encode())
+                           data=fm.SceneUpdate(entities=[vehicle(frame, body)]).encode())
         for sequence, (stamp, row) in enumerate(zip(stamps, values[:, cols], strict=True)):
-            x, y, heading = (float(v) for v in row)
-            transform = fm.FrameTransform(
-                timestamp=fm.Timestamp(sec=stamp // 1_000_000_000, nsec=stamp % 1_000_000_000),
-                parent_frame_id=WORLD, child_frame_id=frame,
-                translation=fm.Vector3(x=x, y=y, z=0.0),
-                rotation=fm.Quaternion(x=0.0, y=0.0, z=math.sin(heading / 2),
-                                       w=math.cos(heading / 2)))
             writer.add_message(tf, log_time=stamp, publish_time=stamp, sequence=sequence,
-                               data=transform.encode())
+                               data=transform(frame, stamp, *row).encode())
     return topics
+
+
+def vehicles(columns: list[str], units: list[str], ports: dict[str, Any]
+             ) -> list[tuple[str, list[int], dict[str, float]]]:
+    """(frame, column indices of x, y and heading, body) of each recorded pose whose block
+    describes its vehicle; the frame is the component's name."""
+    return [(port.rpartition(".")[0] or port, cols, ports[port]["body"])
+            for port, cols in _planar(columns, units).items()
+            if len(cols) == 3 and (ports.get(port) or {}).get("body")]
+
+
+def transform(frame: str, stamp: int, x: float, y: float, heading: float) -> Any:
+    """The frame's `foxglove.FrameTransform` in `world` at `stamp` [ns]: (x, y, 0), the
+    heading a rotation about z."""
+    import foxglove.messages as fm
+
+    return fm.FrameTransform(
+        timestamp=fm.Timestamp(sec=stamp // 1_000_000_000, nsec=stamp % 1_000_000_000),
+        parent_frame_id=WORLD, child_frame_id=frame,
+        translation=fm.Vector3(x=float(x), y=float(y), z=0.0),
+        rotation=fm.Quaternion(x=0.0, y=0.0, z=math.sin(float(heading) / 2),
+                               w=math.cos(float(heading) / 2)))
 
 
 def _colour(k: int) -> Any:
@@ -103,8 +116,11 @@ def _colour(k: int) -> Any:
     return fm.Color(r=r, g=g, b=b, a=1.0)
 
 
-def _vehicle(fm: Any, frame: str, body: dict[str, float]) -> Any:
-    """The vehicle in its own frame: x ahead, y to the left, z up, the pose's point at 0."""
+def vehicle(frame: str, body: dict[str, float]) -> Any:
+    """The vehicle as a `foxglove.SceneEntity` in its own frame: x ahead, y to the left, z up,
+    the pose's point at 0."""
+    import foxglove.messages as fm
+
     r, b = body["wheel_radius"], body["half_track"]
     upright = fm.Quaternion(x=math.sqrt(0.5), y=0.0, z=0.0, w=math.sqrt(0.5))  # axis along y
     level = fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
