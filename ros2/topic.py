@@ -88,8 +88,14 @@ class Ros2Topic(Component):
         try:
             check_type(self.message, self.distro)
             known = leaf_fields(self.message, self.distro)
-        except (MessageError, ImportError) as err:
+        except MessageError as err:
             self.problem = str(err)
+            return
+        except ImportError as err:
+            from twmr.core.extras import missing
+
+            self.problem = str(missing(err, "kind: ros2_topic") or err).split(". Fix:")[0]
+            self._needs_extra = True
             return
         chosen = [p.strip() for p in self.fields.split(",") if p.strip()]
         sizes = dict(known)
@@ -146,6 +152,9 @@ class Ros2Topic(Component):
         if not self.message:
             return [("message", "no message type is given.", "give message: pkg/msg/Name, "
                      "e.g. geometry_msgs/msg/Twist.")]
+        if self.problem and getattr(self, "_needs_extra", False):
+            return [("message", self.problem + ".", "pip install 'twmr-cosim[ros2]' (or "
+                     "'.[ros2]' in a checkout).")]
         if self.problem:
             key = "fields" if "field" in self.problem else "message"
             return [(key, self.problem + ".", "give a type and fields that rosbags' type store "
