@@ -277,8 +277,8 @@ class LiveView(Observer):
         ports = run.metadata.get("ports", {})
         groups = group_ports(columns)
         planar = [{"port": port, "x": index[cols[0]], "y": index[cols[1]],
-                   "heading": index[cols[2]] if len(cols) == 3 else None,
-                   "body": ports.get(port, {}).get("body") if len(cols) == 3 else None}
+                   **({"heading": index[cols[2]], "body": ports.get(port, {}).get("body")}
+                      if len(cols) == 3 else {})}
                   for port, cols in groups.items()
                   if is_planar_position(port, [units[c] for c in cols])]
         labels, stepped = {"time": "time"}, {"time": False}
