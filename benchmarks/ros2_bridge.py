@@ -65,7 +65,7 @@ def main() -> None:
     stop = args.steps * STEP
     walls: dict[str, list[float]] = {"bridge": [], "plain": []}
     for _ in range(args.rounds):
-        domain = random.randint(100, 200)
+        domain = random.randint(1, 232)
         peer = subprocess.Popen([sys.executable, str(PEER), str(domain), str(args.steps),
                                  "/dev/null", "joints"], stdout=subprocess.PIPE, text=True)
         try:

@@ -93,7 +93,9 @@ def test_heartbeat_loss_is_a_hardware_error_and_disables_the_drives() -> None:
 
 def test_estop_from_the_bus_is_a_hardware_error() -> None:
     ch = channel()
-    d = started(channel=ch)
+    # the estop shows in the next heartbeat (<= 100 ms): the host's and the drives' watchdogs
+    # get ten times that, so a loaded machine's late step trips neither first
+    d = started(channel=ch, watchdog_periods=10 * N, drive_watchdog=1.0)
     other = can.Bus(interface="virtual", channel=ch)
     loop = Paced(d)
     try:

@@ -49,7 +49,7 @@ record: {{signals: [cmd.linear.x, lag.y]}}
 
 
 def test_a_ros2_peer_drives_the_run_in_lockstep_as_a_table_would(tmp_path: Path) -> None:
-    domain = random.randint(100, 200)
+    domain = random.randint(1, 232)
     out = tmp_path / "peer.json"
     peer = subprocess.Popen([sys.executable, str(PEER), str(domain), str(STEPS), str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -86,7 +86,7 @@ def test_a_ros2_peer_drives_the_run_in_lockstep_as_a_table_would(tmp_path: Path)
 
 def test_lockstep_stops_the_run_when_the_peer_is_absent_or_stops_answering(
         tmp_path: Path) -> None:
-    domain = random.randint(100, 200)
+    domain = random.randint(1, 232)
     with pytest.raises(CosimError, match=r"lockstep: no publisher of /cmd_vel "
                        r"\(geometry_msgs/msg/Twist\) appeared on ROS 2 domain \d+ within 0\.5 s"):
         simulate(load(scenario(domain, timeout=0.5)), tmp_path / "absent")
@@ -95,9 +95,9 @@ def test_lockstep_stops_the_run_when_the_peer_is_absent_or_stops_answering(
     try:
         assert peer.stdout is not None and peer.stdout.readline().strip() == "ready"
         with pytest.raises(CosimError, match=r"lockstep: no sample on /cmd_vel "
-                           r"\(geometry_msgs/msg/Twist\) within 2 s of the run's writes at "
+                           r"\(geometry_msgs/msg/Twist\) within 8 s of the run's writes at "
                            r"t = 0\.04 s: the peer stopped answering"):
-            simulate(load(scenario(domain, timeout=2.0)), tmp_path / "run")
+            simulate(load(scenario(domain, timeout=8.0)), tmp_path / "run")  # a busy peer
     finally:
         peer.kill()
     result = read_result(tmp_path / "run.incomplete")  # what was computed is kept
@@ -127,7 +127,7 @@ def test_the_robot_as_a_ros2_control_topic_based_system(tmp_path: Path) -> None:
     /robot_joint_commands at each joint state: the wheels reach the command (PI loops), and the
     joint states the controller decoded (rosbags) name the joints and carry the wheel speeds
     the run recorded, stamped with run time."""
-    domain = random.randint(100, 200)
+    domain = random.randint(1, 232)
     out, n = tmp_path / "joints.json", 300
     peer = subprocess.Popen([sys.executable, str(PEER), str(domain), str(n), str(out),
                              "joints"], stdout=subprocess.PIPE, text=True)
