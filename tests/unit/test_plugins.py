@@ -108,7 +108,7 @@ def test_unknown_format_is_one_paragraph_with_a_suggestion(third_party, tmp_path
     assert done.returncode == 1
     err = done.stderr.strip()
     assert err.startswith("error: --format csv,tvs: unknown result format 'tvs'"), err
-    assert "did you mean 'tsv'?" in err and "csv, mat, mcap, parquet, tsv" in err
+    assert "did you mean 'tsv'?" in err and "csv, mat, mcap, parquet, rosbag, tsv" in err
     assert "\n" not in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()  # refused before running
 

@@ -197,6 +197,9 @@ class Mcap(ResultFormat):
         with open(path, "rb") as stream:
             reader = make_reader(stream)
             meta = next((m for m in reader.iter_metadata() if m.name == METADATA), None)
+            if meta is None and reader.get_header().profile == "ros2":
+                raise ValueError(f"{path}: a ROS 2 bag (--format rosbag), an export for ROS 2 "
+                                 f"tools: read the run's signals from its result.arrows")
             if meta is None:
                 raise ValueError(f"{path}: no '{METADATA}' metadata record: not an MCAP file "
                                  f"written by twmr")
