@@ -34,7 +34,7 @@ import logging
 import math
 import queue
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -392,19 +392,27 @@ class CanIo(Component, BusMember):
             mp.saturated += page.saturated
         return out
 
+    def _arrivals(self) -> Iterator[tuple[Any, float]]:
+        """(frame, host time) of each frame the bus brought since the last step: from the bus
+        itself when a bus block steps it in run time, else from the notifier's inbox."""
+        while True:
+            if self._stepped:
+                msg = self.canbus.recv(timeout=0)
+                if msg is None:
+                    return
+                yield msg, time.time()
+                continue
+            try:
+                yield self._inbox.get_nowait()
+            except queue.Empty:
+                return
+
     def _take(self, now: float) -> None:
         """Decode every frame the bus brought since the last step; age and timeouts at `now`."""
         import can
 
-        if self._stepped:
-            while (arrived := self.canbus.recv(timeout=0)) is not None:
-                self._inbox.put((arrived, time.time()))
         answered: set[str] = set()
-        while True:
-            try:
-                msg, host = self._inbox.get_nowait()
-            except queue.Empty:
-                break
+        for msg, host in self._arrivals():
             if not isinstance(msg, can.Message) or msg.is_error_frame:
                 continue
             key = (int(msg.arbitration_id), bool(msg.is_extended_id))

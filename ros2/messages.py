@@ -198,8 +198,9 @@ def set_field(message: Any, path: str, value: Any) -> None:
     old = getattr(holder, name)
 
     def like(example: Any, number: Any) -> Any:
-        if isinstance(example, bool):
-            return bool(number)
+        if isinstance(example, bool):  # a constant's text: 'true', '1', 'yes'
+            return number.strip().lower() in ("1", "true", "yes") if isinstance(number, str) \
+                else bool(number)
         if isinstance(example, int):
             return round(float(number))
         return float(number)

@@ -38,7 +38,7 @@ from twmr.ros2.messages import (
     set_time,
     time_fields,
 )
-from twmr.ros2.participant import QOS_PROFILES, participant, publications, qos
+from twmr.ros2.participant import QOS_PROFILES, forget, participant, publications, qos
 
 DIRECTIONS = ("subscribe", "publish")
 #: how long a lockstep reader, its peer found, lets the run's writers find their subscribers [s]
@@ -208,7 +208,8 @@ class Ros2Topic(Component):
 
     # -- life cycle ----------------------------------------------------------------------------
     def prepare(self, run: RunContext) -> None:
-        self._published = publications(id(run))
+        self._run_id = id(run)
+        self._published = publications(self._run_id)
 
     def setup(self, start: float, stop: float | None) -> None:
         super().setup(start, stop)
@@ -330,3 +331,4 @@ class Ros2Topic(Component):
 
     def terminate(self) -> None:
         self._writer = self._reader = None
+        forget(getattr(self, "_run_id", 0))

@@ -280,10 +280,16 @@ def panels_of(spec: str, columns: list[str]) -> list[list[str]]:
     return panels
 
 
-def _columns_of(name: str, columns: list[str]) -> list[str]:
+def port_columns(name: str, columns: list[str]) -> list[str]:
+    """`name` as the columns it is: itself, or the elements of a vector port ('plant.pose' ->
+    'plant.pose[1]', ...); [] when neither is recorded."""
     if name in columns:
         return [name]
-    found = [c for c in columns if c.startswith(f"{name}[") and c.endswith("]")]
+    return [c for c in columns if c.startswith(f"{name}[") and c.endswith("]")]
+
+
+def _columns_of(name: str, columns: list[str]) -> list[str]:
+    found = port_columns(name, columns)
     if not found:
         from twmr.registry import suggest
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.plots import port_columns
 from twmr.result import Result, read_result
 
 
@@ -106,7 +107,7 @@ def verify(run: str | Path | Result, reference: str | Path | Result,
             raise CosimError(f"{_label(label)}: no time column. Fix: give a result with a "
                              f"'time' column in seconds.")
     run_names = [c for c in run_all if c != "time"]
-    chosen = [e for n in signals for e in _elements(n, run_names)] if signals else \
+    chosen = [e for n in signals for e in port_columns(n, run_names) or [n]] if signals else \
         [n for n in run_names if n in ref_at]
     if not chosen:
         raise CosimError(f"{_label(run)} and {_label(reference)} have no signal in common (run: "
@@ -197,15 +198,6 @@ def _range_extremes(y: np.ndarray, first: np.ndarray, stop: np.ndarray
         rmin[sel] = np.minimum(mins[k][i], mins[k][j])
         rmax[sel] = np.maximum(maxs[k][i], maxs[k][j])
     return rmin, rmax
-
-
-def _elements(name: str, columns: list[str]) -> list[str]:
-    """`name` as the columns it is: itself, or the elements of a vector port
-    ('plant.pose' -> 'plant.pose[1]', ...)."""
-    if name in columns:
-        return [name]
-    found = [c for c in columns if c.startswith(f"{name}[") and c.endswith("]")]
-    return found or [name]
 
 
 def _in_unit(values: np.ndarray, src: str, dst: str, name: str, where: object) -> np.ndarray:

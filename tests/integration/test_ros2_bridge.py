@@ -152,3 +152,12 @@ def test_the_robot_as_a_ros2_control_topic_based_system(tmp_path: Path) -> None:
     np.testing.assert_allclose([m["velocity"] for m in got], speed[:n], rtol=0, atol=1e-12)
     np.testing.assert_allclose([m["stamp"] for m in got], np.arange(n) * 0.01, atol=1e-9)
     np.testing.assert_allclose(speed[-1], [2.0, 1.0], atol=0.1)  # the PI loops track it
+
+
+def test_a_boolean_constant_is_read_as_text() -> None:
+    from twmr.ros2.messages import default_message, set_field
+
+    for text, want in (("false", False), ("true", True), ("0", False), ("yes", True)):
+        message = default_message("std_msgs/msg/Bool")
+        set_field(message, "data", text)
+        assert message.data is want, text

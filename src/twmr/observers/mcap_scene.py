@@ -36,7 +36,7 @@ def _planar(columns: list[str], units: list[str]) -> dict[str, list[int]]:
 def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndarray,
               ports: dict[str, Any]) -> list[str]:
     """Add the scene's channels and messages to an MCAP `writer`; the topics written ([] when
-    the Foxglove SDK is missing, said once)."""
+    the Foxglove SDK is missing, with a note)."""
     try:
         import foxglove.messages as fm
     except ImportError:
