@@ -198,3 +198,91 @@ def test_the_xy_view_draws_the_robot_at_its_last_pose(browser, tmp_path):
     assert vehicle["x"] == last["plant.pose[1]"] and vehicle["y"] == last["plant.pose[2]"]
     assert vehicle["heading"] == last["plant.pose[3]"]
     assert pixel[:3] == [140, 140, 153]  # the platform's grey where the pose puts it
+
+
+def _severe(driver) -> list[str]:
+    return [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+
+
+def test_the_3d_view_draws_the_robot_at_its_recorded_pose(browser, tmp_path):
+    """The 3D view puts the plant's vehicle at the last recorded pose: the platform's top face,
+    projected from the pose and heading, is where the canvas is painted its grey; the reference
+    path is drawn; the page logs no error."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    proc, url, _ = _start_run(tmp_path / "run", stop=3.0, pace="4")
+    try:
+        browser.get(url)
+        WebDriverWait(browser, 120, poll_frequency=0.5).until(
+            lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
+        vehicle, pixel, blue = browser.execute_script("""
+            drawView();
+            const v = twmrLive.view.drawn[0], ctx = twmrLive.view.canvas.getContext("2d");
+            const [cx, cy] = v.platform;
+            const img = ctx.getImageData(0, 0, twmrLive.view.canvas.width,
+                                         twmrLive.view.canvas.height).data;
+            let blue = 0;   // pixels of the first path's colour, COLOURS[0]
+            for (let i = 0; i < img.length; i += 4)
+              if (Math.abs(img[i]) + Math.abs(img[i + 1] - 0x72) + Math.abs(img[i + 2] - 0xB2) < 40)
+                blue += 1;
+            return [v, Array.from(ctx.getImageData(Math.round(cx), Math.round(cy), 1, 1).data),
+                    blue];""")
+        data = browser.execute_script("return twmrLive.data;")
+        columns = browser.execute_script("return twmrLive.columns;")
+        errors = _severe(browser)
+        browser.save_screenshot(str(tmp_path / "view3d.png"))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    last = {c: data[j][-1] for j, c in enumerate(columns)}
+    assert vehicle["port"] == "plant.pose"
+    assert (vehicle["x"], vehicle["y"], vehicle["heading"]) == (
+        last["plant.pose[1]"], last["plant.pose[2]"], last["plant.pose[3]"])
+    assert pixel[:3] == [140, 140, 153]  # the platform's top where the pose puts it
+    assert blue > 50, blue               # the reference path on the ground
+    assert errors == [], errors
+
+
+def test_the_diagram_shows_every_block_and_a_port_click_opens_its_scope(browser, tmp_path):
+    """The page shows the scenario's diagram: a block for each of the scenario file's components,
+    a wire for each of its connections; a click on ctrl.s (not recorded) says so, on ctrl.d_hat
+    (recorded, not shown at first) opens its scope."""
+    import yaml
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    scenario = yaml.safe_load(SCENARIO.read_text(encoding="utf-8"))
+    proc, url, _ = _start_run(tmp_path / "run", stop=2.0, pace="4")
+    try:
+        browser.get(url)
+        WebDriverWait(browser, 120, poll_frequency=0.5).until(
+            lambda d: d.execute_script(
+                "return document.querySelectorAll('#diagram g.block').length > 0;"))
+        blocks = browser.execute_script(
+            "return [...document.querySelectorAll('#diagram g.block')].map(g => g.dataset.name);")
+        wires = browser.execute_script(
+            "return [...document.querySelectorAll('#diagram path.wire')].map("
+            "p => p.dataset.src + ' -> ' + p.dataset.dst);")
+        before = browser.execute_script("return [...twmrLive.selected];")
+        browser.find_element(By.CSS_SELECTOR, '#diagram g.port[data-port="ctrl.s"]').click()
+        unrecorded = browser.find_element(By.ID, "diagramnote").text
+        browser.find_element(By.CSS_SELECTOR,
+                             '#diagram g.port.output[data-port="ctrl.d_hat"]').click()
+        after = browser.execute_script("return [...twmrLive.selected];")
+        charted = browser.execute_script(
+            "return twmrLive.charts.flatMap(c => c.cols.map(i => twmrLive.columns[i]));")
+        shown = browser.execute_script(
+            "return [...document.querySelectorAll('#diagram g.port.shown')].map("
+            "g => g.dataset.port);")
+        errors = _severe(browser)
+        browser.save_screenshot(str(tmp_path / "diagram.png"))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert sorted(blocks) == sorted(scenario["components"])
+    assert sorted(wires) == sorted(scenario["connections"])
+    assert "ctrl.s is not recorded" in unrecorded
+    assert "ctrl.d_hat[1]" not in before
+    assert {"ctrl.d_hat[1]", "ctrl.d_hat[2]"} <= set(after) & set(charted)
+    assert "ctrl.d_hat" in shown
+    assert errors == [], errors

@@ -242,7 +242,7 @@ class Execution:
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
                              self.folder, self.system.source, {"ports": self._recorded_ports()},
-                             tuple(self.ticks.names))
+                             tuple(self.ticks.names), self.system)
             for obs in self.observers:
                 self._write(obs.started, start)
             context = RunContext(

@@ -14,7 +14,7 @@ class RunStart:
     """What an observer knows when the run starts: recorded columns (time first) with units, the
     base step h [s], the number of base steps, the run's folder (None: nothing is written), the
     scenario's name and the recorded Binary ports ('n1.CanChannel.Tx_Data'), given at their
-    ticks (`Observer.ticks`)."""
+    ticks (`Observer.ticks`); `system`: the built system that runs (for views that draw it)."""
 
     columns: tuple[str, ...]
     units: tuple[str, ...]
@@ -24,6 +24,7 @@ class RunStart:
     scenario: str = "<scenario>"
     metadata: dict[str, Any] = field(default_factory=dict)
     binary: tuple[str, ...] = ()
+    system: Any = None
 
 
 @dataclass

@@ -1,7 +1,9 @@
 """`LiveView`: live scopes of a run's recorded signals in the browser (`twmr run --live`).
 
 An HTTP + WebSocket server (`websockets`' threaded server) on 127.0.0.1 unless told otherwise
-serves one page (`live_static/live.html`, plotting with the vendored uPlot) and streams the rows
+serves one page (`live_static/live.html`: scopes and the XY view plotted with the vendored uPlot,
+a 3D view of the vehicles drawn on a canvas, and the scenario's diagram (`twmr.diagram`, served as
+`/diagram.svg`; a click on a port opens its scope)) and streams the rows
 the run records to every page that connects. The run never waits for a viewer: `rows` decimates
 the chunk to at most `FRAME_ROWS` rows, encodes it once and appends it to each client's queue of
 `CLIENT_QUEUE` frames, the oldest dropped when full (latest wins); each client's own thread
@@ -110,6 +112,8 @@ class LiveView(Observer):
         self._history_rows = 0
         self._sequence = 0
         self._end_message: str | None = None
+        self._system: Any = None
+        self._diagram: bytes | None = None
         self._server: Any = None
         self._thread: threading.Thread | None = None
         self._closing = False
@@ -202,17 +206,36 @@ class LiveView(Observer):
             if origin is not None and urlsplit(origin).netloc != host:
                 return connection.respond(403, "Forbidden: another site's page.\n")
             return None
-        if path not in _STATIC:
+        if path == "/diagram.svg":
+            body = self._diagram_svg()
+            if body is None:
+                return connection.respond(404, "No run has started yet.\n")
+            kind = "image/svg+xml; charset=utf-8"
+        elif path in _STATIC:
+            name, kind = _STATIC[path]
+            body = (resources.files("twmr.observers") / "live_static" / name).read_bytes()
+        else:
             return connection.respond(404, "Not found.\n")
         from websockets.datastructures import Headers
         from websockets.http11 import Response
 
-        name, kind = _STATIC[path]
-        body = (resources.files("twmr.observers") / "live_static" / name).read_bytes()
         return Response(200, "OK", Headers([("Content-Type", kind),
                                             ("Content-Length", str(len(body))),
                                             ("Cache-Control", "no-store"),
                                             ("Connection", "close")]), body)
+
+    def _diagram_svg(self) -> bytes | None:
+        """The running system's diagram (drawn at the first request, then kept)."""
+        with self._lock:
+            system, body = self._system, self._diagram
+        if body is None and system is not None:
+            from twmr.diagram import diagram_svg
+
+            body = diagram_svg(system, str(getattr(system, "source", ""))).encode("utf-8")
+            with self._lock:
+                if self._system is system:
+                    self._diagram = body
+        return body
 
     def _host_allowed(self, host: str) -> bool:
         """On a loopback address only a loopback name or address with this server's port
@@ -292,9 +315,11 @@ class LiveView(Observer):
                               "step": run.step, "n_steps": run.n_steps,
                               "scenario": run.scenario, "ports": ports, "planar": planar,
                               "labels": [labels[c] for c in columns],
-                              "stepped": [stepped[c] for c in columns]})
+                              "stepped": [stepped[c] for c in columns],
+                              "diagram": run.system is not None})
         with self._lock:
             self._start_message, self._end_message = message, None
+            self._system, self._diagram = run.system, None
             self._history, self._history_rows, self._sequence = [], 0, 0
         self._broadcast(message)
 
