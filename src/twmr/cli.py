@@ -104,8 +104,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     figures = s.get("pacing") or {}
     compiled = ""
     if figures.get("algorithm.compiled"):
-        compiled = (f", after {figures.get('algorithm.compile_s', float('nan')):.2f} s to "
-                    f"compile the step loop (numba; or load it from its cache)")
+        took = figures.get("algorithm.compile_s", float("nan"))
+        at = figures.get("algorithm.compiled_at_step") or 0
+        compiled = (f", {took:.2f} s of it compiling the step loop (numba) after {at} steps "
+                    f"in Python" if at else f", after {took:.2f} s to compile the step loop "
+                    f"(numba; or load it from its cache)")
     log.info("done: %d steps in %.2f s (%.1fx real time)%s; results in %s/", s["steps_done"],
              s["wall_time_s"], s["realtime_factor"], compiled, result.folder)
     if figures.get("algorithm.not_compiled"):

@@ -149,3 +149,25 @@ def test_the_done_line_says_how_long_the_compile_before_the_steps_took(tmp_path,
     compile_s = json.loads((tmp_path / "summary.json").read_text())["pacing"][
         "algorithm.compile_s"]
     assert len(done) == 1 and f"after {compile_s:.2f} s to compile the step loop" in done[0]
+
+
+def test_a_compile_during_the_run_is_said_to_be_part_of_its_wall_time(tmp_path) -> None:
+    """With nothing cached, mode 'auto' runs a first chunk in Python and compiles meanwhile: the
+    done line says the compile is part of the stepping time it prints (not 'after' it)."""
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "run"
+    done = subprocess.run(
+        [sys.executable, "-m", "twmr.cli", "run", str(FIXTURE), "--set", "experiment.stop=300",
+         "--format", "none", "--out", str(out)], capture_output=True, text=True, timeout=280,
+        env={**os.environ, "TWMR_CACHE_DIR": str(tmp_path / "cache")})
+    assert done.returncode == 0, done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    pacing = summary["pacing"]
+    line = next(ln for ln in done.stderr.splitlines() if ln.startswith("done: "))
+    assert pacing["algorithm.compiled_at_step"] > 0, pacing
+    assert pacing["algorithm.compile_s"] <= summary["wall_time_s"]
+    assert (f"{pacing['algorithm.compile_s']:.2f} s of it compiling the step loop (numba) after "
+            f"{pacing['algorithm.compiled_at_step']} steps in Python") in line, line

@@ -106,6 +106,9 @@ class CompiledStep(Algorithm):
         self._pending = False
         self.reason = ""
         self.compile_seconds = float("nan")
+        #: the step at which the loop was compiled during the run (0: before it, mode 'auto'
+        #: compiles once a first chunk has run in Python when nothing is cached)
+        self.compiled_in_run = 0
         #: the driver's loop (`twmr.master.driver_loop`; None: the generated loop, or Python)
         self._driver: Any = None
         #: whether numba compiled (or loaded from its cache) a kind's adapters or the driver for
@@ -392,6 +395,7 @@ class CompiledStep(Algorithm):
     def advance(self, n0: int, n1: int, rows: list[Any]) -> int:
         if self._pending and n0 > 0:
             self._pending = False
+            self.compiled_in_run = n0
             self._compile()
         if not self.compiled:
             return self.python.advance(n0, n1, rows)
@@ -454,6 +458,7 @@ class CompiledStep(Algorithm):
         out: dict[str, Any] = {"compiled": self.compiled}
         if self.compiled:
             out["compile_s"] = self.compile_seconds
+            out["compiled_at_step"] = self.compiled_in_run
             out["driver"] = self._driver is not None
             if self._driver is not None:
                 out["driver_compiled"] = self.driver_compiled
