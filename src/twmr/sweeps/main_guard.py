@@ -33,7 +33,8 @@ def unguarded_call(frame: FrameType | None = None) -> tuple[str, int] | None:
     """(script, line) of the top-level statement of the running script (`__main__` from a
     file) that led here when that statement is outside `if __name__ == "__main__":`; None when
     it is inside one, when the script is not a file (a notebook, `python -c`, the console, the
-    `twmr` command) or when it cannot be read."""
+    `twmr` command), or when it cannot be read or was changed since it started (its text no
+    longer compiles to the code that runs: lines read now would name other statements)."""
     main = sys.modules.get("__main__")
     path = getattr(main, "__file__", None)
     if not path or not str(path).endswith(".py"):
@@ -47,8 +48,13 @@ def unguarded_call(frame: FrameType | None = None) -> tuple[str, int] | None:
     if top is None:
         return None
     try:
-        tree = ast.parse(Path(path).read_text(encoding="utf-8"))
+        text = Path(path).read_text(encoding="utf-8")
+        tree = ast.parse(text)
+        now = compile(tree, str(path), "exec", dont_inherit=True)
     except (OSError, SyntaxError, UnicodeDecodeError, ValueError):
+        return None
+    running = top.f_code
+    if (now.co_code, now.co_linetable) != (running.co_code, running.co_linetable):
         return None
     line = top.f_lineno
     if any(lo <= line <= hi for lo, hi in _guards(tree)):
