@@ -51,6 +51,7 @@ def test_fmus_in_the_compiled_loop_bit_identical(fmus, which: list[str], algorit
     python, _ = run(text, "off")
     compiled, extra = run(text, "on")
     assert extra["algorithm.compiled"] is True
+    assert extra["algorithm.driver"] is True  # FMUs as kinds of the driver, no generated loop
     assert python.shape == (301, 16) and np.array_equal(python, compiled)
 
 
@@ -87,5 +88,34 @@ def test_a_failing_fmu_stops_both_loops_at_the_same_step(faulty: Path, mode: int
             ex.run()
         errors.append(str(info.value))
         rows.append(store.data())
+        if how == "on":
+            assert ex.algorithm.report()["driver"] is True
     assert all("'dut'" in e and words in e and "t = 0.249" in e for e in errors), errors
     assert rows[0].shape == (250, 4) and np.array_equal(rows[0], rows[1])
+
+
+@pytest.fixture(scope="module")
+def lag2(tmp_path_factory) -> Path:
+    return build_c_fmu("lag2", tmp_path_factory.mktemp("lag2"))
+
+
+def test_many_fmus_are_one_kind_of_the_driver(lag2: Path) -> None:
+    """A chain of 40 `lag2` FMUs runs compiled as 40 blocks of one FMU kind of the driver (its
+    calls' adapters compiled once, whatever the number of instances), with the Python loop's
+    rows."""
+    n = 40
+    lines = ["components:", "  src: {kind: sine, parameters: {frequency: 2.0}}"]
+    lines += [f"  f{i}: {{kind: fmu, parameters: {{path: {lag2}}}}}" for i in range(n)]
+    lines += ["connections:", "  - src.y -> f0.u[1]", "  - src.y -> f0.u[2]"]
+    lines += [f"  - f{i - 1}.y -> f{i}.u" for i in range(1, n)]
+    lines += ["experiment: {stop: 0.5, step: 1.0e-3}",
+              f"record: {{signals: [f{n - 1}.y, f{n // 2}.y], decimation: 5}}"]
+    text = "\n".join(lines) + "\n"
+    python, _ = run(text, "off")
+    store = ResultStore()
+    algorithm = make_algorithm("gauss_seidel", "on")
+    extra = Execution(loads(text, source="chain.yaml"), [store], algorithm=algorithm).run().extra
+    assert extra["algorithm.driver"] is True
+    assert python.shape == (101, 5) and np.array_equal(python, store.data())
+    kinds = {k.key for k in algorithm._kinds_run if k.fmu is not None}
+    assert len(kinds) == 1 and sum(k.fmu is not None for k in algorithm._kinds_run) == n

@@ -335,13 +335,14 @@ class CompiledStep(Algorithm):
     def _run_driver(self, drv: Any, n0: int, n1: int, buf: np.ndarray,
                     rows: list[Any]) -> None:
         lay, exp = self._layout, self._system.experiment
-        k, bad = drv.run(n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops,
-                                  lay.gains, lay.blocks, lay.steps, lay.H, lay.chk, lay.rec, buf,
-                                  self._decimation)
-        self._sync_driver(rows, buf, k, bad)
+        self._sync_driver(rows, buf, *drv.run(
+            n0, n1, exp.start, exp.step, lay.S, lay.X, lay.P, lay.ops, lay.gains, lay.blocks,
+            lay.steps, lay.H, lay.chk, lay.rec, buf, self._decimation))
 
-    def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int) -> None:
-        """As `_sync`, from the driver's vectors."""
+    def _sync_driver(self, rows: list[Any], buf: np.ndarray, k: int, bad: int, block: int = -1,
+                     code: int = 0) -> None:
+        """As `_sync`, from the driver's vectors; an FMU call that failed at step `bad` (in
+        `block`, with the adapter's `code`) raises the FMU's error."""
         lay = self._layout
         values, states = lay.S.tolist(), lay.X.tolist()
         for comp, kern, ports, (xo, shape) in zip(self._comps, self._kernels, lay.ports,
@@ -355,7 +356,13 @@ class CompiledStep(Algorithm):
             rows.append(buf[:k])
         if bad >= 0:
             exp = self._system.experiment
-            raise NonFinite(exp.start + bad * exp.step)
+            t = exp.start + bad * exp.step
+            fmu = self._kernels[block].fmu if block >= 0 else None
+            if fmu is not None:
+                from twmr.fmi.driver_kind import failure
+
+                raise fmu.error(*failure(fmu, code), t)
+            raise NonFinite(t)
 
     def _call(self, fn: Any, n0: int, n1: int, buf: np.ndarray) -> tuple[int, int, int, int]:
         exp = self._system.experiment

@@ -119,7 +119,8 @@ def rebuild(vec: np.ndarray | list[float], o: int, shape: Shape) -> tuple[Any, i
 @dataclass(frozen=True)
 class KindSpec:
     """One kind of block as the driver sees it: its kernel functions and value shapes (sizes of
-    the output and input ports: None a scalar, n a tuple of n)."""
+    the output and input ports: None a scalar, n a tuple of n); for an FMU, the shape of its
+    calls (`twmr.fmi.driver_kind.FmuShape`) instead of kernel functions."""
 
     evaluate: Any
     step: Any
@@ -128,11 +129,16 @@ class KindSpec:
     params: Shape
     outputs: tuple[int | None, ...]
     inputs: tuple[int | None, ...]
+    fmu: Any = None
 
     @functools.cached_property
     def key(self) -> str:
         """The adapters' source: equal keys, one adapter (rendered once per process: `kind_of`
         hands out one object per kind)."""
+        if self.fmu is not None:
+            from twmr.fmi.driver_kind import adapters
+
+            return adapters(self.fmu)
         return _adapters(self)
 
 
@@ -153,8 +159,17 @@ def kind_of(comp: Any, kern: Kernel) -> KindSpec:
             outputs.append(None if v.size is None else v.width)
         elif v.kind == "input":
             inputs.append(None if v.size is None else v.width)
-    kind = KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
-                    shape_of(kern.params), tuple(outputs), tuple(inputs))
+    if kern.fmu is not None:
+        from twmr.fmi.driver_kind import NotInDriver, fmu_params, fmu_shape
+
+        try:
+            kind = KindSpec(None, None, None, shape_of(()), shape_of(fmu_params(kern.params)),
+                            tuple(outputs), tuple(inputs), fmu_shape(comp, kern.fmu))
+        except NotInDriver as exc:
+            raise Unsupported(str(exc)) from None
+    else:
+        kind = KindSpec(kern.evaluate, kern.step, kern.advance, shape_of(kern.state),
+                        shape_of(kern.params), tuple(outputs), tuple(inputs))
     return _KINDS.setdefault(kind, kind)
 
 
@@ -288,7 +303,12 @@ def _adapters(kind: KindSpec, imports: dict[str, str] | None = None) -> str:
 
 
 def generate(kind: KindSpec) -> tuple[str, dict[str, Any]]:
-    """(source of the module of `kind`'s adapters, {alias: kernel function})."""
+    """(source of the module of `kind`'s adapters, {alias: kernel function}; for an FMU kind
+    a function of the package whose sources its machine code depends on)."""
+    if kind.fmu is not None:
+        from twmr.fmi import driver_kind
+
+        return kind.key, {"adapters": driver_kind.adapters}
     imports: dict[str, str] = {}
     body = _adapters(kind, imports)
     names = {f"k_{fn.__module__.replace('.', '_')}_{fn.__qualname__}": fn
@@ -375,7 +395,12 @@ def _vectors(system: System, plan: Plan, kernels: dict[str, Kernel], kinds: dict
                 S.extend([float(v) for v in d[port]])
         places.append((len(X), len(P)))
         flatten(kern.state, kind.state, X)
-        flatten(kern.params, kind.params, P)
+        if kind.fmu is not None:
+            from twmr.fmi.driver_kind import fmu_params
+
+            flatten(fmu_params(kern.params), kind.params, P)
+        else:
+            flatten(kern.params, kind.params, P)
     slot = {(name, port): o for name, block in zip(plan.order, ports, strict=True)
             for port, o, _ in block} if plan.snapshot else {}
     for src, port in plan.snapshot:
@@ -399,7 +424,12 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
         comp = comps[name]
         starts.append(width)
         ports.append([])
-        for port, var in {**comp.outputs, **comp.inputs}.items():
+        held = {**comp.outputs, **comp.inputs}
+        if kinds[name].fmu is not None:
+            from twmr.fmi.driver_kind import real_ports
+
+            held = real_ports(comp)
+        for port, var in held.items():
             slot[(name, port)] = width
             ports[-1].append((port, width, None if var.size is None else var.width))
             width += var.width
@@ -452,7 +482,8 @@ def layout(system: System, plan: Plan, kernels: dict[str, Kernel],
     lean = advancing(system, plan)
     steps = [(index[s.name], s.multiple,
               int(s.name in lean and kernels[s.name].advance is not None))
-             for s in plan.steps if kernels[s.name].step is not None]
+             for s in plan.steps
+             if kernels[s.name].step is not None or kernels[s.name].fmu is not None]
     chk = [(slot[(s.name, s.port)], _width(s.size), c)
            for c, chunk in enumerate(plan.check) for s in chunk]
     rec = [slot[(s.name, s.port)] + e for s in plan.record for e in range(_width(s.size))]

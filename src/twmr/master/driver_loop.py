@@ -12,7 +12,8 @@ from numba.extending import intrinsic
 
 #: a sum of magnitudes below this bounds every sum of the same terms far from overflow
 SAFE = 1e300
-#: the adapters' signature: (t, h, S, X, P, len S, len X, len P, offset in S, X, P) -> 0
+#: the adapters' signature: (t, h, S, X, P, len S, len X, len P, offset in S, X, P) -> 0, or
+#: the code of a failed FMU call (`twmr.fmi.driver_kind`)
 ADAPTER = types.int64(types.float64, types.float64, types.CPointer(types.float64),
                       types.CPointer(types.float64), types.CPointer(types.float64),
                       *(types.int64,) * 6)
@@ -58,14 +59,16 @@ def _vector(typingctx: Any, addr: Any) -> Any:
 
 
 @njit(cache=True, error_model="numpy")
-def _block(col: int, b: int, t: float, h: float, S: Any, X: Any, P: Any, blocks: Any) -> None:
-    _call(blocks[b, col], t, h, S.ctypes.data, X.ctypes.data,  # type: ignore[call-arg]
-          P.ctypes.data, S.size, X.size, P.size, blocks[b, 2], blocks[b, 3], blocks[b, 4])
+def _block(col: int, b: int, t: float, h: float, S: Any, X: Any, P: Any, blocks: Any) -> int:
+    return _call(blocks[b, col], t, h, S.ctypes.data,  # type: ignore[call-arg]
+                 X.ctypes.data, P.ctypes.data, S.size, X.size, P.size, blocks[b, 2],
+                 blocks[b, 3], blocks[b, 4])
 
 
 @njit(cache=True, error_model="numpy")
 def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gains: Any,
-           blocks: Any) -> None:
+           blocks: Any) -> tuple[int, int]:
+    """The point's program; (-1, 0), or (the block whose evaluation failed, its code)."""
     s: Any = _vector(S.ctypes.data)  # type: ignore[call-arg]
     for i in range(ops.shape[0]):
         m = ops[i, 3]
@@ -80,7 +83,10 @@ def _point(n: int, t: float, final: bool, S: Any, X: Any, P: Any, ops: Any, gain
         elif code == 1:
             s[ops[i, 1]] = s[ops[i, 2]] * gains[i, 0] + gains[i, 1]
         else:
-            _block(0, ops[i, 1], t, 0.0, S, X, P, blocks)
+            r = _block(0, ops[i, 1], t, 0.0, S, X, P, blocks)
+            if r != 0:
+                return ops[i, 1], r
+    return -1, 0
 
 
 @njit(cache=True, error_model="numpy")
@@ -151,13 +157,19 @@ def _record(k: int, t: float, S: Any, rec: Any, buf: Any) -> None:
 @njit(cache=True, error_model="numpy")
 def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
         blocks: Any, steps: Any, H: Any, chk: Any, rec: Any, buf: Any, dec: int
-        ) -> tuple[int, int]:
-    """Base steps n0..n1-1; (rows written to `buf`, the step of a NaN/Inf or -1)."""
+        ) -> tuple[int, int, int, int]:
+    """Base steps n0..n1-1; (rows written to `buf`, the step of a NaN/Inf or of a failed
+    FMU call or -1, the block of that call or -1, its code)."""
     k = 0
     bad = -1
+    fb = -1
+    fs = 0
     for n in range(n0, n1):
         t = start + n * h
-        _point(n, t, False, S, X, P, ops, gains, blocks)
+        fb, fs = _point(n, t, False, S, X, P, ops, gains, blocks)
+        if fb >= 0:
+            bad = n
+            break
         if chk.shape[0] and _nonfinite(S, chk):
             bad = n
             break
@@ -169,22 +181,33 @@ def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: A
             b = steps[i, 0]
             m = steps[i, 1]
             col = 5 if steps[i, 2] != 0 and not last else 1
+            r = 0
             if m == 1:
-                _block(col, b, t, H[b], S, X, P, blocks)
+                r = _block(col, b, t, H[b], S, X, P, blocks)
             elif n % m == m - 1:
-                _block(col, b, t - (m - 1) * h, H[b], S, X, P, blocks)
-    return k, bad
+                r = _block(col, b, t - (m - 1) * h, H[b], S, X, P, blocks)
+            if r != 0:
+                fb = b
+                fs = r
+                break
+        if fb >= 0:
+            bad = n
+            break
+    return k, bad, fb, fs
 
 
 @njit(cache=True, error_model="numpy")
 def finish(n: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
-           blocks: Any, chk: Any, rec: Any, buf: Any) -> tuple[int, int]:
-    """The final point at step n; (rows written, n when a NaN/Inf is seen else -1)."""
+           blocks: Any, chk: Any, rec: Any, buf: Any) -> tuple[int, int, int, int]:
+    """The final point at step n; (rows written, n when a NaN/Inf is seen or an FMU call
+    fails else -1, the block of that call or -1, its code)."""
     t = start + n * h
-    _point(n, t, True, S, X, P, ops, gains, blocks)
+    fb, fs = _point(n, t, True, S, X, P, ops, gains, blocks)
+    if fb >= 0:
+        return 0, n, fb, fs
     if chk.shape[0] and _nonfinite(S, chk):
-        return 0, n
+        return 0, n, -1, 0
     if buf.shape[1] > 1:
         _record(0, t, S, rec, buf)
-        return 1, -1
-    return 0, -1
+        return 1, -1, -1, 0
+    return 0, -1, -1, 0

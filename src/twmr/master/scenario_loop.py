@@ -130,10 +130,8 @@ def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
 
 
 def kinds_of(system: System, kernels: dict[str, Kernel]) -> dict[str, driver.KindSpec] | None:
-    """Every component's kind for the driver, or None: an FMU among them, or a value the
-    driver cannot hold (the generated loop then runs it)."""
-    if any(k.fmu is not None for k in kernels.values()):
-        return None
+    """Every component's kind for the driver, or None: a value the driver cannot hold, or an
+    FMU call it does not carry (the generated loop then runs it)."""
     try:
         return {n: driver.kind_of(system.components[n], kernels[n]) for n in system.order}
     except driver.Unsupported as exc:
@@ -430,7 +428,9 @@ def own_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop
     its `own_loop_budget_s` covers loading it when numba's cache (or this process) holds it,
     or compiling it, unless another process is compiling it (`HeldLoop.claim`: the driver
     runs until that process has put it in the cache); else None (a loop that cannot be made
-    too)."""
+    too). A system with FMUs takes it only from the cache: compiling its loop grows faster
+    than the square of the number of FMUs (`benchmarks/fmu_compile.py`), which the budget's
+    price does not know."""
     budget = system.own_loop_budget_s
     if budget < OWN_LOOP_LOAD_S:
         return None
@@ -440,6 +440,8 @@ def own_loop(system: System, plan: Plan, kernels: dict[str, Kernel]) -> HeldLoop
         return None
     if loop.in_cache():
         return loop
+    if any(k.fmu is not None for k in kernels.values()):
+        return None
     return loop if budget >= OWN_LOOP_COMPILE_S and loop.claim() else None
 
 
