@@ -29,6 +29,11 @@ Last line: one JSON object with
   cache load, not in `compiled_s`), `ecos_s` (Ecos through ecospy, its API: three models, two
   real connections, `step(n)`), `libcosim_s` (libcosim through libcosimpy, `step(n)`), each the
   stepping alone, best of two (hand loop and Python path: best of three, run alternately);
+  `first_run_s`: a first run in a fresh process in mode `auto` (the default; numba's cache warm
+  from the runs before): its stepping wall time plus the compiling or loading of the compiled
+  kinds (`algorithm.compile_s`, before the first step or during the run: counted once)
+  (`first_run_compiled`: whether auto compiled it), `first_run_ratio` = first_run_s /
+  hand_loop_s (target 0.5);
   `python_ratio` = python_s / hand_loop_s (`target_ratio` 1.2),
   `compiled_ratio`, `ecos_ratio`, `libcosim_ratio` (over the hand loop) and `compiled_vs_ecos`
   = compiled_s / ecos_s. A peer that does not install or cannot run the chain has its error
@@ -341,7 +346,37 @@ def chain(tmp: Path, version: str, n: int, h: float) -> dict[str, Any]:
         out[f"{peer}_ratio"] = round(wall / hand, 4)
     if "ecos_s" in out:
         out["compiled_vs_ecos"] = round(compiled / out["ecos_s"], 3)
+    first = first_run(tmp, text, version)
+    out.update(first_run_s=round(first[0], 4), first_run_compiled=first[1],
+               first_run_ratio=round(first[0] / hand, 4))
     return out
+
+
+FIRST_RUN = """
+import json, sys
+from twmr.master import Execution
+from twmr.master.algorithm import make_algorithm
+from twmr.observers.store import ResultStore
+from twmr.scenario import load
+outcome = Execution(load(sys.argv[1]), [ResultStore()],
+                    algorithm=make_algorithm("gauss_seidel", "auto")).run()
+extra = outcome.extra
+load = extra.get("algorithm.compile_s", 0.0) if not extra.get("algorithm.compiled_at_step") else 0.0
+print(json.dumps([outcome.wall_time + load, bool(extra.get("algorithm.compiled"))]))
+"""
+
+
+def first_run(tmp: Path, text: str, version: str) -> tuple[float, bool]:
+    """(stepping and compile wall time, compiled) of a run of `text` in a fresh process, mode
+    auto."""
+    import subprocess
+
+    path = tmp / f"chain_{version}.yaml"
+    path.write_text(text, encoding="utf-8")
+    done = subprocess.run([sys.executable, "-c", FIRST_RUN, str(path)], capture_output=True,
+                          text=True, timeout=600, check=True)
+    wall, compiled = json.loads(done.stdout.strip().splitlines()[-1])
+    return float(wall), bool(compiled)
 
 
 def count_calls(text_of: Any, n1: int = 1000, n2: int = 2000) -> dict[str, float]:

@@ -55,12 +55,34 @@ def test_fmus_in_the_compiled_loop_bit_identical(fmus, which: list[str], algorit
     assert python.shape == (301, 16) and np.array_equal(python, compiled)
 
 
-def test_auto_keeps_fmus_in_the_python_loop(fmus) -> None:
+def test_auto_compiles_an_fmu_the_driver_calls(fmus) -> None:
+    """A long run (12,000 steps) with the controller as its C FMU: mode auto compiles it (the
+    FMU a kind of the driver) after a first chunk in Python, with the Python loop's rows."""
     data = paper()
     data["experiment"]["stop"] = 12.0
     text = yaml.safe_dump(swapped(data, {"ctrl": fmus["ctrl"]}), sort_keys=False)
+    python, _ = run(text, "off")
+    auto, extra = run(text, "auto")
+    assert extra["algorithm.compiled"] is True and extra["algorithm.driver"] is True
+    assert np.array_equal(python, auto)
+
+
+def test_auto_keeps_the_python_loop_for_an_fmu_the_driver_does_not_call(tmp_path) -> None:
+    """An FMU whose Integer output is recorded: the driver does not carry it, and auto does
+    not compile a loop for the scenario (its compile grows with the FMUs); it says why."""
+    mixed = build_c_fmu("mixed2", tmp_path)
+    text = textwrap.dedent(f"""
+        components:
+          src: {{kind: sine, parameters: {{frequency: 1.0}}}}
+          m: {{kind: fmu, parameters: {{path: {mixed}}}}}
+        connections: [src.y -> m.r1]
+        open: [m.r2, m.i1, m.i2, m.b1, m.s1]
+        experiment: {{stop: 12.0, step: 1.0e-3}}
+        record: {{signals: [m.r1o, m.i1o]}}
+    """)
     _, extra = run(text, "auto")
-    assert extra["algorithm.compiled"] is False and "'ctrl'" in extra["algorithm.not_compiled"]
+    assert extra["algorithm.compiled"] is False
+    assert "'m' is an FMU the compiled driver does not call" in extra["algorithm.not_compiled"]
 
 
 @pytest.fixture(scope="module")

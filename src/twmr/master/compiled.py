@@ -182,7 +182,7 @@ class CompiledStep(Algorithm):
         assert plan is not None
         if plan.ticks:
             return None
-        kernels, _ = kernels_of(self._system, self._record, False)
+        kernels, _ = kernels_of(self._system, self._record)
         if kernels is None or not self.use_driver:
             return None
         loop = own_loop(self._system, plan, kernels)
@@ -207,7 +207,15 @@ class CompiledStep(Algorithm):
             self.reason = LOOPS if self.python.plan.loops else TICKS
             return
         kernels, self.reason = (ready[0], "") if ready is not None else \
-            kernels_of(system, self._record, self.mode == "on")
+            kernels_of(system, self._record)
+        fmu = next((n for n in system.order if kernels and kernels[n].fmu is not None), None)
+        if kernels is not None and fmu is not None and self.mode != "on" and ready is None and \
+                (not self.use_driver or kinds_of(system, kernels) is None):
+            # the loop generated for the scenario: its compile grows with the FMUs
+            kernels, self.reason = None, (
+                f"'{fmu}' is an FMU the compiled driver does not call (a port of a type other "
+                f"than Real set or got, event mode, clocks); auto keeps the Python loop, "
+                f"--compiled on compiles a loop for the scenario")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(

@@ -83,11 +83,9 @@ def carriage_of(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, s
 PORTS = ("input", "output", "state")
 
 
-def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
-             ) -> tuple[dict[str, Kernel] | None, str]:
-    """Every component's kernel, or None and why not; FMU blocks get one when `fmus` (mode
-    'on': in 'auto' an FMU keeps the Python loop, whose chunks of steps are smaller — a crash
-    inside the FMU's code then loses fewer rows)."""
+def kernels_of(system: System, record: list[tuple[str, str]]
+               ) -> tuple[dict[str, Kernel] | None, str]:
+    """Every component's kernel (an FMU's: its compiled calls), or None and why not."""
     from twmr.fmi.compiled_calls import NotCompilable
 
     comps = system.components
@@ -99,7 +97,7 @@ def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
     for name in system.order:
         comp = comps[name]
         make = getattr(comp, "kernel", None)
-        if make is None and fmus:
+        if make is None:
             make = getattr(comp, "compiled_calls", None)
         if replaced_on_instance(comp):
             return None, f"'{name}' has its methods replaced on the instance"
@@ -112,9 +110,6 @@ def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
             kern = make(system.multiple(name) * h) if make is not None else None
         except NotCompilable as exc:
             return None, str(exc)
-        if kern is None and make is None and hasattr(comp, "compiled_calls"):
-            return None, f"'{name}' is an FMU, which the compiled loop calls only with " \
-                         f"--compiled on (in auto it keeps the Python loop)"
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
