@@ -318,9 +318,47 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     except CosimError as err:
         lines.append(f"no state_space.yaml: {err}")
     bode_figure(model, out / "bode", loop)
+    written = "linear.json, linear.npz, state_space.yaml and bode.png"
+    if args.design:
+        lines += _design(model, args, out)
+        written += ", design.json, controller.yaml"
     print("\n".join(lines))
-    print(f"linear.json, linear.npz, state_space.yaml and bode.png in {out}/")
+    print(f"{written} in {out}/")
     return 0
+
+
+def _design(model: Any, args: argparse.Namespace, out: Path) -> list[str]:
+    """`twmr linearize --design`: the controller's files in `out`; the lines to print."""
+    import json
+
+    import numpy as np
+
+    from twmr.linear_design import design
+
+    def poles(text: str, option: str) -> list[complex]:
+        try:
+            return [complex(z.replace(" ", "")) for z in text.split(",") if z.strip()]
+        except ValueError:
+            raise CosimError(f"{option} {text!r}: not a list of numbers. Fix: e.g. {option} "
+                             f"0.9,0.8 or 0.9+0.1j,0.9-0.1j.") from None
+
+    made = design(model, args.design, q=args.output_weight, r=args.input_weight,
+                  w=args.process_noise, v=args.measurement_noise,
+                  poles=poles(args.poles, "--poles"),
+                  observer_poles=poles(args.observer_poles, "--observer-poles"))
+    plain = made.plain()
+    (out / "design.json").write_text(json.dumps(plain, indent=2))
+    lines = [f"{args.design} controller: closed-loop poles z: " + ", ".join(
+        f"{complex(z):.6g}" for z in np.sort_complex(made.closed_loop_poles()))]
+    if "margins" in plain:
+        m = plain["margins"]
+        lines.append(f"loop at {model.inputs[0]} with the controller: gain margin "
+                     f"{m['gain_margin']:.6g}, phase margin {m['phase_margin_deg']:.6g} deg")
+    try:
+        (out / "controller.yaml").write_text(made.block_yaml())
+    except CosimError as err:
+        lines.append(f"no controller.yaml: {err}")
+    return lines
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
@@ -689,6 +727,19 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     "singular values)")
     li.add_argument("--tol", type=float, default=1e-7, help="relative Hankel singular value "
                     "below which a state is dropped")
+    li.add_argument("--design", choices=("lqg", "place"), help="design an output-feedback "
+                    "controller on the model (controller.yaml, design.json)")
+    li.add_argument("--output-weight", type=float, default=1.0, metavar="Q",
+                    help="lqg: weight on the outputs (default 1)")
+    li.add_argument("--input-weight", type=float, default=1.0, metavar="R",
+                    help="lqg: weight on the inputs (default 1)")
+    li.add_argument("--process-noise", type=float, default=1.0, metavar="W",
+                    help="lqg: noise intensity at the inputs (default 1)")
+    li.add_argument("--measurement-noise", type=float, default=1.0, metavar="V",
+                    help="lqg: noise intensity on the outputs (default 1)")
+    li.add_argument("--poles", default="", help="place: the regulator's discrete poles, "
+                    "comma-separated (one per state; complex as 0.9+0.1j)")
+    li.add_argument("--observer-poles", default="", help="place: the estimator's poles")
     li.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     li.add_argument("--out", help="folder of the model and plots (default linear/<scenario>)")
     li.set_defaults(fn=cmd_linearize)

@@ -69,25 +69,10 @@ class LinearModel:
         return np.linalg.eigvals(self.A)
 
     def continuous(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(A, B, C, D) of the continuous system whose zero-order-hold discretisation this is;
-        CosimError when A has an eigenvalue on the negative real axis or at 0 (no real
-        logarithm: the discrete model has no continuous twin)."""
-        from scipy.linalg import logm
-
-        n, m = self.order, self.B.shape[1]
-        z = np.linalg.eigvals(self.A)
-        if np.any((np.abs(z.imag) < 1e-12) & (z.real <= 0)):
-            raise CosimError("the discrete model has a pole on the negative real axis or at 0 "
-                             "(a delay, a discrete block, a sampled loop): it has no continuous "
-                             "twin. Fix: use the discrete model (A, B, C, D at dt).")
-        big = np.zeros((n + m, n + m))
-        big[:n, :n], big[:n, n:], big[n:, n:] = self.A, self.B, np.eye(m)
-        log = logm(big) / self.dt
-        if np.abs(log.imag).max(initial=0.0) > 1e-9 * max(1.0, np.abs(log).max()):
-            raise CosimError("the discrete model's matrix logarithm is not real. Fix: use the "
-                             "discrete model.")
-        log = log.real
-        return log[:n, :n], log[:n, n:], self.C, self.D
+        """(A, B, C, D) of the continuous system whose zero-order-hold discretisation this is
+        (`continuous_twin`)."""
+        a, b = continuous_twin(self.A, self.B, self.dt, "the discrete model")
+        return a, b, self.C, self.D
 
     def plain(self) -> dict[str, Any]:
         """JSON-ready: the matrices, dt, the point, the ports and the quality figures."""
@@ -112,6 +97,29 @@ class LinearModel:
                 f"{', '.join(self.outputs)} (deviations from their values then)\n")
         return head + yaml.safe_dump({name: {"kind": "state_space", "parameters": params}},
                                      sort_keys=False)
+
+
+def continuous_twin(A: np.ndarray, B: np.ndarray, dt: float, what: str
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of the continuous system whose zero-order-hold discretisation at `dt` is the
+    discrete (A, B): the matrix logarithm of [[A, B], [0, I]] over dt. CosimError naming
+    `what` when A has an eigenvalue on the negative real axis or at 0 (no real logarithm)."""
+    from scipy.linalg import logm
+
+    n, m = A.shape[0], B.shape[1]
+    z = np.linalg.eigvals(A)
+    if np.any((np.abs(z.imag) < 1e-12) & (z.real <= 0)):
+        raise CosimError(f"{what} has a pole on the negative real axis or at 0 (a delay, a "
+                         f"discrete block, a sampled loop): it has no continuous twin. Fix: "
+                         f"use the discrete model (A, B, C, D at dt).")
+    big = np.zeros((n + m, n + m))
+    big[:n, :n], big[:n, n:], big[n:, n:] = A, B, np.eye(m)
+    log = logm(big) / dt
+    if np.abs(log.imag).max(initial=0.0) > 1e-9 * max(1.0, np.abs(log).max()):
+        raise CosimError(f"{what}'s matrix logarithm is not real. Fix: use the discrete "
+                         f"model.")
+    log = log.real
+    return log[:n, :n], log[:n, n:]
 
 
 def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequence[str], *,
