@@ -93,7 +93,8 @@ class BusCore:
         self.rows: list[tuple[Any, ...]] = []
         self.failures: list[str] = []  # of participants, gateways, the log, the thread
         self._errors: list[BusEvent] = []  # the first bus errors
-        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0, "dropped": 0}
+        self.counts = {"transmit": 0, "bus_error": 0, "arbitration_lost": 0, "dropped": 0,
+                       "faulted": 0}
         self.sent_by: Counter[str] = Counter()  # frames transmitted, by participant
         self.last_error: BusEvent | None = None
         self._members: dict[str, Participant] = {}
@@ -141,7 +142,7 @@ class BusCore:
 
     def _dispatch(self, events: list[BusEvent], members: dict[str, Participant]) -> None:
         for event in events:
-            if event.kind == "dropped":
+            if event.kind in ("dropped", "faulted"):  # for the log: what a fault did
                 continue
             targets = [m for n, m in members.items() if n != event.sender] \
                 if event.kind == "transmit" else [members[event.sender]] \

@@ -45,7 +45,7 @@ from twmr.fmi.lsbus.terminals import is_bus_simulation, max_sizes
 from twmr.fmi.lsbus.ticks import tick_parts
 from twmr.hw.bus import INTERFACE, bus_options, describe, interface_problem
 from twmr.hw.canbus import BusCore, BusRunner, FrameLog, Gateway, runner
-from twmr.hw.cansim import STUFFING, CanBusModel, FrameDrop
+from twmr.hw.cansim import FAULTS, STUFFING, CanBusModel, FrameFault
 from twmr.hw.lsbus_node import LsBusNode, frame_of
 from twmr.hw.steppedbus import SteppedBus
 
@@ -55,10 +55,10 @@ log = logging.getLogger(__name__)
 BAD_SHARE = 0.8
 
 
-def drop_fault(bus: CanBus) -> FrameDrop | str | None:
-    """The drop fault bus block `bus`'s `drop_*` parameters give (None: none), or what is wrong
-    with its `drop_ids`."""
-    text = str(bus.drop_ids).strip()
+def frame_fault(bus: CanBus) -> FrameFault | str | None:
+    """The fault bus block `bus`'s `fault*` parameters give (None: none), or what is wrong
+    with its `fault_ids`."""
+    text = str(bus.fault_ids).strip()
     if not text:
         return None
     ids: set[int] = set()
@@ -67,12 +67,13 @@ def drop_fault(bus: CanBus) -> FrameDrop | str | None:
             try:
                 ident = int(part.strip(), 0)
             except ValueError:
-                return f"drop_ids '{text}': '{part.strip()}' is no CAN identifier"
+                return f"fault_ids '{text}': '{part.strip()}' is no CAN identifier"
             if not 0 <= ident < 1 << 29:
-                return f"drop_ids '{text}': {ident:#x} is outside 0 .. 0x1FFFFFFF"
+                return f"fault_ids '{text}': {ident:#x} is outside 0 .. 0x1FFFFFFF"
             ids.add(ident)
-    return FrameDrop(frozenset(ids), float(bus.drop_start), float(bus.drop_stop),
-                     float(bus.drop_probability), int(bus.drop_seed), int(bus.drop_count))
+    return FrameFault(frozenset(ids), float(bus.fault_start), float(bus.fault_stop),
+                      float(bus.fault_probability), int(bus.fault_seed), int(bus.fault_count),
+                      str(bus.fault), float(bus.fault_delay), int(bus.fault_bit))
 
 
 def channel_of(run_id: int, name: str) -> str:
@@ -137,17 +138,22 @@ class CanBus(Component):
                            f"flood), or {BAD_SHARE:.0%} of the steps over this long had a bus "
                            "error (an error storm); a simulated bus notes it once; 0: never")
 
-    drop_ids = Parameter("", type=STRING, description="a fault: frames of these identifiers "
-                         "('0x00C, 0x02C', decimal or hex) are lost on the bus — received by "
-                         "no one, confirmed to the sender; 'all': every frame; '': no fault")
-    drop_start = Parameter(0.0, unit="s", description="run time the drop fault begins")
-    drop_stop = Parameter(math.inf, unit="s", description="run time the drop fault ends "
-                          "(frames ending on the wire before it are lost)")
-    drop_probability = Parameter(1.0, unit="1", min=0.0, max=1.0, description="each frame "
-                                 "the fault may take is lost with this probability")
-    drop_count = Parameter(0, type="Integer", min=0, description="at most this many frames "
-                           "lost (0: no limit)")
-    drop_seed = Parameter(0, type="Integer", description="seed of the drop fault's draws")
+    fault = Parameter("drop", type=STRING, description="a fault of the bus, on the frames "
+                      "fault_ids names: " + "; ".join(f"{k}: {v}" for k, v in FAULTS.items()))
+    fault_ids = Parameter("", type=STRING, description="the fault's frames: these identifiers "
+                          "('0x00C, 0x02C', decimal or hex); 'all': every frame; '': no fault")
+    fault_start = Parameter(0.0, unit="s", description="run time the fault begins")
+    fault_stop = Parameter(math.inf, unit="s", description="run time the fault ends (it takes "
+                           "frames ending on the wire before it)")
+    fault_probability = Parameter(1.0, unit="1", min=0.0, max=1.0, description="each frame "
+                                  "the fault may take is taken with this probability")
+    fault_count = Parameter(0, type="Integer", min=0, description="at most this many frames "
+                            "taken (0: no limit)")
+    fault_seed = Parameter(0, type="Integer", description="seed of the fault's draws")
+    fault_delay = Parameter(0.0, unit="s", min=0.0, description="delay: how much later the "
+                            "receivers get a frame")
+    fault_bit = Parameter(-1, type="Integer", min=-1, description="corrupt: the data bit "
+                          "flipped (0: the first byte's lowest; -1 or beyond the data: drawn)")
 
     frames = Output(description="frames carried since the start")
     errors = Output(description="bus errors since the start (ACK errors, refused frames)")
@@ -202,12 +208,15 @@ class CanBus(Component):
             if wrong:
                 problems.append(("interface", wrong + ".", "give a python-can interface name, "
                                  "or '' for a bus with no link outside."))
-        if isinstance(drop := drop_fault(self), str):
-            problems.append(("drop_ids", drop, "give identifiers separated by commas (0x00C, "
+        if str(self.fault) not in FAULTS:
+            problems.append(("fault", f"fault '{self.fault}' is not a fault of the bus.",
+                             f"give one of {', '.join(FAULTS)}."))
+        if isinstance(drop := frame_fault(self), str):
+            problems.append(("fault_ids", drop, "give identifiers separated by commas (0x00C, "
                              "12, 0x18FF50E5), 'all', or '' for no fault."))
         elif drop is not None and not drop.start < drop.stop:
-            problems.append(("drop_stop", f"drop_stop {drop.stop} is not after drop_start "
-                             f"{drop.start}.", "give a window with drop_start < drop_stop."))
+            problems.append(("fault_stop", f"fault_stop {drop.stop} is not after fault_start "
+                             f"{drop.start}.", "give a window with fault_start < fault_stop."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() != ".arrows"):
@@ -283,9 +292,9 @@ class CanBus(Component):
         self._flood: tuple[deque[tuple[float, bool, Counter[str]]], int] = (deque(), 0)
         self._flood_told = False
         self.gateway: Gateway | None = None
-        drop = drop_fault(self)
+        drop = frame_fault(self)
         model = CanBusModel(float(self.bitrate), float(self.data_bitrate), bool(self.fd),
-                            str(self.stuffing), fault=drop if isinstance(drop, FrameDrop)
+                            str(self.stuffing), fault=drop if isinstance(drop, FrameFault)
                             else None)
         stepped = not (self._wallclock or getattr(run, "paced", False))
         channel = channel_of(id(run), self.name)
@@ -497,8 +506,9 @@ class CanBus(Component):
         out: dict[str, Any] = {"frames": bus.counts["transmit"],
                                "bus_errors": bus.counts["bus_error"],
                                "arbitration_lost": bus.counts["arbitration_lost"]}
-        if str(self.drop_ids).strip():
-            out["dropped"] = bus.counts["dropped"]
+        if str(self.fault_ids).strip():
+            out["dropped" if str(self.fault) == "drop" else "faulted"] = \
+                bus.counts["dropped"] + bus.counts["faulted"]
         problems = bus.problems()
         if problems:
             out["problems"] = problems[:5]
@@ -509,7 +519,7 @@ class CanBus(Component):
         sent as it terminated (a CAN node FMU's zero torque and disable) go on the wire in
         place of any it had queued; the bus stops when its last participant has left (a drive's
         zero torque and disable still pass, and go out through the link outside), then closes
-        that link and writes its log. A drop fault ends before the last frames."""
+        that link and writes its log. A fault of the bus ends before the last frames."""
         bus = getattr(self, "bus", None)
         if bus is not None:
             with bus_lock(bus):

@@ -220,8 +220,9 @@ def priority(frame: can.Message) -> tuple[int, ...]:
 class BusEvent:
     """What the bus tells participants: `transmit` (a frame every participant but its sender
     receives), `confirm`, `arbitration_lost` or `bus_error` (to the sender), `dropped` (a frame
-    the bus's drop fault took: no one receives it, its sender is confirmed; for the log), at
-    bus time `time` [s]; `start` is when the frame began on the wire (NaN: it never did)."""
+    the bus's drop fault took: no one receives it, its sender is confirmed; for the log),
+    `faulted` (what another fault did to a frame, in `detail`; for the log), at bus time
+    `time` [s]; `start` is when the frame began on the wire (NaN: it never did)."""
 
     kind: str
     time: float
@@ -240,12 +241,27 @@ class _Pending:
     queued: float = -math.inf  # bus time it was handed over (later than `time` for one late)
 
 
+#: what a fault of the bus does to a frame it takes (`FrameFault.kind`)
+FAULTS = {
+    "drop": "lost: received by no one, confirmed to its sender (a gateway or a failing "
+            "transceiver that loses it silently)",
+    "duplicate": "received twice by every receiver (a sender that missed the ACK and sent it "
+                 "again)",
+    "delay": "received `delay` s after it ended on the wire (a gateway's latency), confirmed to "
+             "its sender on time",
+    "corrupt": "received with one data bit flipped and a valid CRC (a fault before the CRC is "
+               "computed: a gateway's or a node's memory)",
+    "crc_error": "one bit flipped on the wire: no receiver accepts it, its sender sees the error "
+                 "frame and sends it again (unless it discards frames)",
+}
+
+
 @dataclass(frozen=True)
-class FrameDrop:
+class FrameFault:
     """A fault of the bus: frames of identifiers `ids` (all when empty) that end on the wire in
-    [start, stop) [s of run time] are lost — the receivers get nothing, the sender its
-    confirmation (a silent loss, as a gateway or a failing transceiver makes) — each with
-    probability `probability`, drawn from `seed`, at most `count` of them (0: no limit)."""
+    [start, stop) [s of run time] are taken, each with probability `probability`, drawn from
+    `seed`, at most `count` of them (0: no limit), and `kind` happens to them (`FAULTS`):
+    `delay` [s] for a delay, `bit` the data bit flipped for a corruption (-1: drawn)."""
 
     ids: frozenset[int] = frozenset()
     start: float = 0.0
@@ -253,11 +269,25 @@ class FrameDrop:
     probability: float = 1.0
     seed: int = 0
     count: int = 0
+    kind: str = "drop"
+    delay: float = 0.0
+    bit: int = -1
 
     def applies(self, frame: can.Message, t: float) -> bool:
         """Whether `frame`, ending at run time t [s], is one the fault may take."""
         return self.start <= t < self.stop and (not self.ids or
                                                 frame.arbitration_id in self.ids)
+
+
+def flipped(frame: can.Message, bit: int) -> can.Message:
+    """A copy of `frame` with data bit `bit` (0: the first byte's lowest) flipped."""
+    data = bytearray(frame.data)
+    data[bit // 8] ^= 1 << (bit % 8)
+    return can.Message(arbitration_id=frame.arbitration_id, data=bytes(data),
+                       is_extended_id=frame.is_extended_id, is_fd=frame.is_fd,
+                       bitrate_switch=frame.bitrate_switch, dlc=frame.dlc,
+                       is_remote_frame=frame.is_remote_frame, channel=frame.channel,
+                       timestamp=frame.timestamp)
 
 
 @dataclass
@@ -279,14 +309,16 @@ class CanBusModel:
     live: bool = True  # False while the bus comes up or winds down: no ACK errors then
     #: participants whose frames that lose arbitration are dropped, not sent again
     discarding: set[str] = field(default_factory=set)
-    #: frames lost on purpose (a fault injected), or None
-    fault: FrameDrop | None = None
+    #: frames taken on purpose (a fault injected), or None
+    fault: FrameFault | None = None
     #: run time = bus time + run_offset [s] (NaN until the run begins: no fault before)
     run_offset: float = 0.0
 
     def __post_init__(self) -> None:
-        self._draw = random.Random(self.fault.seed if self.fault else 0).random
-        self.dropped = 0  # frames the fault took
+        self._random = random.Random(self.fault.seed if self.fault else 0)
+        self._draw = self._random.random
+        self.faulted = 0  # frames the fault took
+        self._later: list[BusEvent] = []  # delayed deliveries, in time order
         self._queues: dict[str, deque[_Pending]] = {}
         self._seq = 0
         self._on_wire: tuple[_Pending, float, Timing] | None = None
@@ -296,15 +328,56 @@ class CanBusModel:
     def join(self, name: str) -> None:
         self.members.add(name)
 
-    def _lost(self, frame: can.Message, end: float) -> bool:
-        """Whether the drop fault takes `frame`, ending on the wire at bus time `end`."""
+    def _taken(self, frame: can.Message, end: float) -> bool:
+        """Whether the fault takes `frame`, ending on the wire at bus time `end`."""
         fault = self.fault
         if fault is None or not fault.applies(frame, end + self.run_offset) or \
-                (fault.count and self.dropped >= fault.count) or \
-                (fault.probability < 1.0 and self._draw() >= fault.probability):
+                (fault.count and self.faulted >= fault.count) or \
+                (fault.probability < 1.0 and self._draw() >= fault.probability) or \
+                (fault.kind == "corrupt" and not frame.data):
             return False
-        self.dropped += 1
+        self.faulted += 1
         return True
+
+    def _faulted(self, item: _Pending, start: float, end: float) -> list[BusEvent]:
+        """What the fault does to `item`, on the wire from `start` to `end`: the events now
+        (the delayed delivery goes to `_later`)."""
+        fault = self.fault
+        assert fault is not None
+        frame, sender = item.frame, item.sender
+        heard = bool(self.members - {sender})
+        if fault.kind == "drop":
+            return [BusEvent("dropped", end, frame, sender,
+                             "lost on purpose (the bus's drop fault)", start=start),
+                    BusEvent("confirm", end, frame, sender, start=start)]
+        if fault.kind == "crc_error":
+            if sender not in self.discarding:  # sent again once the bus is free
+                self._queues.setdefault(sender, deque()).appendleft(item)
+            return [BusEvent("faulted", end, frame, sender, "crc_error: a bit flipped on the "
+                             "wire, no receiver accepted it", start=start),
+                    BusEvent("bus_error", end, frame, sender, "CRC error: a bit flipped on the "
+                             "wire (the bus's crc_error fault)", start=start)]
+        out = [BusEvent("confirm", end, frame, sender, start=start)]
+        if not heard:
+            return out
+        if fault.kind == "duplicate":
+            out[:0] = [BusEvent("faulted", end, frame, sender, "duplicate: received twice",
+                                start=start),
+                       BusEvent("transmit", end, frame, sender, start=start),
+                       BusEvent("transmit", end, frame, sender, start=start)]
+        elif fault.kind == "delay":
+            out.insert(0, BusEvent("faulted", end, frame, sender,
+                                   f"delay: received {fault.delay:g} s later", start=start))
+            self._later.append(BusEvent("transmit", end + fault.delay, frame, sender,
+                                        start=start))
+            self._later.sort(key=lambda e: e.time)
+        else:  # corrupt
+            bit = fault.bit if 0 <= fault.bit < 8 * len(frame.data) else \
+                self._random.randrange(8 * len(frame.data))
+            out[:0] = [BusEvent("faulted", end, frame, sender,
+                                f"corrupt: data bit {bit} flipped, CRC valid", start=start),
+                       BusEvent("transmit", end, flipped(frame, bit), sender, start=start)]
+        return out
 
     def leave(self, name: str) -> None:
         """`name` is gone; frames it submitted stay queued (they are on their way)."""
@@ -337,16 +410,23 @@ class CanBusModel:
 
     def next_time(self) -> float | None:
         """Bus time of the next event (None: nothing pending)."""
+        later = self._later[0].time if self._later else math.inf
         if self._now:
-            return self._now[0].time
+            return min(self._now[0].time, later)
         if self._on_wire is not None:
-            return self._on_wire[1] + self._on_wire[2].to_eof
+            return min(self._on_wire[1] + self._on_wire[2].to_eof, later)
         heads = [q[0].time for q in self._queues.values() if q]
-        return max(self._free_at, min(heads)) if heads else None
+        if heads:
+            return min(max(self._free_at, min(heads)), later)
+        return None if self._later == [] else later
 
     def advance(self, until: float) -> list[BusEvent]:
         """Every event up to bus time `until` [s], in time order."""
         events, self._now = self._now, []
+        released = False
+        while self._later and self._later[0].time <= until:
+            events.append(self._later.pop(0))
+            released = True
         while True:
             if self._on_wire is not None:
                 item, start, timing = self._on_wire
@@ -356,12 +436,8 @@ class CanBusModel:
                 self._on_wire = None
                 self._free_at = start + timing.to_free
                 self.busy_time += timing.to_free
-                if self._lost(item.frame, end):
-                    events.append(BusEvent("dropped", end, item.frame, item.sender,
-                                           "lost on purpose (the bus's drop fault)",
-                                           start=start))
-                    events.append(BusEvent("confirm", end, item.frame, item.sender,
-                                           start=start))
+                if self._taken(item.frame, end):
+                    events += self._faulted(item, start, end)
                 elif self.members - {item.sender}:
                     events.append(BusEvent("transmit", end, item.frame, item.sender,
                                            start=start))
@@ -397,4 +473,9 @@ class CanBusModel:
         for head in (q[0] for q in self._queues.values() if q):  # waiting still
             self.longest_wait = max(self.longest_wait,
                                     self._free_at - max(head.time, head.queued))
+        while self._later and self._later[0].time <= until:  # delayed within this advance
+            events.append(self._later.pop(0))
+            released = True
+        if released:  # delayed deliveries in time order among the rest
+            events.sort(key=lambda e: e.time)
         return events

@@ -129,8 +129,8 @@ def lost_frame(folder: Path, plt: object, lines: list[str]) -> None:
     text = text.replace("stop: 10.0", "stop: 4.0").replace(
         "emulate: true}", "emulate: true, watchdog_periods: 100}").replace(
         "interface: virtual, channel: bench,", "bus: can0,").replace(
-        "  plant:\n", "  can0:\n    kind: can_bus\n    parameters: {bitrate: 1000000, drop_ids: "
-        f"'{p.can_id(0, p.SET_INPUT_TORQUE):#x}', drop_start: 2.0}}\n  plant:\n", 1)
+        "  plant:\n", "  can0:\n    kind: can_bus\n    parameters: {bitrate: 1000000, fault_ids: "
+        f"'{p.can_id(0, p.SET_INPUT_TORQUE):#x}', fault_start: 2.0}}\n  plant:\n", 1)
     path = folder / "bench_drop.yaml"
     path.write_text(text, encoding="utf-8")
     try:

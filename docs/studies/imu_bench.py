@@ -61,8 +61,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         clean = run(folder, "clean")
-        lossy = run(folder, "lossy", f", drop_ids: '0x70', drop_start: {DROP[0]}, "
-                                     f"drop_stop: {DROP[1]}")
+        lossy = run(folder, "lossy", f", fault_ids: '0x70', fault_start: {DROP[0]}, "
+                                     f"fault_stop: {DROP[1]}")
         t = clean["time"]  # type: ignore[index]
         gyro = np.degrees(clean["imu.yaw_rate"])  # type: ignore[index]
         ecu = clean["ecu.MM5_10_TX1.Yaw_Rate"]  # type: ignore[index]

@@ -27,7 +27,7 @@ def test_a_dropped_torque_frame_trips_the_drive_watchdog(tmp_path: Path) -> None
     text = bench(3.0, True).replace(f"watchdog_periods: {WATCHDOG}", "watchdog_periods: 250, "
                                     "heartbeat_timeout: 2.0").replace(
         "parameters: {bitrate: 1000000}",
-        f"parameters: {{bitrate: 1000000, drop_ids: '{TORQUE_0:#x}', drop_start: {DROP_AT}}}")
+        f"parameters: {{bitrate: 1000000, fault_ids: '{TORQUE_0:#x}', fault_start: {DROP_AT}}}")
     (tmp_path / "drop.yaml").write_text(text)
     with pytest.raises(Exception, match=r"drive node 0: axis error 0x1000000 "
                                         r"\(WATCHDOG_TIMER_EXPIRED\), state 1") as err:

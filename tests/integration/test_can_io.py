@@ -181,7 +181,7 @@ DROP = 0.3  # [s] from when the bus loses MM5_10_TX1 (0x70)
 
 def test_a_missing_message_times_out_at_the_step_its_age_passes_the_timeout(
         tmp_path: Path) -> None:
-    path = imu_bus(tmp_path, f", drop_ids: '0x70', drop_start: {DROP}")
+    path = imu_bus(tmp_path, f", fault_ids: '0x70', fault_start: {DROP}")
     result = simulate(path, out=tmp_path / "run")
     t = result.time
     age = result["abs.MM5_10_TX1.age"]
@@ -203,8 +203,61 @@ def test_a_missing_message_times_out_at_the_step_its_age_passes_the_timeout(
     assert t[first] - last_seen > 0.05 >= t[first - 1] - last_seen - 1e-9
 
 
+def test_a_delay_fault_makes_the_reader_see_the_values_that_much_later(tmp_path: Path
+                                                                       ) -> None:
+    """The bus delays MM5_10_TX1 (0x70) by 20 ms, two steps: the reader's yaw rate is the
+    undelayed run's two rows later, row for row; the other message is on time; the bus's log
+    holds each delayed frame as received 20 ms after it ended on the wire."""
+    for sub in "ab":
+        (tmp_path / sub).mkdir()
+    plain = simulate(imu_bus(tmp_path / "a"), out=tmp_path / "a" / "run")
+    late = simulate(imu_bus(tmp_path / "b", ", fault: delay, fault_ids: '0x70', "
+                            "fault_delay: 0.02"), out=tmp_path / "b" / "run")
+    y0, y1 = (np.asarray(r["abs.MM5_10_TX1.Yaw_Rate"]) for r in (plain, late))
+    np.testing.assert_array_equal(y1[2:], y0[:-2])
+    logs = [read_log(tmp_path / sub / "run" / "can0_frames.arrows") for sub in "ab"]
+    on_time, delayed = ((log[(log.event == "transmit") & (log.id == 0x70) &  # inside the run
+                             (log.start > 0.0) & (log.start < 0.55)]).sort_values("start")
+                        for log in logs)
+    n = min(len(on_time), len(delayed))
+    assert n > 40
+    np.testing.assert_array_equal(delayed.start[:n], on_time.start[:n])
+    np.testing.assert_allclose(delayed.time[:n].to_numpy() - on_time.time[:n].to_numpy(), 0.02,
+                               atol=1e-12)
+    assert (logs[1].event == "faulted").sum() >= n
+
+
+def test_a_corrupted_counter_is_caught_by_the_counter_check(tmp_path: Path) -> None:
+    """The bus flips the lowest bit of BREMSE_53's rolling counter (a valid CRC: the reader
+    cannot tell on the wire) in 5 frames: the reader's counter check counts the jumps."""
+    (tmp_path / "abs.dbc").write_bytes((FILES / "abs.dbc").read_bytes())
+    db = cantools.database.load_file(str(FILES / "abs.dbc"))
+    counter = db.get_message_by_name("BREMSE_53").get_signal_by_name("Bremse_53_cnt")
+    assert counter.byte_order == "little_endian"
+    bit = counter.start
+    text = f"""
+components:
+  can0: {{kind: can_bus, parameters: {{bitrate: 500000, fault: corrupt, fault_ids: '0x5c0',
+                                      fault_bit: {bit}, fault_count: 5, fault_start: 0.1}}}}
+  abs: {{kind: can_device, parameters: {{dbc: abs.dbc, node: ABS, send: BREMSE_53, bus: can0,
+                                        counters: BREMSE_53.Bremse_53_cnt}}}}
+  ecu: {{kind: can_io, parameters: {{dbc: abs.dbc, receive: BREMSE_53, bus: can0,
+                                    counters: BREMSE_53.Bremse_53_cnt}}}}
+experiment: {{start: 0.0, stop: 0.4, step: 0.01}}
+"""
+    (tmp_path / "c.yaml").write_text(text)
+    result = simulate(tmp_path / "c.yaml", out=tmp_path / "run")
+    assert result.summary["pacing"]["ecu.BREMSE_53"]["jumps"] >= 5
+    assert result.summary["pacing"]["can0.faulted"] == 5
+    bus = read_log(tmp_path / "run" / "can0_frames.arrows")
+    wire = [db.decode_message(0x5C0, bytes(d))["Bremse_53_cnt"]
+            for d in bus[(bus.event == "transmit") & (bus.id == 0x5C0)].data]
+    assert sum(a == b for a, b in zip(wire, [k % 4 for k in range(len(wire))],
+                                      strict=True)) == len(wire) - 5
+
+
 def test_stop_on_timeout_names_the_message(tmp_path: Path) -> None:
-    path = imu_bus(tmp_path, f", drop_ids: '0x70', drop_start: {DROP}",
+    path = imu_bus(tmp_path, f", fault_ids: '0x70', fault_start: {DROP}",
                    ", stop_on_timeout: true")
     with pytest.raises(CosimError, match=r"message MM5_10_TX1 \(0x70\) timed out: none seen for "
                                          r"0\.06 s \(timeout 0\.05 s\)"):
@@ -238,7 +291,7 @@ record: {{signals: [ecu.BREMSE_53.Bremse_53_cnt, ecu.BREMSE_53.frames]}}
     wire = [db.decode_message(0x5C0, bytes(d))["Bremse_53_cnt"]
             for d in bus[(bus.event == "transmit") & (bus.id == 0x5C0)].data]
     assert len(wire) > 20 and wire == [k % 4 for k in range(len(wire))]
-    lossy = run(", drop_ids: '0x5c0', drop_probability: 0.5, drop_seed: 3")
+    lossy = run(", fault_ids: '0x5c0', fault_probability: 0.5, fault_seed: 3")
     assert lossy["report"]["ecu.BREMSE_53"]["jumps"] > 3
 
 
