@@ -34,7 +34,11 @@ CAN_PROTOCOLS = "twmr.can_protocols"
 FRAME_LOGS = "twmr.frame_logs"
 #: scenario file formats by suffix without its dot: a function `Path -> ScenarioSpec`
 LOADERS = "twmr.loaders"
-GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, FRAME_LOGS, LOADERS)
+#: readers of measured samples for the `data` block that need a database to decode them, by
+#: the kind of source: a function `(path, database, columns) -> (columns, units, values)`
+SAMPLE_READERS = "twmr.sample_readers"
+GROUPS = (GROUP, METRICS, COMMANDS, FORMATS, ALGORITHMS, CAN_PROTOCOLS, FRAME_LOGS, LOADERS,
+          SAMPLE_READERS)
 
 
 @cache

@@ -28,12 +28,15 @@ class Data(Component):
 
     kind = "data"
     sized_by: ClassVar[dict[str, str]] = {"y": "n"}
-    construction_parameters = ("file", "columns", "time_column", "unit")
+    construction_parameters = ("file", "columns", "time_column", "unit", "database")
     file = Parameter("", type=STRING, description="the samples: a CSV, Parquet or .mat file, "
                      "or a run's folder, relative to the scenario ('': times and values inline)")
     columns = Parameter((), type=STRING, size=0, description="the file's columns played, one "
                         "per element of y")
     time_column = Parameter("time", type=STRING, description="the file's column of times [s]")
+    database = Parameter("", type=STRING, description="a CAN database (DBC, ARXML, KCD) "
+                         "decoding `file` as a CAN frame log (.blf, .asc, .log, .trc, a run's "
+                         "<bus>_frames.arrows), its columns 'Message.Signal' ('': no log)")
     unit = Parameter("", type=STRING, description="the unit of y ('': the columns' own)")
     n = Parameter(1, type=INTEGER, min=1, description="number of elements (the columns)")
     times = Parameter((0.0, 1.0), size=0, unit="s", description="sample times, non-decreasing "
@@ -71,12 +74,16 @@ class Data(Component):
         if not columns:
             raise ValueError(f"file '{file}' is given and columns is empty; name the file's "
                              f"columns to play")
-        samples = read_samples(path, columns, str(construction.get("time_column", "time")))
+        database = str(construction.get("database", "") or "")
+        db = None if not database else Path(database) if Path(database).is_absolute() \
+            else base_dir / database
+        samples = read_samples(path, columns, str(construction.get("time_column", "time")), db)
         unit = str(construction.get("unit", "") or "")
         if unit and samples.unit and unit != samples.unit:
             raise ValueError(f"unit '{unit}' is given and the file's columns are in "
                              f"'{samples.unit}'; leave unit out, or convert the file")
-        return cls(name, **{**construction, "file": str(path), "unit": unit or samples.unit},
+        return cls(name, **{**construction, "file": str(path), "unit": unit or samples.unit,
+                            **({"database": str(db)} if db is not None else {})},
                    n=len(columns), times=samples.times, values=samples.values.ravel())
 
     @classmethod

@@ -1,6 +1,7 @@
 """Measured samples for the `data` block: a column table read from a file — CSV (units from
-`name [unit]` headers or a `units.json` beside it), Parquet, MATLAB .mat, a twmr result folder or
-its `result.arrows` (`twmr.read_result` reads them all) — checked as samples must be: every
+`name [unit]` headers or a `units.json` beside it), Parquet, MATLAB .mat, MCAP, a twmr result
+folder or its `result.arrows` (`twmr.read_result` reads them all), or a CAN frame log decoded
+with a database (the `can` reader of `twmr.sample_readers`) — checked as samples must be: every
 column asked for present, a time column that never decreases, no NaN, one unit per port. Each
 problem names the file, the column and the row."""
 from __future__ import annotations
@@ -26,24 +27,32 @@ class Samples:
     unit: str
 
 
-def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time") -> Samples:
-    """The samples of `columns` over `time_column` in the file (or run folder) `path`;
-    CosimError naming file, column and row for what cannot be played."""
-    from twmr.registry import suggest
+def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time",
+                 database: Path | None = None) -> Samples:
+    """The samples of `columns` over `time_column` in the file (or run folder) `path`, or, with
+    a CAN `database`, of the frame log `path` decoded by the `can` sample reader (its columns
+    'Message.Signal'); CosimError naming file, column and row for what cannot be played."""
+    from twmr.registry import SAMPLE_READERS, plugin, suggest
     from twmr.result import read_result
 
     if not path.exists():
         raise CosimError(f"{path}: no such data file. Fix: give the path of a CSV, Parquet or "
-                         f".mat file or of a run's folder, relative to the scenario's folder.")
-    result = read_result(path)
-    names, units = split_units(result.columns, result.units)
+                         f".mat file or of a run's folder (or, with a database, of a CAN frame "
+                         f"log), relative to the scenario's folder.")
+    if database is not None:
+        time_column = "time"
+        names, units, table = plugin(SAMPLE_READERS, "can", "sample reader")(path, database,
+                                                                              columns)
+    else:
+        result = read_result(path)
+        names, units = split_units(result.columns, result.units)
+        table = result.values
     where = {name: j for j, name in enumerate(names)}
     for name in (time_column, *columns):
         if name not in where:
             raise CosimError(f"{path}: no column '{name}'{suggest(name, names)} (columns: "
                              f"{', '.join(names[:12])}{', ...' if len(names) > 12 else ''}). "
                              f"Fix: name columns of the file in `columns` (and `time_column`).")
-    table = result.values
     if len(table) < 2:
         raise CosimError(f"{path}: {len(table)} row(s) of samples; at least two are needed. "
                          f"Fix: give a file with the samples over time.")
