@@ -29,10 +29,10 @@ Last line: one JSON object with
   cache load, not in `compiled_s`), `ecos_s` (Ecos through ecospy, its API: three models, two
   real connections, `step(n)`), `libcosim_s` (libcosim through libcosimpy, `step(n)`), each the
   stepping alone, best of two (hand loop and Python path: best of three, run alternately);
-  `first_run_s`: a first run in a fresh process in mode `auto` (the default; numba's cache warm
-  from the runs before): its stepping wall time plus the compiling or loading of the compiled
-  kinds (`algorithm.compile_s`, before the first step or during the run: counted once)
-  (`first_run_compiled`: whether auto compiled it), `first_run_ratio` = first_run_s /
+  `first_run_s`: a first run in a fresh process with `--compiled on` (numba's cache warm from
+  the runs before; the default `auto` keeps FMUs in the Python loop): its stepping wall time
+  plus the compiling or loading of the compiled kinds (`algorithm.compile_s`)
+  (`first_run_compiled`: whether it ran compiled), `first_run_ratio` = first_run_s /
   hand_loop_s (target 0.5);
   `python_ratio` = python_s / hand_loop_s (`target_ratio` 1.2),
   `compiled_ratio`, `ecos_ratio`, `libcosim_ratio` (over the hand loop) and `compiled_vs_ecos`
@@ -359,7 +359,7 @@ from twmr.master.algorithm import make_algorithm
 from twmr.observers.store import ResultStore
 from twmr.scenario import load
 outcome = Execution(load(sys.argv[1]), [ResultStore()],
-                    algorithm=make_algorithm("gauss_seidel", "auto")).run()
+                    algorithm=make_algorithm("gauss_seidel", "on")).run()
 extra = outcome.extra
 load = extra.get("algorithm.compile_s", 0.0) if not extra.get("algorithm.compiled_at_step") else 0.0
 print(json.dumps([outcome.wall_time + load, bool(extra.get("algorithm.compiled"))]))
@@ -367,8 +367,8 @@ print(json.dumps([outcome.wall_time + load, bool(extra.get("algorithm.compiled")
 
 
 def first_run(tmp: Path, text: str, version: str) -> tuple[float, bool]:
-    """(stepping and compile wall time, compiled) of a run of `text` in a fresh process, mode
-    auto."""
+    """(stepping and compile wall time, compiled) of a run of `text` in a fresh process,
+    compiled on."""
     import subprocess
 
     path = tmp / f"chain_{version}.yaml"

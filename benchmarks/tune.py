@@ -8,11 +8,13 @@ draws of `slip.phase=uniform:0:5`, `--trials` trials; the sweep runs trials x re
 of `slip.phase=uniform:0:5` (the same cost per run: one scenario, one phase each). Each call
 goes into a fresh temporary folder; its wall time includes the scenario check and, with 2
 workers, the cluster's start-up and close. A first untimed 1-run sweep warms the numba cache.
-Figures: `tune_runs_per_min_W`, `sweep_runs_per_min_W`, `ratio_W` = tune / sweep (target
->= 0.9). The tune asks its trials in batches of W (its default: the workers), so the runs of W
-trials are on the cluster at once.
+Figures, medians over `--rounds` rounds (tune and sweep alternate in each, their order swapped
+from one round to the next): `tune_runs_per_min_W`, `sweep_runs_per_min_W`, `ratio_W` = tune /
+sweep (target >= 0.9), and `ratio_W_spread`, the lowest and highest ratio of the rounds. The
+tune asks its trials in batches of W (its default: the workers), so the runs of W trials are on
+the cluster at once.
 
-    python benchmarks/tune.py [--trials 10] [--realisations 4]
+    python benchmarks/tune.py [--trials 10] [--realisations 4] [--rounds 3]
 
 Prints one JSON object.
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -40,22 +43,33 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--trials", type=int, default=10)
     p.add_argument("--realisations", type=int, default=4)
+    p.add_argument("--rounds", type=int, default=3)
     args = p.parse_args()
     runs = args.trials * args.realisations
-    figures: dict[str, float] = {"runs": runs}
+    figures: dict[str, object] = {"runs": runs, "rounds": args.rounds}
+    times: dict[tuple[str, int], list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         twmr.sweep(SCENARIO, [PHASE], samples=1, workers=1, out=Path(tmp) / "warm")
-        for workers in (1, 2):
-            tune_s = timed(lambda w=workers: twmr.tune(
-                SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
-                vary=[PHASE], realisations=args.realisations, trials=args.trials,
-                metrics=["tracking"], workers=w, report=False, out=Path(tmp) / f"tune{w}"))
-            sweep_s = timed(lambda w=workers: twmr.sweep(
-                SCENARIO, [PHASE], samples=runs, seed=1, workers=w, metrics=["tracking"],
-                out=Path(tmp) / f"sweep{w}"))
-            figures[f"tune_runs_per_min_{workers}"] = round(60 * runs / tune_s, 1)
-            figures[f"sweep_runs_per_min_{workers}"] = round(60 * runs / sweep_s, 1)
-            figures[f"ratio_{workers}"] = round(sweep_s / tune_s, 3)
+        for r in range(args.rounds):
+            for workers in (1, 2):
+                calls = {
+                    "tune": lambda w=workers, r=r: twmr.tune(
+                        SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
+                        vary=[PHASE], realisations=args.realisations, trials=args.trials,
+                        metrics=["tracking"], workers=w, report=False,
+                        out=Path(tmp) / f"tune{w}_{r}"),
+                    "sweep": lambda w=workers, r=r: twmr.sweep(
+                        SCENARIO, [PHASE], samples=runs, seed=1, workers=w, metrics=["tracking"],
+                        out=Path(tmp) / f"sweep{w}_{r}")}
+                for name in (("tune", "sweep") if r % 2 == 0 else ("sweep", "tune")):
+                    times.setdefault((name, workers), []).append(timed(calls[name]))
+    for workers in (1, 2):
+        tune, sweep = times["tune", workers], times["sweep", workers]
+        ratios = [s_ / t_ for s_, t_ in zip(sweep, tune, strict=True)]
+        figures[f"tune_runs_per_min_{workers}"] = round(60 * runs / statistics.median(tune), 1)
+        figures[f"sweep_runs_per_min_{workers}"] = round(60 * runs / statistics.median(sweep), 1)
+        figures[f"ratio_{workers}"] = round(statistics.median(ratios), 3)
+        figures[f"ratio_{workers}_spread"] = [round(min(ratios), 3), round(max(ratios), 3)]
     print(json.dumps(figures))
 
 

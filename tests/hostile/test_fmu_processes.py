@@ -130,6 +130,20 @@ def test_a_stop_signal_ends_a_run_hung_inside_an_in_process_fmu(faulty, tmp_path
     assert 0 < len(kept) <= LATE and list(kept["dut.y"]) == list(range(len(kept)))
 
 
+def test_a_stop_signal_ends_a_compiled_run_hung_inside_an_fmu(faulty, tmp_path) -> None:
+    """With --compiled on the FMU is called from compiled code, where no Python frame names the
+    call: a Ctrl-C still ends the process, naming the FMUs the compiled loop calls."""
+    path = scenario(tmp_path, faulty, 3, isolate=False, fail_after=LATE, stop=1000.0)
+    o = interrupt(["run", str(path), "--out", "out", "--fmu-log", "--compiled", "on"], tmp_path,
+                  [signal.SIGINT])
+    assert o.returncode == 130, o.describe()
+    assert not any(marker in o.stderr for marker in FORBIDDEN), o.describe()
+    text = " ".join(error_paragraph(o))
+    assert text.startswith("interrupted (Ctrl-C): the compiled step loop, calling FMU 'dut' "
+                           "(faulty.fmu), did not return from an FMU call"), o.describe()
+    assert "isolate: true" in text, o.describe()
+
+
 def test_exit_inside_an_in_process_fmu_is_an_error_not_success(faulty, tmp_path) -> None:
     path = scenario(tmp_path, faulty, 2, isolate=False)
     o = run_cli(["run", str(path), "--out", "out"], tmp_path)

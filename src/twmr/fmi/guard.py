@@ -92,10 +92,25 @@ def _fmu_frame(frame: FrameType | None) -> FrameType | None:
     return None
 
 
+def _compiled_frame(frame: FrameType | None) -> FrameType | None:
+    """The innermost frame on the stack ending at `frame` of a compiled step loop that calls
+    FMUs through their C functions (its `self` lists them in `fmu_components`)."""
+    while frame is not None:
+        if getattr(frame.f_locals.get("self"), "fmu_components", None):
+            return frame
+        frame = frame.f_back
+    return None
+
+
 def _describe(frame: FrameType) -> tuple[str, str, Any]:
     """("component 'dut' at t = 0.29 s: FMU 'x.fmu'", the FMI call, the component) for the
     frame of an FmuComponent method."""
     comp = frame.f_locals["self"]
+    if not hasattr(comp, "path"):  # the compiled loop calling FMUs: which one, it cannot tell
+        fmus = list(comp.fmu_components)
+        named = ", ".join(f"'{c.name}' ({c.path.name})" for c in fmus[:4])
+        return (f"the compiled step loop, calling FMU{'s' if len(fmus) > 1 else ''} {named},",
+                "an FMU call", fmus[0])
     call = {"do_step": "doStep", "evaluate": "getting or setting values", "setup":
             "instantiation", "initialize": "initialization", "terminate": "terminate"}.get(
         frame.f_code.co_name, frame.f_code.co_name)
@@ -215,7 +230,7 @@ class _Watchdog:
         """After a stop signal: end the process if the main thread stays inside one FMU call
         for `GRACE` s, or at once on a further stop signal while it does."""
         first = self._innermost()
-        if first is None or _fmu_frame(first) is None:
+        if first is None or (_fmu_frame(first) or _compiled_frame(first)) is None:
             return
         where = (first, first.f_lasti)
         end = time.monotonic() + GRACE
@@ -228,7 +243,7 @@ class _Watchdog:
                 return  # the main thread moved on: its handler runs
             if any(b in _STOP for b in more):
                 break
-        frame = _fmu_frame(first)
+        frame = _fmu_frame(first) or _compiled_frame(first)
         if frame is None:
             return
         who, call, comp = _describe(frame)

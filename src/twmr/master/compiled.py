@@ -183,7 +183,7 @@ class CompiledStep(Algorithm):
         if plan.ticks:
             return None
         kernels, _ = kernels_of(self._system, self._record)
-        if kernels is None or not self.use_driver:
+        if kernels is None or not self.use_driver or any(k.fmu for k in kernels.values()):
             return None
         loop = own_loop(self._system, plan, kernels)
         if loop is not None and (loop.typed or (cached and loop.in_cache())):
@@ -209,13 +209,11 @@ class CompiledStep(Algorithm):
         kernels, self.reason = (ready[0], "") if ready is not None else \
             kernels_of(system, self._record)
         fmu = next((n for n in system.order if kernels and kernels[n].fmu is not None), None)
-        if kernels is not None and fmu is not None and self.mode != "on" and ready is None and \
-                (not self.use_driver or kinds_of(system, kernels) is None):
-            # the loop generated for the scenario: its compile grows with the FMUs
+        if fmu is not None and self.mode != "on":
             kernels, self.reason = None, (
-                f"'{fmu}' is an FMU the compiled driver does not call (a port of a type other "
-                f"than Real set or got, event mode, clocks); auto keeps the Python loop, "
-                f"--compiled on compiles a loop for the scenario")
+                f"'{fmu}' is an FMU, which the compiled loop calls only with --compiled on (in "
+                f"auto it keeps the Python loop, where a call that hangs is named and a crash "
+                f"inside the FMU loses at most a short chunk of rows)")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(
@@ -318,6 +316,15 @@ class CompiledStep(Algorithm):
         self.compile_seconds = time.perf_counter() - t0
         self._kinds_run = list(kinds.values())
         self.compiled = True
+
+    @property
+    def fmu_components(self) -> list[Any]:
+        """The FMU components the compiled loop calls through their C functions (none before it
+        is compiled): a stop signal while one hangs ends the process (`twmr.fmi.guard`)."""
+        if not self.compiled:
+            return []
+        return [c for c, k in zip(getattr(self, "_comps", ()), getattr(self, "_kernels", ()),
+                                  strict=True) if k.fmu is not None]
 
     @property
     def source(self) -> str:  # type: ignore[override]

@@ -1,5 +1,8 @@
 """The compiled driver's loop (`twmr.master.driver`), compiled once for every scenario: it steps
 a plan laid out as arrays and calls each block's kind through the C address of its adapter.
+`run` and `finish` release the GIL while they step (they touch no Python object): the threads of
+a run (a bus, the live view, the FMU guard's watchdog, which ends a run hung inside an FMU) go
+on meanwhile.
 
 Imported only when a run is compiled (it imports numba)."""
 from __future__ import annotations
@@ -154,7 +157,7 @@ def _record(k: int, t: float, S: Any, rec: Any, buf: Any) -> None:
         buf[k, 1 + j] = s[rec[j]]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
         blocks: Any, steps: Any, H: Any, chk: Any, rec: Any, buf: Any, dec: int
         ) -> tuple[int, int, int, int]:
@@ -196,7 +199,7 @@ def run(n0: int, n1: int, start: float, h: float, S: Any, X: Any, P: Any, ops: A
     return k, bad, fb, fs
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", nogil=True)
 def finish(n: int, start: float, h: float, S: Any, X: Any, P: Any, ops: Any, gains: Any,
            blocks: Any, chk: Any, rec: Any, buf: Any) -> tuple[int, int, int, int]:
     """The final point at step n; (rows written, n when a NaN/Inf is seen or an FMU call

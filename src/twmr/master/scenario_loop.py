@@ -276,7 +276,7 @@ def generate(system: System, plan: Plan, kernels: dict[str, Kernel],
         w.add(0, f"from {fn.__module__} import {fn.__qualname__} as {key}")
     w.add(0, "")
     w.add(0, "")
-    w.add(0, "@njit(cache=True, error_model='numpy')")
+    w.add(0, "@njit(cache=True, error_model='numpy', nogil=True)")
     w.add(0, "def run(n0, n1, start, h, H, P, X, Y, U, buf, dec):")
     unpack(w)
     for name in order:
@@ -296,7 +296,7 @@ def generate(system: System, plan: Plan, kernels: dict[str, Kernel],
     pack(w)
     w.add(0, "")
     w.add(0, "")
-    w.add(0, "@njit(cache=True, error_model='numpy')")
+    w.add(0, "@njit(cache=True, error_model='numpy', nogil=True)")
     w.add(0, "def finish(n, start, h, P, X, Y, U, buf):")
     unpack(w)
     w.add(1, "t = start + n * h")
