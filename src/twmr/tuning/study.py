@@ -47,7 +47,7 @@ from twmr.sweeps.engine import (
     vector_bases,
 )
 from twmr.sweeps.folder import append_row, open_journal, release_lock, take_lock
-from twmr.sweeps.run import RunTask, execute
+from twmr.sweeps.run import RunTask, execute, execute_batch
 from twmr.sweeps.spec import SweepSpec, Vary, run_id
 from twmr.tuning.objective import (
     Constraint,
@@ -333,19 +333,40 @@ def _workers_of(client: Any) -> int:
 
 
 def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str, Any]]:
-    """The rows of `tasks` (in their order): in this process, or on the cluster all at once."""
+    """The rows of `tasks` (in their order): in this process, or on the cluster all at once,
+    one Dask task per worker (consecutive runs: a task costs a scheduling round trip); the
+    runs of a batch lost with its worker (a crash inside an FMU) run again one by one, so only
+    the run that crashes fails."""
     if client is None:
         return [execute(t) for t in tasks]
     from dask.distributed import as_completed
 
-    futures = client.map(execute, tasks, pure=False,
-                         key=[f"{prefix}-{t.sample}-{t.run_id}" for t in tasks])
+    per = max(1, math.ceil(len(tasks) / _workers_of(client)))
+    batches = [tasks[i:i + per] for i in range(0, len(tasks), per)]
+    futures = client.map(execute_batch, batches, pure=False,
+                         key=[f"{prefix}-{b[0].sample}-{b[0].run_id}-{len(b)}" for b in batches])
+    rows: dict[int, dict[str, Any]] = {}
+    alone: list[RunTask] = []
     done = Finished(as_completed(futures), client, futures)
     for future in done:
         settled(future)
-    return [f.result() if f.status == "finished" else
-            failed_row(t, no_worker() if f.cancelled() else lost_error(f.exception()))
-            for f, t in zip(futures, tasks, strict=True)]
+    for future, batch in zip(futures, batches, strict=True):
+        if future.status == "finished":
+            rows.update(zip(map(id, batch), future.result(), strict=True))
+        elif len(batch) > 1 and not future.cancelled() and not done.gave_up:
+            alone += batch
+        else:
+            error = no_worker() if future.cancelled() else lost_error(future.exception())
+            rows.update((id(t), failed_row(t, error)) for t in batch)
+    if alone:
+        again = client.map(execute, alone, pure=False,
+                           key=[f"{prefix}-alone-{t.sample}-{t.run_id}" for t in alone])
+        for future in Finished(as_completed(again), client, again):
+            settled(future)
+        rows.update((id(t), f.result() if f.status == "finished" else failed_row(
+            t, no_worker() if f.cancelled() else lost_error(f.exception())))
+            for f, t in zip(again, alone, strict=True))
+    return [rows[id(t)] for t in tasks]
 
 
 def _run_baseline(spec: TuneSpec, scenario: Any, content: str, table: list[dict[str, Any]],
