@@ -280,7 +280,7 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     import numpy as np
 
     from twmr import api
-    from twmr.linear_analysis import bode_figure, linearize, loop_at, source_of
+    from twmr.linear_analysis import bode_figure, linearize, loop_at, nyquist_figure, source_of
 
     scenario = api.load(Path(args.scenario), args.set)
     inputs, outputs = list(args.input), list(args.output)
@@ -319,6 +319,9 @@ def cmd_linearize(args: argparse.Namespace) -> int:
         lines.append(f"no state_space.yaml: {err}")
     bode_figure(model, out / "bode", loop)
     written = "linear.json, linear.npz, state_space.yaml and bode.png"
+    if loop is not None:
+        nyquist_figure(loop, model.dt, out / "nyquist", f"loop at {args.loop}")
+        written += ", nyquist.png"
     if args.design:
         lines += _design(model, args, out)
         written += ", design.json, controller.yaml"

@@ -315,3 +315,34 @@ def bode_figure(model: LinearModel, path: str | Path, loop: Any = None) -> list[
     ph_ax.set_xlabel(f"frequency [rad/s] (Nyquist {nyquist:.4g} rad/s at step {model.dt:g} s)")
     mag_ax.legend(fontsize=8, frameon=False)
     return save(fig, path)
+
+
+def nyquist_figure(loop: Any, dt: float, path: str | Path, title: str = "") -> tuple[
+        list[Path], np.ndarray]:
+    """The Nyquist plot of the discrete loop transfer `loop` (negative feedback convention: the
+    critical point -1), from 0 to the Nyquist frequency pi / dt and its mirror image, with -1
+    and the unit circle marked; (the files written, the curve's points as complex numbers from
+    0 to the Nyquist frequency)."""
+    import control
+
+    from twmr.plots import line_style, pyplot, save
+
+    nyquist = math.pi / dt
+    w = np.concatenate([[0.0], np.logspace(math.log10(nyquist) - 5, math.log10(nyquist), 2000)])
+    points = np.ravel(control.frequency_response(loop, w).complex)
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    ax.plot(points.real, points.imag, label="L(e^{jωh}), ω from 0 to π/h", **line_style(0))
+    ax.plot(points.real, -points.imag, ls="--", color=line_style(0)["color"], lw=0.8,
+            label="its mirror (ω < 0)")
+    circle = np.exp(1j * np.linspace(0, 2 * math.pi, 200))
+    ax.plot(circle.real, circle.imag, color="#999999", lw=0.6, label="unit circle")
+    ax.plot([-1.0], [0.0], "x", color="#D55E00", ms=9, mew=2, label="-1")
+    ax.set_xlabel("Re L")
+    ax.set_ylabel("Im L")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, frameon=False)
+    if title:
+        ax.set_title(title, fontsize=9, loc="left")
+    return save(fig, path), points

@@ -91,6 +91,22 @@ def test_the_margins_of_a_loop_broken_at_a_wire_are_python_controls() -> None:
     np.testing.assert_allclose(got, want, rtol=1e-6)
 
 
+def test_the_nyquist_curve_of_a_loop_is_the_closed_form(tmp_path: Path) -> None:
+    """The Nyquist curve drawn for k G(z) / z is L(e^{jωh}) of the closed form at its
+    frequencies, from 0 (the static gain k K) to the Nyquist frequency."""
+    from twmr.linear_analysis import nyquist_figure
+
+    model = twmr.linearize(twmr.load(LOOP), ["plant.u"], ["z.y"], at=2.0, horizon=80)
+    files, points = nyquist_figure(loop_at(model), H, tmp_path / "nyquist")
+    a = np.exp(-H / 0.5)
+    w = np.concatenate([[0.0], np.logspace(np.log10(np.pi / H) - 5, np.log10(np.pi / H), 2000)])
+    z = np.exp(1j * w * H)
+    want = 3.0 * 2.0 * (1 - a) / ((z - a) * z)
+    np.testing.assert_allclose(points, want, rtol=1e-6, atol=1e-9)
+    assert points[0] == pytest.approx(6.0, rel=1e-6)  # k K at ω = 0
+    assert all(f.stat().st_size > 0 for f in files)
+
+
 def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -> None:
     (tmp_path / "loop.yaml").write_text(LOOP)
     done = subprocess.run([str(Path(sys.executable).parent / "twmr"), "linearize",
@@ -99,7 +115,7 @@ def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -
                           timeout=200)
     assert done.returncode == 0, done.stderr
     assert "gain margin" in done.stdout
-    for name in ("linear.json", "linear.npz", "state_space.yaml", "bode.png"):
+    for name in ("linear.json", "linear.npz", "state_space.yaml", "bode.png", "nyquist.png"):
         assert (tmp_path / "lin" / name).stat().st_size > 0, name
     block = [line for line in (tmp_path / "lin" / "state_space.yaml").read_text().splitlines()
              if not line.startswith("#")]
