@@ -182,8 +182,8 @@ class CompiledStep(Algorithm):
         assert plan is not None
         if plan.ticks:
             return None
-        kernels, _ = kernels_of(self._system, self._record)
-        if kernels is None or not self.use_driver or any(k.fmu for k in kernels.values()):
+        kernels, _ = kernels_of(self._system, self._record, False)
+        if kernels is None or not self.use_driver:
             return None
         loop = own_loop(self._system, plan, kernels)
         if loop is not None and (loop.typed or (cached and loop.in_cache())):
@@ -207,13 +207,7 @@ class CompiledStep(Algorithm):
             self.reason = LOOPS if self.python.plan.loops else TICKS
             return
         kernels, self.reason = (ready[0], "") if ready is not None else \
-            kernels_of(system, self._record)
-        fmu = next((n for n in system.order if kernels and kernels[n].fmu is not None), None)
-        if fmu is not None and self.mode != "on":
-            kernels, self.reason = None, (
-                f"'{fmu}' is an FMU, which the compiled loop calls only with --compiled on (in "
-                f"auto it keeps the Python loop, where a call that hangs is named and a crash "
-                f"inside the FMU loses at most a short chunk of rows)")
+            kernels_of(system, self._record, self.mode == "on")
         if kernels is None:
             if self.mode == "on":
                 raise CompileError(

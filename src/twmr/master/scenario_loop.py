@@ -83,9 +83,11 @@ def carriage_of(system: System, kernels: dict[str, Kernel]) -> dict[tuple[str, s
 PORTS = ("input", "output", "state")
 
 
-def kernels_of(system: System, record: list[tuple[str, str]]
+def kernels_of(system: System, record: list[tuple[str, str]], fmus: bool
                ) -> tuple[dict[str, Kernel] | None, str]:
-    """Every component's kernel (an FMU's: its compiled calls), or None and why not."""
+    """Every component's kernel, or None and why not; FMU blocks get one (their compiled calls)
+    when `fmus` (mode 'on': in 'auto' an FMU keeps the Python loop, where a call that hangs is
+    named on a stop signal and a crash inside the FMU loses at most a short chunk of rows)."""
     from twmr.fmi.compiled_calls import NotCompilable
 
     comps = system.components
@@ -97,7 +99,7 @@ def kernels_of(system: System, record: list[tuple[str, str]]
     for name in system.order:
         comp = comps[name]
         make = getattr(comp, "kernel", None)
-        if make is None:
+        if make is None and fmus:
             make = getattr(comp, "compiled_calls", None)
         if replaced_on_instance(comp):
             return None, f"'{name}' has its methods replaced on the instance"
@@ -110,6 +112,11 @@ def kernels_of(system: System, record: list[tuple[str, str]]
             kern = make(system.multiple(name) * h) if make is not None else None
         except NotCompilable as exc:
             return None, str(exc)
+        if kern is None and make is None and hasattr(comp, "compiled_calls"):
+            return None, f"'{name}' is an FMU, which the compiled loop calls only with " \
+                         f"--compiled on (in auto it keeps the Python loop, where a call that " \
+                         f"hangs is named and a crash inside the FMU loses at most a short " \
+                         f"chunk of rows)"
         if kern is None:
             return None, f"'{name}' ({type(comp).__name__}) offers no compiled kernel " \
                          f"with these parameters"
