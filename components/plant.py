@@ -17,7 +17,7 @@ paper runs the plant at +25 % (scale 1.25) against the controller's nominal valu
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from twmr.components._model import DESCRIPTOR, inertia, rk4
 from twmr.components.ctwins import INERTIA, SLIP_DEFINES, SLIP_PROFILE
@@ -90,6 +90,25 @@ class TwmrPlant(Component):
         r, b, a = float(self.r), float(self.b), float(self.a)
         return {"pose": {"wheel_radius": r, "half_track": b, "length": a + 2.0 * r,
                          "width": max(2.0 * b - 0.2, 0.1), "height": 0.5 * r, "ahead": a / 2}}
+
+    def vectors(self) -> dict[str, list[dict[str, Any]]]:
+        """On the pose's vehicle: each wheel's longitudinal slip velocity mu' (0.25 m per m/s,
+        at the wheel's contact point, along x), the lateral slip velocity delta' of M (along y)
+        and each wheel's disturbance torque tau_d (0.2 m per N.m, at the wheel's top, along x);
+        slip magenta, disturbance green."""
+        r, b = float(self.r), float(self.b)
+        slip, torque = 0.25, 0.2
+        return {"pose": [
+            {"label": "slip mu_R'", "port": "slip_rate", "element": 0, "at": (0.0, -b, 0.0),
+             "along": (1.0, 0.0, 0.0), "scale": slip, "colour": "#CC00CC"},
+            {"label": "slip mu_L'", "port": "slip_rate", "element": 1, "at": (0.0, b, 0.0),
+             "along": (1.0, 0.0, 0.0), "scale": slip, "colour": "#CC00CC"},
+            {"label": "slip delta'", "port": "slip_rate", "element": 2, "at": (0.0, 0.0, 0.0),
+             "along": (0.0, 1.0, 0.0), "scale": slip, "colour": "#CC00CC"},
+            {"label": "tau_d R", "port": "disturbance", "element": 0, "at": (0.0, -b, 2 * r),
+             "along": (1.0, 0.0, 0.0), "scale": torque},
+            {"label": "tau_d L", "port": "disturbance", "element": 1, "at": (0.0, b, 2 * r),
+             "along": (1.0, 0.0, 0.0), "scale": torque}]}
 
     def initialize(self) -> None:
         k = self.scale

@@ -56,7 +56,7 @@ def test_paper_scenario_compiled_is_bit_identical(path: Path, algorithm: str) ->
 
 def test_full_paper_run_auto_switches_after_the_first_chunk_bit_identical() -> None:
     rows = same(ROOT / "scenarios" / "paper_trajectory1_asmc.yaml", [], mode="auto")
-    assert rows.shape == (3001, 16)
+    assert rows.shape == (3001, 21)
 
 
 VARIANTS = {

@@ -133,16 +133,15 @@ def test_live_page_streams_a_paced_run(browser, tmp_path):
     stored = np.column_stack([table[c].to_numpy() for c in columns])
     at = np.searchsorted(stored[:, 0], page[:, 0])
     assert np.array_equal(stored[at], page)  # every drawn row is a recorded row, bit for bit
-    if dropped == 0:
-        assert len(page) == len(stored)
+    # a page that reads gets every row: rows not yet sent gather into its next frame
+    assert dropped == 0 and len(page) == len(stored), (dropped, len(page), len(stored))
 
 
 def test_the_xy_view_holds_the_path_with_more_points_than_pixels(browser, tmp_path):
-    """The paper run to 30 s is 3001 rows at the scenario's decimation (the page may drop frames
-    on a loaded machine, keeping fewer): more than four points per pixel of the XY view's width,
-    where uPlot draws a min and a max per pixel column as if x were sorted, and the path
-    collapsed into two vertical lines (first seen at 13.6 s). The path on the canvas spans the
-    plot's width."""
+    """The paper run to 30 s is 3001 rows at the scenario's decimation, all of them on the page:
+    more than four points per pixel of the XY view's width, where uPlot draws a min and a max
+    per pixel column as if x were sorted, and the path collapsed into two vertical lines (first
+    seen at 13.6 s). The path on the canvas spans the plot's width."""
     from selenium.webdriver.support.ui import WebDriverWait
 
     proc, url, _ = _start_run(tmp_path / "run", stop=30.0, pace="4")
@@ -151,6 +150,7 @@ def test_the_xy_view_holds_the_path_with_more_points_than_pixels(browser, tmp_pa
         WebDriverWait(browser, 120, poll_frequency=0.5).until(
             lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
         rows = browser.execute_script("return twmrLive.data[0].length;")
+        assert rows == 3001  # every row, however busy the machine
         assert rows > 4 * browser.execute_script("return twmrLive.xy.bbox.width;")
         browser.execute_script("twmrLive.xy.redraw();")
         columns = browser.execute_script("""
@@ -220,7 +220,7 @@ def test_the_3d_view_draws_the_robot_at_its_recorded_pose(browser, tmp_path):
         WebDriverWait(browser, 120, poll_frequency=0.5).until(
             lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
         vehicle, pixel, blue = browser.execute_script("""
-            drawView();
+            document.getElementById("vectors").click();  // arrows off: the platform's top seen
             const v = twmrLive.view.drawn[0], ctx = twmrLive.view.canvas.getContext("2d");
             const [cx, cy] = v.platform;
             const img = ctx.getImageData(0, 0, twmrLive.view.canvas.width,
@@ -231,6 +231,16 @@ def test_the_3d_view_draws_the_robot_at_its_recorded_pose(browser, tmp_path):
                 blue += 1;
             return [v, Array.from(ctx.getImageData(Math.round(cx), Math.round(cy), 1, 1).data),
                     blue];""")
+        arrows, magenta = browser.execute_script("""
+            document.getElementById("vectors").click();   // the arrows on again
+            const v = twmrLive.view.drawn[0], ctx = twmrLive.view.canvas.getContext("2d");
+            const img = ctx.getImageData(0, 0, twmrLive.view.canvas.width,
+                                         twmrLive.view.canvas.height).data;
+            let magenta = 0;   // the slip arrows' colour, #CC00CC
+            for (let i = 0; i < img.length; i += 4)
+              if (Math.abs(img[i] - 0xCC) + img[i + 1] + Math.abs(img[i + 2] - 0xCC) < 40)
+                magenta += 1;
+            return [v.arrows, magenta];""")
         data = browser.execute_script("return twmrLive.data;")
         columns = browser.execute_script("return twmrLive.columns;")
         errors = _severe(browser)
@@ -244,6 +254,21 @@ def test_the_3d_view_draws_the_robot_at_its_recorded_pose(browser, tmp_path):
         last["plant.pose[1]"], last["plant.pose[2]"], last["plant.pose[3]"])
     assert pixel[:3] == [140, 140, 153]  # the platform's top where the pose puts it
     assert blue > 50, blue               # the reference path on the ground
+    # the plant's vectors (slip velocities, disturbance torques) at their recorded values, each
+    # arrow's tip where its value, the pose and the plant's geometry put it
+    assert [a["label"] for a in arrows] == ["slip mu_R'", "slip mu_L'", "slip delta'",
+                                            "tau_d R", "tau_d L"]
+    x, y, th = vehicle["x"], vehicle["y"], vehicle["heading"]
+    for a, column, at, along, scale in zip(arrows, (
+            "plant.slip_rate[1]", "plant.slip_rate[2]", "plant.slip_rate[3]",
+            "plant.disturbance[1]", "plant.disturbance[2]"),
+            ((0, -0.75), (0, 0.75), (0, 0), (0, -0.75), (0, 0.75)),
+            ((1, 0), (1, 0), (0, 1), (1, 0), (1, 0)), (0.25, 0.25, 0.25, 0.2, 0.2), strict=True):
+        assert a["value"] == last[column]
+        bx, by = at[0] + along[0] * scale * a["value"], at[1] + along[1] * scale * a["value"]
+        assert a["tip"][:2] == pytest.approx([x + np.cos(th) * bx - np.sin(th) * by,
+                                              y + np.sin(th) * bx + np.cos(th) * by], abs=1e-12)
+    assert magenta > 20, magenta         # slip arrows drawn
     assert errors == [], errors
 
 

@@ -29,7 +29,7 @@ def test_the_robot_moves_in_the_scene_as_recorded(tmp_path: Path) -> None:
         reader = make_reader(stream, decoder_factories=[decoder.DecoderFactory()])
         got: dict[str, list] = {}
         for schema, channel, _, message in reader.iter_decoded_messages(
-                topics=["/tf", "/scene/plant", "/scene/paths"]):
+                topics=["/tf", "/scene/plant", "/scene/paths", "/scene/plant/vectors"]):
             got.setdefault(channel.topic, []).append((schema.name, message))
     tf = got["/tf"]
     assert {name for name, _ in tf} == {"foxglove.FrameTransform"}
@@ -52,6 +52,24 @@ def test_the_robot_moves_in_the_scene_as_recorded(tmp_path: Path) -> None:
     reference = lines["path ref.position"]
     np.testing.assert_allclose([p.x for p in reference], result["ref.position[1]"], atol=1e-12)
     np.testing.assert_allclose([p.y for p in reference], result["ref.position[2]"], atol=1e-12)
+    # the plant's recorded slip velocities and disturbance torques as arrows on the robot: at
+    # each sample, each arrow as long as its value times its scale, pointing along its axis
+    # in the robot's frame (reversed for a negative value)
+    vectors = got["/scene/plant/vectors"]
+    assert len(vectors) == len(result)
+    drawn = {"slip mu_R'": ("plant.slip_rate[1]", -0.6, 0.25, (1, 0)),
+             "slip delta'": ("plant.slip_rate[3]", 0.0, 0.25, (0, 1)),
+             "tau_d L": ("plant.disturbance[2]", 0.6, 0.2, (1, 0))}
+    for k in (0, len(result) // 2, len(result) - 1):
+        arrows = {e.id: e.arrows[0] for _, m in [vectors[k]] for e in m.entities}
+        for label, (column, y_at, scale, along) in drawn.items():
+            a, value = arrows[f"plant {label}"], float(result[column][k])
+            assert a.pose.position.y == pytest.approx(y_at)
+            assert a.shaft_length + a.head_length == pytest.approx(abs(value) * scale)
+            q = a.pose.orientation      # the arrow's +x axis rotated by q
+            head = (1 - 2 * (q.y ** 2 + q.z ** 2), 2 * (q.x * q.y + q.w * q.z))
+            sign = 1.0 if value >= 0 else -1.0
+            assert head == pytest.approx((sign * along[0], sign * along[1]), abs=1e-12)
     # the result read back from the MCAP is the recorded one: the scene is beside it
     back = twmr.read_result(tmp_path / "run" / "result.mcap")
     np.testing.assert_array_equal(back.values, result.values)

@@ -46,7 +46,7 @@ def test_a_long_python_schedule_run_calls_the_model_compiled_with_the_same_rows(
     assert law.__globals__["tracking_law"] is _model.tracking_law.jit
     compiled, extra, _ = run("on", stop)
     assert extra["algorithm.compiled"] is True
-    assert rows.shape == compiled.shape == (AUTO_MIN_STEPS // 10 + 1, 16)
+    assert rows.shape == compiled.shape == (AUTO_MIN_STEPS // 10 + 1, 21)
     assert np.array_equal(rows, compiled), np.max(np.abs(rows - compiled))
     monkeypatch.setattr(KernelFunction, "python", lambda kf, long: kf.py_func)
     plain, _, bound = run("off", stop)

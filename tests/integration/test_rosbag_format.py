@@ -32,7 +32,8 @@ def test_a_ros2_tool_reads_the_recorded_rows(tmp_path: Path) -> None:
         for schema, channel, message, decoded in reader.iter_decoded_messages():
             got.setdefault(channel.topic, []).append((schema.name, message.log_time, decoded))
     assert set(got) == {"/ref/position", "/plant/pose", "/plant/wheel_speed", "/ctrl/torque",
-                        "/motor/torque", "/ctrl/error", "/ctrl/d_hat"}
+                        "/motor/torque", "/ctrl/error", "/ctrl/d_hat", "/plant/slip_rate",
+                        "/plant/disturbance"}
     pose = got["/plant/pose"]
     assert {name for name, _, _ in pose} == {"geometry_msgs/msg/PoseStamped"}
     assert [t for _, t, _ in pose] == [round(t * 1e9) for t in result.time]

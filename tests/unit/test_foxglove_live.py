@@ -97,10 +97,12 @@ def test_a_client_gets_the_robots_frame_and_vehicle() -> None:
     pytest.importorskip("google.protobuf")
     body = {"wheel_radius": 0.15, "half_track": 0.75, "length": 0.6, "width": 1.3,
             "height": 0.075, "ahead": 0.15}
-    run = RunStart(("time", "plant.pose[1]", "plant.pose[2]", "plant.pose[3]"),
-                   ("s", "m", "m", "rad"), 1e-3, 10,
-                   metadata={"ports": {"plant.pose": {"body": body}}})
-    rows = np.array([[0.0, 0.5, 0.0, -0.785], [0.001, 0.6, 0.1, -0.5]])
+    slip = {"label": "slip delta'", "column": "plant.slip_rate[3]", "at": [0.0, 0.0, 0.0],
+            "along": [0.0, 1.0, 0.0], "scale": 0.25, "colour": "#CC00CC"}
+    run = RunStart(("time", "plant.pose[1]", "plant.pose[2]", "plant.pose[3]",
+                    "plant.slip_rate[3]"), ("s", "m", "m", "rad", "m/s"), 1e-3, 10,
+                   metadata={"ports": {"plant.pose": {"body": body, "vectors": [slip]}}})
+    rows = np.array([[0.0, 0.5, 0.0, -0.785, 0.4], [0.001, 0.6, 0.1, -0.5, -0.8]])
     server = FoxgloveServer("0")
     url = server.start()
     try:
@@ -110,13 +112,13 @@ def test_a_client_gets_the_robots_frame_and_vehicle() -> None:
             assert {"/tf", "/scene/plant"} <= set(channels)
             assert channels["/tf"]["schemaName"] == "foxglove.FrameTransform"
             assert channels["/tf"]["encoding"] == "protobuf"
-            wanted = ["/tf", "/scene/plant"]
+            wanted = ["/tf", "/scene/plant", "/scene/plant/vectors"]
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": i, "channelId": channels[t]["id"]} for i, t in enumerate(wanted)]}))
             ws.ping().wait(10)
             server.rows(rows, len(rows))
             got: dict[str, list] = {t: [] for t in wanted}
-            for _ in range(len(rows) + 1):
+            for _ in range(2 * len(rows) + 1):
                 frame = ws.recv(timeout=10)
                 sub, _stamp = struct.unpack_from("<IQ", frame, 1)
                 topic = wanted[sub]
@@ -130,3 +132,8 @@ def test_a_client_gets_the_robots_frame_and_vehicle() -> None:
     (scene,) = got["/scene/plant"]
     wheels = sorted(c.pose.position.y for c in scene.entities[0].cylinders)
     assert wheels == [-0.75, 0.75]
+    arrows = [m.entities[0].arrows[0] for m in got["/scene/plant/vectors"]]
+    assert [a.shaft_length + a.head_length for a in arrows] == pytest.approx([0.1, 0.2])
+    # along +y for 0.4 m/s, along -y for -0.8: the arrow's +x axis turned by +-90 deg about z
+    assert [2 * np.arctan2(a.pose.orientation.z, a.pose.orientation.w) for a in arrows] == \
+        pytest.approx([np.pi / 2, -np.pi / 2])

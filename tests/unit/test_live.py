@@ -1,6 +1,6 @@
 """The live view's server (`twmr.observers.live`): loopback by default, a client that never reads
-never blocks the run (its queue stays bounded, the latest frame wins), other viewers still get
-every latest frame, foreign pages are refused, the page and its vendored plots are served."""
+never blocks the run (its rows waiting stay bounded, the oldest dropped), other viewers still get
+every row, foreign pages are refused, the page and its vendored plots are served."""
 from __future__ import annotations
 
 import base64
@@ -22,7 +22,7 @@ from websockets.sync.client import connect
 from twmr.cli import parser
 from twmr.observers.base import Outcome, RunStart
 from twmr.observers.live import (
-    CLIENT_QUEUE,
+    CLIENT_ROWS,
     FRAME_ROWS,
     LiveAddressError,
     LiveView,
@@ -101,6 +101,8 @@ def _silent_client(port: int) -> socket.socket:
 
 
 def test_a_client_that_never_reads_never_blocks_the_run(view):
+    """The silent client's rows waiting stay bounded, the oldest dropped; the healthy reader
+    gets every row, in order, in frames numbered without a gap."""
     silent = _silent_client(view.port)
     received: list[bytes | str] = []
     with connect(f"ws://127.0.0.1:{view.port}/ws", max_size=None) as healthy:
@@ -108,22 +110,40 @@ def test_a_client_that_never_reads_never_blocks_the_run(view):
         reader = threading.Thread(target=lambda: received.extend(iter(healthy)), daemon=True)
         reader.start()
         _wait_for(lambda: len(view.clients) == 2)
-        chunks = 10_000
+        chunks = 2_000
         block = np.zeros((FRAME_ROWS, 4))
         for k in range(1, chunks + 1):
             block[:, 0] = k
+            # a run no faster than the healthy page reads: it never has a full queue
+            _wait_for(lambda: min(c.waiting for c in view.clients) <= CLIENT_ROWS - FRAME_ROWS)
             view.rows(block, FRAME_ROWS * k)
-            assert all(len(c.queue) <= CLIENT_QUEUE for c in view.clients)
-        slow = min(view.clients, key=lambda c: c.taken)
-        assert slow.taken + len(slow.queue) + slow.dropped == chunks
-        assert slow.taken < chunks // 2 and slow.dropped > chunks // 2
+            assert all(c.waiting <= CLIENT_ROWS for c in view.clients)
+        slow = max(view.clients, key=lambda c: c.dropped)
+        assert slow.taken + slow.waiting + slow.dropped == chunks * FRAME_ROWS
+        assert slow.dropped > chunks * FRAME_ROWS // 2
         view.finished(Outcome(steps_done=2_000_000))  # closes the view: the healthy one ends
         reader.join(timeout=30)
     silent.close()
     assert json.loads(received[-1]) == {"type": "end", "status": "completed", "error": "",
                                         "steps_done": 2_000_000}
-    sequence, rows = _rows(next(m for m in reversed(received) if isinstance(m, bytes)), 4)
-    assert sequence == chunks and np.all(rows[:, 0] == chunks)  # the latest frame got through
+    frames = [_rows(m, 4) for m in received if isinstance(m, bytes)]
+    assert [s for s, _ in frames] == list(range(1, len(frames) + 1))  # no gap
+    got = np.concatenate([rows for _, rows in frames])
+    assert np.array_equal(got[:, 0], np.repeat(np.arange(1, chunks + 1), FRAME_ROWS))
+
+
+def test_rows_waiting_past_the_bound_are_dropped_oldest_first_and_the_gap_is_numbered():
+    from twmr.observers.live import _Client
+
+    client = _Client(connection=None)
+    for k in range(CLIENT_ROWS // FRAME_ROWS + 3):
+        client.push_rows(np.full((FRAME_ROWS, 2), float(k)))
+    assert client.waiting == CLIENT_ROWS and client.dropped == 3 * FRAME_ROWS
+    sequence, rows = _rows(client.pop(), 2)
+    assert sequence == 2 and rows[0, 0] == 3.0 and len(rows) == CLIENT_ROWS  # 1 skipped
+    client.push("end")
+    client.push_rows(np.ones((2, 2)))
+    assert client.pop() == "end" and _rows(client.pop(), 2)[0] == 3
 
 
 def test_big_chunks_are_thinned_and_late_pages_get_the_history(view):

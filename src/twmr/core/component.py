@@ -396,6 +396,15 @@ class Component:
         `height`, `ahead` (how far the body's centre is ahead of the pose's point); {}: none."""
         return {}
 
+    def vectors(self) -> dict[str, list[dict[str, Any]]]:
+        """Output port holding a planar pose -> the vectors 3D views draw on its vehicle, each
+        `{"label", "port", "element", "at", "along", "scale"[, "colour"]}`: element `element`
+        (0-based) of this block's port `port` (an input or output, drawn when recorded) as an
+        arrow from `at` (x ahead, y left, z up [m], in the vehicle's frame) along the unit
+        vector `along`, `scale` [m] long per unit of the port, in `colour` ('#RRGGBB', default
+        green); {}: none."""
+        return {}
+
     def limits(self) -> dict[str, tuple[float, float]]:
         """Output port -> (lowest, highest) value its parameters allow it (a torque limit), for
         plots to draw; {}: none."""

@@ -197,6 +197,24 @@ def columns_of(system: System, signals: Sequence[tuple[str, str]]
     return names, units
 
 
+def _recorded_vectors(owner: str, vectors: Sequence[dict[str, Any]], columns: set[str]
+                      ) -> list[dict[str, Any]]:
+    """The vectors (`Component.vectors`) of `owner`'s vehicle whose element is recorded, each
+    with its `column` ('plant.slip_rate[1]') in place of its port and element."""
+    drawn = []
+    for vector in vectors:
+        port, element = f"{owner}.{vector['port']}", int(vector["element"])
+        column = next((c for c in (f"{port}[{element + 1}]", port if element == 0 else "")
+                       if c in columns), None)
+        if column is not None:
+            drawn.append({"label": str(vector["label"]), "column": column,
+                          "at": [float(v) for v in vector["at"]],
+                          "along": [float(v) for v in vector["along"]],
+                          "scale": float(vector["scale"]),
+                          "colour": str(vector.get("colour", "#009E73"))})
+    return drawn
+
+
 class Execution:
     """One run of `system`: `run()` returns the `Outcome` (or raises after the stop).
 
@@ -589,6 +607,10 @@ class Execution:
                 body = comp.bodies().get(port)
                 if body is not None:
                     ports[name]["body"] = dict(body)
+                    drawn = _recorded_vectors(owner, comp.vectors().get(port, []),
+                                              set(self.columns))
+                    if drawn:
+                        ports[name]["vectors"] = drawn
         return ports
 
     def _catch_stop_signals(self) -> dict[int, Any]:

@@ -20,7 +20,7 @@ from twmr.core.errors import CosimError
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.observers.live import parse_address
 from twmr.observers.mcap_format import ComponentChannel, component_channels, log_time_ns
-from twmr.observers.mcap_scene import transform, vehicle, vehicles
+from twmr.observers.mcap_scene import Vehicle, transform, vector_update, vehicle, vehicles
 
 log = logging.getLogger("twmr.live")
 
@@ -39,9 +39,10 @@ class FoxgloveServer(Observer):
         self._server: Any = None
         self._context: Any = None
         self._channels: list[tuple[Any, ComponentChannel]] = []
-        self._vehicles: list[tuple[str, list[int], dict[str, float]]] = []
+        self._vehicles: list[Vehicle] = []
         self._tf: Any = None
-        self._scenes: list[tuple[Any, str, dict[str, float]]] = []
+        self._scenes: list[tuple[Any, str, Any]] = []
+        self._arrows: list[tuple[Any, str, Any]] = []
         self._scene_due = 0
 
     def start(self) -> str:
@@ -83,8 +84,10 @@ class FoxgloveServer(Observer):
                                   run.metadata.get("ports", {}))
         self._tf = FrameTransformChannel("/tf", context=self._context) \
             if self._vehicles else None
-        self._scenes = [(SceneUpdateChannel(f"/scene/{frame}", context=self._context),
-                         frame, body) for frame, _, body in self._vehicles]
+        self._scenes = [(SceneUpdateChannel(f"/scene/{v.frame}", context=self._context),
+                         v.frame, v.body) for v in self._vehicles]
+        self._arrows = [(SceneUpdateChannel(f"/scene/{v.frame}/vectors", context=self._context),
+                         v.frame, v.vectors) for v in self._vehicles if v.vectors]
         self._scene_due = 0
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
@@ -95,8 +98,10 @@ class FoxgloveServer(Observer):
             for channel, layout in self._channels:
                 channel.log(layout.message(row), log_time=stamp)
             if self._tf is not None:
-                for frame, cols, _ in self._vehicles:
-                    self._tf.log(transform(frame, stamp, *row[cols]), log_time=stamp)
+                for v in self._vehicles:
+                    self._tf.log(transform(v.frame, stamp, *row[v.cols]), log_time=stamp)
+            for channel, frame, drawn in self._arrows:
+                channel.log(vector_update(frame, drawn, row), log_time=stamp)
             if self._scenes and stamp >= self._scene_due:  # a client that joins gets it soon
                 for channel, frame, body in self._scenes:
                     channel.log(fm.SceneUpdate(entities=[vehicle(frame, body)]), log_time=stamp)
@@ -109,11 +114,11 @@ class FoxgloveServer(Observer):
         for channel, _ in self._channels:
             channel.close()
         self._channels = []
-        for scene, _, _ in self._scenes:
+        for scene, _, _ in self._scenes + self._arrows:
             scene.close()
         if self._tf is not None:
             self._tf.close()
-        self._scenes, self._tf = [], None
+        self._scenes, self._arrows, self._tf = [], [], None
 
     def close(self) -> None:
         """Stop the server (the channels first)."""

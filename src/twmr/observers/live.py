@@ -5,16 +5,17 @@ serves one page (`live_static/live.html`: scopes and the XY view plotted with th
 a 3D view of the vehicles drawn on a canvas, and the scenario's diagram (`twmr.diagram`, served as
 `/diagram.svg`; a click on a port opens its scope)) and streams the rows
 the run records to every page that connects. The run never waits for a viewer: `rows` decimates
-the chunk to at most `FRAME_ROWS` rows, encodes it once and appends it to each client's queue of
-`CLIENT_QUEUE` frames, the oldest dropped when full (latest wins); each client's own thread
-sends from its queue. A page that joins late gets the run's start and its history (at most
-`HISTORY_ROWS` rows, thinned by halves).
+the chunk to at most `FRAME_ROWS` rows and appends it to each client's queue, where the rows
+not yet sent gather into one frame (at most `CLIENT_ROWS` rows, the oldest dropped past it);
+each client's own thread sends from its queue, so a slow page gets fewer, bigger frames. A page
+that joins late gets the run's start and its history (at most `HISTORY_ROWS` rows, thinned by
+halves).
 
 Wire format: text messages are JSON (`start`: columns, units, step, n_steps, scenario, ports,
 planar, and per column its label (element names from the port's description, as in the plots)
 and whether it is drawn as steps (an Integer, Boolean or Enumeration port); `end`: status,
 error, steps_done); binary messages are rows: little-endian float64, the frame's sequence number
-first (gaps are dropped frames), then rows x columns, row-major."""
+first (a skipped number: rows were dropped), then rows x columns, row-major."""
 from __future__ import annotations
 
 import collections
@@ -41,8 +42,8 @@ log = logging.getLogger("twmr.live")
 DEFAULT_HOST = "127.0.0.1"
 #: most rows one frame carries (a chunk with more is thinned by a stride)
 FRAME_ROWS = 500
-#: frames waiting for one client; past it the oldest is dropped
-CLIENT_QUEUE = 8
+#: rows waiting for one client; past it the oldest are dropped
+CLIENT_ROWS = 50_000
 #: rows kept for pages that join late (thinned by halves past it)
 HISTORY_ROWS = 20_000
 _STATIC = {"/": ("live.html", "text/html; charset=utf-8"),
@@ -74,28 +75,56 @@ def parse_address(text: str, option: str = "--live") -> tuple[str, int]:
 
 
 class _Client:
-    """One viewer's bounded queue of frames (latest wins) and its counters."""
+    """One viewer's queue: the start and end messages, and the rows not yet sent gathered into
+    one frame (a page that reads slowly gets bigger frames, not fewer rows); past
+    `CLIENT_ROWS` rows waiting the oldest are dropped, and the frame's sequence number skips
+    one to say so."""
 
     def __init__(self, connection: Any) -> None:
         self.connection = connection
-        self.queue: collections.deque[bytes | str | None] = collections.deque(maxlen=CLIENT_QUEUE)
+        self.queue: collections.deque[str | list[np.ndarray] | None] = collections.deque()
         self.ready = threading.Condition()
-        self.taken = 0  # frames taken to send (the last may still be on its way)
-        self.dropped = 0
+        self.waiting = 0  # rows queued
+        self.sequence = 0  # of the frames sent
+        self.gap = False  # rows dropped since the last frame
+        self.dropped = 0  # rows dropped
+        self.taken = 0  # rows taken to send (the last frame may still be on its way)
 
-    def push(self, message: bytes | str | None) -> None:
+    def push(self, message: str | None) -> None:
         with self.ready:
-            if len(self.queue) == self.queue.maxlen:
-                self.dropped += 1
             self.queue.append(message)
+            self.ready.notify()
+
+    def push_rows(self, rows: np.ndarray) -> None:
+        with self.ready:
+            if self.queue and isinstance(self.queue[-1], list):
+                self.queue[-1].append(rows)
+            else:
+                self.queue.append([rows])
+            self.waiting += len(rows)
+            while self.waiting > CLIENT_ROWS:
+                oldest = next(q for q in self.queue if isinstance(q, list))
+                lost = oldest.pop(0)
+                self.waiting -= len(lost)
+                self.dropped += len(lost)
+                self.gap = True
+                if not oldest:
+                    self.queue.remove(oldest)
             self.ready.notify()
 
     def pop(self) -> bytes | str | None:
         with self.ready:
             while not self.queue:
                 self.ready.wait()
-            self.taken += 1
-            return self.queue.popleft()
+            item = self.queue.popleft()
+            if not isinstance(item, list):
+                return item
+            rows = np.concatenate(item)
+            self.waiting -= len(rows)
+            self.taken += len(rows)
+            self.sequence += 2 if self.gap else 1
+            self.gap = False
+            return _frame(float(self.sequence), rows)
 
 
 class LiveView(Observer):
@@ -110,7 +139,6 @@ class LiveView(Observer):
         self._start_message: str | None = None
         self._history: list[np.ndarray] = []
         self._history_rows = 0
-        self._sequence = 0
         self._end_message: str | None = None
         self._system: Any = None
         self._diagram: bytes | None = None
@@ -285,7 +313,7 @@ class LiveView(Observer):
             return None
         return _frame(-1.0, np.concatenate(self._history))
 
-    def _broadcast(self, message: bytes | str) -> None:
+    def _broadcast(self, message: str) -> None:
         with self._lock:
             for client in self.clients:
                 client.push(message)
@@ -300,7 +328,9 @@ class LiveView(Observer):
         ports = run.metadata.get("ports", {})
         groups = group_ports(columns)
         planar = [{"port": port, "x": index[cols[0]], "y": index[cols[1]],
-                   **({"heading": index[cols[2]], "body": ports.get(port, {}).get("body")}
+                   **({"heading": index[cols[2]], "body": ports.get(port, {}).get("body"),
+                       "vectors": [{**v, "index": index[v["column"]]}
+                                   for v in ports.get(port, {}).get("vectors", [])]}
                       if len(cols) == 3 else {})}
                   for port, cols in groups.items()
                   if is_planar_position(port, [units[c] for c in cols])]
@@ -320,19 +350,18 @@ class LiveView(Observer):
         with self._lock:
             self._start_message, self._end_message = message, None
             self._system, self._diagram = run.system, None
-            self._history, self._history_rows, self._sequence = [], 0, 0
+            self._history, self._history_rows = [], 0
         self._broadcast(message)
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
         if not len(block):
             return
         stride = math.ceil(len(block) / FRAME_ROWS)
-        thin = np.ascontiguousarray(block[::stride], dtype="<f8")
+        thin = np.array(block[::stride], dtype="<f8")  # a copy: the caller reuses its block
         with self._lock:
-            self._sequence += 1
             self._keep_history(thin)
-            sequence = self._sequence
-        self._broadcast(_frame(float(sequence), thin))
+            for client in self.clients:
+                client.push_rows(thin)
 
     def _keep_history(self, thin: np.ndarray) -> None:
         self._history.append(thin)

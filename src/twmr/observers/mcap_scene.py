@@ -6,6 +6,9 @@ Foxglove SDK: the extra `foxglove`), so Foxglove's 3D panel draws the robot:
   every sample (x, y, 0; the heading as a rotation about z);
 - `/scene/<component>` (`foxglove.SceneUpdate`, once, at the first sample): the vehicle in its
   frame — the platform as a box, each wheel as a cylinder, a caster as a sphere;
+- `/scene/<component>/vectors` (`foxglove.SceneUpdate`, at every sample): the vehicle's
+  recorded vectors (`Component.vectors`: the paper plant's slip velocities and disturbance
+  torques) as labelled arrows in its frame;
 - `/scene/paths` (`foxglove.SceneUpdate`, once): each recorded planar position (a reference
   path) and each pose's path as a line in `world`.
 """
@@ -13,7 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -74,7 +77,7 @@ def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndar
         return topics
     tf = channel("/tf", fm.FrameTransform)
     topics.append("/tf")
-    for frame, cols, body in moving:
+    for frame, cols, body, drawn in moving:
         scene = channel(f"/scene/{frame}", fm.SceneUpdate)
         topics.append(f"/scene/{frame}")
         writer.add_message(scene, log_time=stamps[0], publish_time=stamps[0], sequence=0,
@@ -82,16 +85,69 @@ def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndar
         for sequence, (stamp, row) in enumerate(zip(stamps, values[:, cols], strict=True)):
             writer.add_message(tf, log_time=stamp, publish_time=stamp, sequence=sequence,
                                data=transform(frame, stamp, *row).encode())
+        if drawn:
+            arrows = channel(f"/scene/{frame}/vectors", fm.SceneUpdate)
+            topics.append(f"/scene/{frame}/vectors")
+            for sequence, (stamp, row) in enumerate(zip(stamps, values, strict=True)):
+                writer.add_message(arrows, log_time=stamp, publish_time=stamp,
+                                   sequence=sequence, data=vector_update(frame, drawn, row)
+                                   .encode())
     return topics
 
 
-def vehicles(columns: list[str], units: list[str], ports: dict[str, Any]
-             ) -> list[tuple[str, list[int], dict[str, float]]]:
-    """(frame, column indices of x, y and heading, body) of each recorded pose whose block
-    describes its vehicle; the frame is the component's name."""
-    return [(port.rpartition(".")[0] or port, cols, ports[port]["body"])
+def arrow(frame: str, vector: dict[str, Any], value: float) -> Any:
+    """A vector of the vehicle (`Component.vectors`) at `value` as a `foxglove.SceneEntity`
+    in the vehicle's frame: an arrow from `at` along `along` (reversed for a negative value),
+    `scale` |value| long, in its colour, labelled with its value."""
+    import foxglove.messages as fm
+
+    length = abs(vector["scale"] * value)
+    d = [c * (1.0 if value >= 0 else -1.0) for c in vector["along"]]
+    w, qx, qy, qz = 1.0 + d[0], 0.0, -d[2], d[1]     # the rotation taking +x to d
+    norm = math.sqrt(w * w + qx * qx + qy * qy + qz * qz)
+    w, qx, qy, qz = (w / norm, qx / norm, qy / norm, qz / norm) if norm > 1e-9 else (
+        0.0, 0.0, 0.0, 1.0)
+    at = fm.Vector3(x=vector["at"][0], y=vector["at"][1], z=vector["at"][2])
+    r, g, b = (int(vector["colour"][k:k + 2], 16) / 255 for k in (1, 3, 5))
+    colour = fm.Color(r=r, g=g, b=b, a=1.0)
+    head = min(0.3 * length, 0.08)
+    return fm.SceneEntity(
+        frame_id=frame, id=f"{frame} {vector['label']}", frame_locked=True,
+        arrows=[fm.ArrowPrimitive(
+            pose=fm.Pose(position=at, orientation=fm.Quaternion(x=qx, y=qy, z=qz, w=w)),
+            shaft_length=length - head, shaft_diameter=0.02, head_length=head,
+            head_diameter=0.06, color=colour)],
+        texts=[fm.TextPrimitive(
+            pose=fm.Pose(position=at, orientation=fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+            billboard=True, font_size=12.0, scale_invariant=True, color=colour,
+            text=f"{vector['label']} {value:.3g}")])
+
+
+class Vehicle(NamedTuple):
+    """A recorded pose whose block describes its vehicle (`Component.bodies`)."""
+
+    frame: str  #: the component's name
+    cols: list[int]  #: the column indices of x, y and heading
+    body: dict[str, float]
+    vectors: list[tuple[dict[str, Any], int]]  #: each recorded vector and its column index
+
+
+def vehicles(columns: list[str], units: list[str], ports: dict[str, Any]) -> list[Vehicle]:
+    """Each recorded pose whose block describes its vehicle, with its recorded vectors."""
+    where = {c: j for j, c in enumerate(columns)}
+    return [Vehicle(port.rpartition(".")[0] or port, cols, ports[port]["body"],
+                    [(v, where[v["column"]]) for v in ports[port].get("vectors", [])
+                     if v["column"] in where])
             for port, cols in _planar(columns, units).items()
             if len(cols) == 3 and (ports.get(port) or {}).get("body")]
+
+
+def vector_update(frame: str, drawn: list[tuple[dict[str, Any], int]], row: np.ndarray
+                  ) -> Any:
+    """The `foxglove.SceneUpdate` of the vehicle's vectors at a recorded row."""
+    import foxglove.messages as fm
+
+    return fm.SceneUpdate(entities=[arrow(frame, v, float(row[j])) for v, j in drawn])
 
 
 def transform(frame: str, stamp: int, x: float, y: float, heading: float) -> Any:
