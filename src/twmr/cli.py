@@ -194,13 +194,17 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_diagram(args: argparse.Namespace) -> int:
     from twmr.api import load
-    from twmr.diagram import diagram_svg
+    from twmr.diagram import closed_subsystems, diagram_svg
 
     path = Path(args.scenario)
     system = load(path, args.set).system
+    try:
+        closed = closed_subsystems(system, args.closed or [])
+    except ValueError as err:
+        raise CosimError(str(err)) from None
     out = Path(args.out) if args.out else path.with_suffix(".svg")
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(diagram_svg(system, title=path.name), encoding="utf-8")
+    out.write_text(diagram_svg(system, title=path.name, closed=closed), encoding="utf-8")
     print(out)
     return 0
 
@@ -669,6 +673,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     dg.add_argument("scenario")
     with_set(dg)
     dg.add_argument("--out", help="the SVG file (default: the scenario's name, .svg)")
+    dg.add_argument("--closed", action="append", metavar="SUBSYSTEM",
+                    help="draw this subsystem as one block, its ports those its wires cross "
+                    "(repeatable; all: every outermost one)")
     dg.add_argument("--trust-code", action="store_true",
                     help="import the scenario's own Python blocks to draw them (importing runs "
                     "their code; without it they are refused)")

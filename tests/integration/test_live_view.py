@@ -43,14 +43,14 @@ def browser():
     driver.quit()
 
 
-def _start_run(out: Path, stop: float = 8.0, pace: str = "true"
+def _start_run(out: Path, stop: float = 8.0, pace: str = "true", scenario: Path = SCENARIO
                ) -> tuple[subprocess.Popen[str], str, list[str]]:
     """A paced paper run with a live view on a free port; the process, the page's URL and the
     lines of stderr so far (filled on by a thread)."""
     env = {**os.environ, "TWMR_CACHE_DIR": os.environ.get("TWMR_CACHE_DIR",
                                                           str(out.parent / "cache"))}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twmr.cli", "run", str(SCENARIO), "--set",
+        [sys.executable, "-m", "twmr.cli", "run", str(scenario), "--set",
          f"experiment.realtime={pace}", "--set", f"experiment.stop={stop}", "--live",
          "127.0.0.1:0", "--live-keep", "--format", "none", "--out", str(out)],
         stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, env=env, cwd=out.parent)
@@ -314,4 +314,56 @@ def test_the_diagram_shows_every_block_and_a_port_click_opens_its_scope(browser,
     assert "ctrl.d_hat[1]" not in before
     assert {"ctrl.d_hat[1]", "ctrl.d_hat[2]"} <= set(after) & set(charted)
     assert "ctrl.d_hat" in shown
+    assert errors == [], errors
+
+
+def test_a_subsystem_closes_into_one_block_and_opens_again(browser, tmp_path):
+    """The nested paper scenario: a click on the robot's frame draws it as one block whose
+    ports are the inner ports its wires cross, the wires inside hidden; a click on its pose
+    port opens that scope; a click on the block opens the subsystem again."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    def names() -> list[str]:
+        return browser.execute_script(
+            "return [...document.querySelectorAll('#diagram g.block')].map(g => g.dataset.name);")
+
+    nested = ROOT / "scenarios" / "nested" / "paper_trajectory1_asmc.yaml"
+    proc, url, _ = _start_run(tmp_path / "run", stop=2.0, pace="4", scenario=nested)
+    try:
+        browser.get(url)
+        wait = WebDriverWait(browser, 120, poll_frequency=0.2)
+        wait.until(lambda d: len(names()) > 0)
+        opened = names()
+        browser.find_element(By.CSS_SELECTOR,
+                             '#diagram g.subsystem[data-name="robot"] text').click()
+        wait.until(lambda d: "robot" in names())
+        closed = names()
+        ports = browser.execute_script(
+            "return [...document.querySelectorAll('#diagram g.block.closed g.port')].map("
+            "g => g.dataset.port);")
+        wires = browser.execute_script(
+            "return [...document.querySelectorAll('#diagram path.wire')].map("
+            "p => p.dataset.src + ' -> ' + p.dataset.dst);")
+        browser.find_element(
+            By.CSS_SELECTOR, '#diagram g.port[data-port="robot.plant.pose"]').click()
+        charted = browser.execute_script(
+            "return twmrLive.charts.flatMap(c => c.cols.map(i => twmrLive.columns[i]));")
+        browser.find_element(By.CSS_SELECTOR, '#diagram g.block.closed text.head').click()
+        wait.until(lambda d: "robot" not in names())
+        reopened = names()
+        errors = _severe(browser)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert sorted(opened) == ["ctrl", "ref", "robot.motor", "robot.plant", "robot.slip"]
+    assert sorted(closed) == ["ctrl", "ref", "robot"]
+    assert sorted(ports) == ["robot.motor.torque_command", "robot.plant.pose",
+                             "robot.plant.wheel_speed"]
+    # only the wires that cross the subsystem's edge, and the ones outside it
+    assert all(not (w.split(" -> ")[0].startswith("robot.")
+                    and w.split(" -> ")[1].startswith("robot.")) for w in wires)
+    assert "ctrl.torque -> robot.motor.torque_command" in wires
+    assert "robot.plant.pose[1]" in charted
+    assert sorted(reopened) == sorted(opened)
     assert errors == [], errors

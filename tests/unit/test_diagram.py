@@ -70,6 +70,48 @@ def test_a_subsystems_blocks_sit_in_its_frame() -> None:
         assert inside == name.startswith("robot."), name
 
 
+def test_a_closed_subsystem_is_one_block_with_the_ports_its_wires_cross(
+        tmp_path: Path, capsys) -> None:
+    """`--closed robot`: one block for the robot's three, its ports the inner ports that wires
+    from outside reach (named from the subsystem), each crossing wire ending on that port's
+    circle, no wire inside it drawn; an unknown name is refused naming the subsystems."""
+    path = ROOT / "scenarios" / "nested" / "paper_trajectory1_asmc.yaml"
+    out = tmp_path / "closed.svg"
+    assert main(["diagram", str(path), "--closed", "all", "--out", str(out)]) == 0
+    root = ET.fromstring(out.read_text(encoding="utf-8"))
+    found = {g.get("data-name"): g for g in root.iter("{http://www.w3.org/2000/svg}g")
+             if (g.get("class") or "").startswith("block")}
+    assert sorted(found) == ["ctrl", "ref", "robot"]
+    robot = found["robot"]
+    assert robot.get("class") == "block closed" and "subsystem of 3 blocks" in "".join(
+        robot.itertext())
+    circles = {g.get("data-port"): g.find("s:circle", NS) for g in robot.iter(
+        "{http://www.w3.org/2000/svg}g") if "port" in (g.get("class") or "")}
+    assert sorted(circles) == ["robot.motor.torque_command", "robot.plant.pose",
+                               "robot.plant.wheel_speed"]
+    labels = "".join(robot.itertext())
+    assert "plant.pose[3] [m, rad]" in labels and "motor.torque_command[2] [N.m]" in labels
+    system = load(path).system
+    crossing = [c for c in system.connections  # type: ignore[attr-defined]
+                if c.src.startswith("robot.") != c.dst.startswith("robot.")]
+    drawn = wires(root)
+    assert len(drawn) == len([c for c in system.connections  # type: ignore[attr-defined]
+                              if not (c.src.startswith("robot.") and c.dst.startswith("robot."))])
+    for c in crossing:
+        end = c.dst if c.dst.startswith("robot.") else c.src
+        port = c.dst_port if end == c.dst else c.src_port
+        wire = next(w for w in drawn if w.get("data-src") == f"{c.src}.{c.src_port}"
+                    and w.get("data-dst") == f"{c.dst}.{c.dst_port}")
+        circle = circles[f"{end}.{port}"]
+        assert circle is not None
+        xy = f"{float(circle.get('cx', 0)):.1f},{float(circle.get('cy', 0)):.1f}"
+        d = wire.get("d") or ""
+        assert d.startswith(f"M{xy}") or d.endswith(xy), (c, d, xy)
+    assert main(["diagram", str(path), "--closed", "robt", "--out", str(out)]) == 1
+    said = capsys.readouterr().err
+    assert "--closed robt" in said and "its subsystems: robot" in said and "Fix:" in said
+
+
 def test_text_is_escaped_and_a_users_block_is_not_imported_unasked(tmp_path: Path,
                                                                      capsys) -> None:
     odd = tmp_path / "a<b>&c.yaml"

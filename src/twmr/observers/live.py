@@ -3,7 +3,8 @@
 An HTTP + WebSocket server (`websockets`' threaded server) on 127.0.0.1 unless told otherwise
 serves one page (`live_static/live.html`: scopes and the XY view plotted with the vendored uPlot,
 a 3D view of the vehicles drawn on a canvas, and the scenario's diagram (`twmr.diagram`, served as
-`/diagram.svg`; a click on a port opens its scope)) and streams the rows
+`/diagram.svg`, `?closed=robot,...` for subsystems drawn as one block; a click on a port opens
+its scope, on a subsystem closes or opens it)) and streams the rows
 the run records to every page that connects. The run never waits for a viewer: `rows` decimates
 the chunk to at most `FRAME_ROWS` rows and appends it to each client's queue, where the rows
 not yet sent gather into one frame (at most `CLIENT_ROWS` rows, the oldest dropped past it);
@@ -29,7 +30,7 @@ import threading
 from importlib import resources
 from pathlib import PurePosixPath
 from typing import Any
-from urllib.parse import urlsplit
+from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
@@ -51,6 +52,8 @@ _STATIC = {"/": ("live.html", "text/html; charset=utf-8"),
            "/uPlot.min.css": ("uPlot.min.css", "text/css; charset=utf-8"),
            "/uPlot.LICENSE": ("uPlot.LICENSE", "text/plain; charset=utf-8")}
 _LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+#: diagrams kept drawn (one per set of closed subsystems asked for)
+DIAGRAMS_KEPT = 32
 #: the most close() waits for the pages to let go [s]
 CLOSE_WAIT = 5.0
 
@@ -141,7 +144,7 @@ class LiveView(Observer):
         self._history_rows = 0
         self._end_message: str | None = None
         self._system: Any = None
-        self._diagram: bytes | None = None
+        self._diagrams: dict[frozenset[str], bytes] = {}
         self._server: Any = None
         self._thread: threading.Thread | None = None
         self._closing = False
@@ -235,7 +238,11 @@ class LiveView(Observer):
                 return connection.respond(403, "Forbidden: another site's page.\n")
             return None
         if path == "/diagram.svg":
-            body = self._diagram_svg()
+            query = parse_qs(urlsplit(request.path).query).get("closed", [""])[0]
+            try:
+                body = self._diagram_svg(frozenset(n for n in query.split(",") if n))
+            except ValueError as err:
+                return connection.respond(400, f"{err}\n")
             if body is None:
                 return connection.respond(404, "No run has started yet.\n")
             kind = "image/svg+xml; charset=utf-8"
@@ -252,17 +259,19 @@ class LiveView(Observer):
                                             ("Cache-Control", "no-store"),
                                             ("Connection", "close")]), body)
 
-    def _diagram_svg(self) -> bytes | None:
-        """The running system's diagram (drawn at the first request, then kept)."""
+    def _diagram_svg(self, closed: frozenset[str]) -> bytes | None:
+        """The running system's diagram with the subsystems `closed` drawn as one block each
+        (drawn at the first request for them, then kept); ValueError: no such subsystem."""
         with self._lock:
-            system, body = self._system, self._diagram
+            system, body = self._system, self._diagrams.get(closed)
         if body is None and system is not None:
-            from twmr.diagram import diagram_svg
+            from twmr.diagram import closed_subsystems, diagram_svg
 
-            body = diagram_svg(system, str(getattr(system, "source", ""))).encode("utf-8")
+            body = diagram_svg(system, str(getattr(system, "source", "")),
+                               closed_subsystems(system, closed)).encode("utf-8")
             with self._lock:
-                if self._system is system:
-                    self._diagram = body
+                if self._system is system and len(self._diagrams) < DIAGRAMS_KEPT:
+                    self._diagrams[closed] = body
         return body
 
     def _host_allowed(self, host: str) -> bool:
@@ -349,7 +358,7 @@ class LiveView(Observer):
                               "diagram": run.system is not None})
         with self._lock:
             self._start_message, self._end_message = message, None
-            self._system, self._diagram = run.system, None
+            self._system, self._diagrams = run.system, {}
             self._history, self._history_rows = [], 0
         self._broadcast(message)
 
