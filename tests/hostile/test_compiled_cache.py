@@ -85,3 +85,28 @@ def test_a_corrupt_numba_cache_is_recompiled_not_blamed_on_the_kernel(fresh, cac
     o, result = compiled_run(cache.parent, cache, "third")  # the new cache is used as is
     same_rows(result, fresh[1])
     assert "numba's cache of" not in o.stderr
+
+
+def test_a_purge_spares_the_cache_another_process_recorded_meanwhile(tmp_path: Path) -> None:
+    """The check found a file not recorded; by the time this process holds the lock to purge,
+    another has recorded the set: the purge leaves it (no recompiling what is sound). A set still
+    not recorded, or one numba could not read, goes."""
+    from twmr.master.schedule_cache import _VerifiedCache
+
+    module = tmp_path / "schedule_abc.py"
+    module.write_text("", encoding="utf-8")
+    cache = _VerifiedCache(module, [])
+    cache.folders = {tmp_path}
+    files = [tmp_path / "schedule_abc.run-3.py311.nbi", tmp_path / "schedule_abc.run-3.py311.1.nbc"]
+    for f in files:
+        f.write_bytes(b"numba's bytes")
+    why = cache._mismatch()
+    assert "is not recorded" in why
+    cache._record()  # the other process, between the check and the purge
+    cache._purge(why, unless_mended=True)
+    assert all(f.exists() for f in files) and cache.manifest.exists()
+    cache._purge("numba could not read it", unless_mended=False)
+    assert not any(f.exists() for f in files) and not cache.manifest.exists()
+    files[0].write_bytes(b"unrecorded")
+    cache._purge(cache._mismatch(), unless_mended=True)
+    assert not files[0].exists()

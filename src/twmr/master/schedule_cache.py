@@ -155,16 +155,18 @@ class _VerifiedCache:
         load, save = cache.load_overload, cache.save_overload
 
         def load_overload(sig: Any, target_context: Any) -> Any:
-            with self._locked(fcntl.LOCK_SH):
+            with self._locked(fcntl.LOCK_SH):  # no process saves or purges while it is read
                 bad = self._mismatch()
+                if not bad:
+                    try:
+                        return load(sig, target_context)
+                    except Exception as exc:  # noqa: BLE001 - unreadable: compiled anew
+                        unreadable = f"numba could not read it ({type(exc).__name__}: {exc})"
             if bad:
-                self._purge(bad)
-                return None
-            try:
-                return load(sig, target_context)
-            except Exception as exc:  # noqa: BLE001 - an unreadable cache is compiled anew
-                self._purge(f"numba could not read it ({type(exc).__name__}: {exc})")
-                return None
+                self._purge(bad, unless_mended=True)
+            else:
+                self._purge(unreadable, unless_mended=False)
+            return None
 
         def save_overload(sig: Any, data: Any) -> None:
             with self._locked(fcntl.LOCK_EX):
@@ -202,8 +204,12 @@ class _VerifiedCache:
         tmp.write_text(json.dumps({"module": self.path.name, "files": files}, indent=1) + "\n")
         os.replace(tmp, self.manifest)
 
-    def _purge(self, why: str) -> None:
+    def _purge(self, why: str, unless_mended: bool) -> None:
+        """Remove numba's files of the module and the manifest (`why` they are not used); with
+        `unless_mended`, not if another process has recorded a consistent set meanwhile."""
         with self._locked(fcntl.LOCK_EX):
+            if unless_mended and not self._mismatch():
+                return
             log.warning("numba's cache of %s is not used: %s; compiling it again", self.path,
                         why)
             for file in self._files():
