@@ -29,7 +29,8 @@ def test_the_robot_moves_in_the_scene_as_recorded(tmp_path: Path) -> None:
         reader = make_reader(stream, decoder_factories=[decoder.DecoderFactory()])
         got: dict[str, list] = {}
         for schema, channel, _, message in reader.iter_decoded_messages(
-                topics=["/tf", "/scene/plant", "/scene/paths", "/scene/plant/vectors"]):
+                topics=["/tf", "/scene/plant", "/scene/paths", "/scene/plant/vectors",
+                        "/poses/plant.pose"]):
             got.setdefault(channel.topic, []).append((schema.name, message))
     tf = got["/tf"]
     assert {name for name, _ in tf} == {"foxglove.FrameTransform"}
@@ -70,6 +71,19 @@ def test_the_robot_moves_in_the_scene_as_recorded(tmp_path: Path) -> None:
             head = (1 - 2 * (q.y ** 2 + q.z ** 2), 2 * (q.x * q.y + q.w * q.z))
             sign = 1.0 if value >= 0 else -1.0
             assert head == pytest.approx((sign * along[0], sign * along[1]), abs=1e-12)
+    # the robot's path so far with its headings (foxglove.PosesInFrame) at 0, 1 and 2 s
+    poses = got["/poses/plant.pose"]
+    assert {name for name, _ in poses} == {"foxglove.PosesInFrame"}
+    assert [m.timestamp.ToNanoseconds() * 1e-9 for _, m in poses] == pytest.approx(
+        [0.0, 1.0, 2.0])
+    last = poses[-1][1].poses
+    assert len(last) == len(result)  # 201 rows: under the 500 kept
+    np.testing.assert_allclose([q.position.x for q in last], result["plant.pose[1]"],
+                               atol=1e-12)
+    heading = np.array([2 * math.atan2(q.orientation.z, q.orientation.w) for q in last])
+    turned = heading - np.asarray(result["plant.pose[3]"])  # the same rotation: 2 pi k apart
+    np.testing.assert_allclose(np.cos(turned), 1.0, atol=1e-12)
+    assert len(poses[1][1].poses) == 101  # to t = 1 s
     # the result read back from the MCAP is the recorded one: the scene is beside it
     back = twmr.read_result(tmp_path / "run" / "result.mcap")
     np.testing.assert_array_equal(back.values, result.values)

@@ -604,7 +604,7 @@ class Execution:
                 limits = comp.limits().get(port)
                 if limits is not None:
                     ports[name]["limits"] = list(limits)
-                body = comp.bodies().get(port)
+                body = self.system.bodies.get(name) or comp.bodies().get(port)
                 if body is not None:
                     ports[name]["body"] = dict(body)
                     drawn = _recorded_vectors(owner, comp.vectors().get(port, []),

@@ -10,7 +10,9 @@ Foxglove SDK: the extra `foxglove`), so Foxglove's 3D panel draws the robot:
   recorded vectors (`Component.vectors`: the paper plant's slip velocities and disturbance
   torques) as labelled arrows in its frame;
 - `/scene/paths` (`foxglove.SceneUpdate`, once): each recorded planar position (a reference
-  path) and each pose's path as a line in `world`.
+  path) and each pose's path as a line in `world`;
+- `/poses/<port>` (`foxglove.PosesInFrame`): each recorded planar pose's path so far, with its
+  headings, every `POSES_EVERY` s of simulated time and at the end.
 """
 from __future__ import annotations
 
@@ -24,6 +26,9 @@ log = logging.getLogger("twmr.run")
 
 #: the frame every path and vehicle frame is in
 WORLD = "world"
+#: simulated time between the messages of a pose's path so far [s], and their most poses
+POSES_EVERY = 1.0
+POSES_MOST = 500
 
 
 def _planar(columns: list[str], units: list[str]) -> dict[str, list[int]]:
@@ -72,6 +77,13 @@ def add_scene(writer: Any, columns: list[str], units: list[str], values: np.ndar
                                     scale_invariant=True, points=points, color=colour)]))
     writer.add_message(paths, log_time=stamps[0], publish_time=stamps[0], sequence=0,
                        data=fm.SceneUpdate(entities=lines).encode())
+    for port, cols in planar.items():
+        if len(cols) == 3:
+            poses = channel(f"/poses/{port}", fm.PosesInFrame)
+            topics.append(f"/poses/{port}")
+            for sequence, (k, stamp) in enumerate(path_samples(t)):
+                writer.add_message(poses, log_time=stamp, publish_time=stamp, sequence=sequence,
+                                   data=poses_so_far(values[: k + 1, cols], stamp).encode())
     moving = vehicles(columns, units, ports)
     if not moving:
         return topics
@@ -121,6 +133,30 @@ def arrow(frame: str, vector: dict[str, Any], value: float) -> Any:
             pose=fm.Pose(position=at, orientation=fm.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
             billboard=True, font_size=12.0, scale_invariant=True, color=colour,
             text=f"{vector['label']} {value:.3g}")])
+
+
+def path_samples(t: np.ndarray) -> list[tuple[int, int]]:
+    """(row, stamp [ns]) at which a pose's path so far is written: the first row, the first at
+    or after each further `POSES_EVERY` s, and the last."""
+    marks = np.floor((t - t[0]) / POSES_EVERY + 1e-9)
+    rows = [0, *np.flatnonzero(np.diff(marks) > 0) + 1, len(t) - 1]
+    return [(int(k), round(float(t[k]) * 1e9)) for k in dict.fromkeys(rows)]
+
+
+def poses_so_far(xyh: np.ndarray, stamp: int) -> Any:
+    """The `foxglove.PosesInFrame` of a planar pose's path to `stamp` [ns] in `world`, at most
+    `POSES_MOST` poses (thinned by a stride, the last kept)."""
+    import foxglove.messages as fm
+
+    stride = max(1, -(-len(xyh) // POSES_MOST))
+    kept = xyh[::-1][::stride][::-1]
+    return fm.PosesInFrame(
+        timestamp=fm.Timestamp(sec=stamp // 1_000_000_000, nsec=stamp % 1_000_000_000),
+        frame_id=WORLD,
+        poses=[fm.Pose(position=fm.Vector3(x=float(x), y=float(y), z=0.0),
+                       orientation=fm.Quaternion(x=0.0, y=0.0, z=math.sin(float(h) / 2),
+                                                 w=math.cos(float(h) / 2)))
+               for x, y, h in kept])
 
 
 class Vehicle(NamedTuple):

@@ -185,10 +185,11 @@ class _Builder:
                 "docs/algorithms.md). A block may declare feedthrough conservatively: check "
                 "that each '=>' output really reads that input at the same instant."))
         record = self.record(comps)
+        bodies = self.bodies(comps)
         self.fail_if_problems()
         multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
         return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source,
-                      events=tuple(marks), changes=tuple(changes))
+                      events=tuple(marks), changes=tuple(changes), bodies=bodies)
 
     def cycle_location(self, cycle: list[tuple[str, str]], conns: list[Connection]) -> Location:
         """Where the first wire of `cycle` (a closed walk of ports) is written."""
@@ -649,6 +650,35 @@ class _Builder:
                     continue
                 opened |= {(n, p, i) for i in indices}
         return opened
+
+    def bodies(self, comps: dict[str, Component]) -> dict[str, dict[str, float]]:
+        """The vehicles the scenario describes (`body:`), by pose port ('plant.pose'), each
+        dimension not given from its defaults; a port that is no output of 3 elements is a
+        problem at its line."""
+        found: dict[str, dict[str, float]] = {}
+        for name, spec in self.spec.components.items():
+            comp = comps.get(name)
+            if comp is None:
+                continue
+            for port, given in spec.body.items():
+                var = comp.variables.get(port)
+                if var is None or var.kind not in ("output", "state") or var.width != 3:
+                    poses = [n for n, v in comp.variables.items()
+                             if v.kind in ("output", "state") and v.width == 3]
+                    self.problems.append(Problem(
+                        given.where, f"component '{name}' ({spec.kind.value}): body: '{port}' "
+                        f"is not a planar pose it outputs (x, y, heading: an output of 3 "
+                        f"elements).", f"name one of its outputs of 3 elements "
+                        f"({', '.join(poses) or 'it has none'})."))
+                    continue
+                dims = {k: float(v) for k, v in given.value.items()}
+                r, b = dims["wheel_radius"], dims["half_track"]
+                found[f"{name}.{port}"] = {"wheel_radius": r, "half_track": b,
+                                           "length": dims.get("length", 2.0 * b),
+                                           "width": dims.get("width", 1.6 * b),
+                                           "height": dims.get("height", r),
+                                           "ahead": dims.get("ahead", 0.0)}
+        return found
 
     def record(self, comps: dict[str, Component]) -> RecordSpec:
         spec = self.spec.record

@@ -123,6 +123,12 @@ def _into(spec: ScenarioSpec, prefix: str, multiple: int, out: _Flat) -> None:
             out.comps[prefix + name] = dataclasses.replace(comp, name=prefix + name,
                                                            step_multiple=step)
             continue
+        if comp.body:
+            first = next(iter(comp.body.values()))
+            out.problems.append(Problem(first.where, f"component '{prefix}{name}' is a "
+                                        f"subsystem: its vehicle (body:) is drawn from the "
+                                        f"block inside that moves it.",
+                                        "give body: on that block in the subsystem's file."))
         _into(comp.system, f"{prefix}{name}.", int(step.value), out)
         for side, port, ex in _exposures(comp.system):
             _exposure(comp.system, f"{prefix}{name}.", port, ex, side, out)

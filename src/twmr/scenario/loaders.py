@@ -187,9 +187,10 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
 
             inner = subsystem(name, parameters, initial, at(*where), source, base_dir)
             parameters, initial = {k: v for k, v in parameters.items() if k == "path"}, {}
+        body = {k: given(*where, "body", k) for k in spec.get("body") or {}}
         comps[name] = ComponentSpec(
             name, kind, parameters, initial, given(*where, "step_multiple", default=1),
-            at(*where), spec.get("description", ""), inner)
+            at(*where), spec.get("description", ""), inner, body)
     e = ("experiment",)
     others = [k for k in data.get("experiment") or {} if k not in EXPERIMENT_KEYS]
     experiment = ExperimentSpec(given(*e, "start", default=0.0), given(*e, "stop"),

@@ -53,6 +53,8 @@ class ComponentSpec:
     where: Location
     description: str = ""
     system: ScenarioSpec | None = None
+    #: the vehicles it moves, by pose port (`body:`; `twmr.scenario.bodies`)
+    body: dict[str, Given[Any]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

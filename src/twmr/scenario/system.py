@@ -104,6 +104,9 @@ class System:
     events: tuple[Any, ...] = ()
     #: parameters set during the run, by base step (`twmr.scenario.events.Change`)
     changes: tuple[Any, ...] = ()
+    #: the vehicles the scenario describes (`body:`), by pose port ('plant.pose'): in place of
+    #: what their blocks say (`Component.bodies`)
+    bodies: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def paced(self) -> bool:
