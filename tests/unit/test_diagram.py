@@ -127,3 +127,26 @@ def test_text_is_escaped_and_a_users_block_is_not_imported_unasked(tmp_path: Pat
     assert "--trust-code" in err and "imported" not in err  # refused, not run
     assert main(["diagram", str(tmp_path / "mine.yaml"), "--trust-code"]) == 1
     assert "the code called exit ('imported')" in capsys.readouterr().err  # run when asked
+
+
+def test_blocks_of_a_layer_are_ordered_so_that_wires_do_not_cross(tmp_path: Path) -> None:
+    """a and b feed d and c, c stepping first: in step order the two wires would cross; the
+    layout puts d level with a and c level with b."""
+    path = tmp_path / "crossed.yaml"
+    path.write_text("""
+components:
+  a: {kind: constant}
+  b: {kind: constant}
+  c: {kind: gain}
+  d: {kind: gain}
+connections:
+  - b.y -> c.u
+  - a.y -> d.u
+experiment: {stop: 0.01, step: 0.001}
+""", encoding="utf-8")
+    system = load(path).system
+    assert system.order.index("c") < system.order.index("d")  # type: ignore[attr-defined]
+    root = ET.fromstring(diagram_svg(system))
+    top = {n: float(g.find("s:rect", NS).get("y", 0))  # type: ignore[union-attr]
+           for n, g in blocks(root).items()}
+    assert top["a"] < top["b"] and top["d"] < top["c"], top
