@@ -1,7 +1,9 @@
 """The cost of events: the paper scenario (30 s at 1 ms, compiled loop) without events, with 100
 `set` events (ctrl.k changed at 100 times) and with 100 port faults (a bias of 0 on
-ctrl.torque from 100 times), interleaved over rounds: wall times, and the cost per event
-(with - without) / 100.
+ctrl.torque from 100 times) and with one condition event (a set of ctrl.k each time the robot's
+x crosses -10 m: the master then takes one base step at a time), interleaved over rounds: wall
+times, the cost per event (with - without) / 100, and per base step of the condition event's
+stepping (with - without) / 30,000.
 
     python benchmarks/event_cost.py [--rounds 3]
 
@@ -36,7 +38,9 @@ def main() -> None:
              "set": scenario("".join(f"  - {{at: {t:.3f}, set: ctrl.k, value: "
                                      f"{59.0 + (k % 2)}}}\n" for k, t in enumerate(times))),
              "fault": scenario("".join(f"  - {{at: {t:.3f}, port: ctrl.torque, fault: bias, "
-                                       f"value: 0.0}}\n" for t in times))}
+                                       f"value: 0.0}}\n" for t in times)),
+             "condition": scenario('  - {when: "plant.pose[1] < -10.0", set: ctrl.k, '
+                                   'value: 59.5}\n')}
     for text in texts.values():  # compile what each needs once, outside the timing
         twmr.simulate(twmr.load(text), compiled="on")
     walls: dict[str, list[float]] = {k: [] for k in texts}
@@ -48,10 +52,14 @@ def main() -> None:
             walls[name].append(time.perf_counter() - t0)
     med = {k: statistics.median(v) for k, v in walls.items()}
     per = {k: (med[k] - med["none"]) / N for k in ("set", "fault")}
+    steps = round(30.0 / 1e-3)
+    per_step = (med["condition"] - med["none"]) / steps
     print(f"30 s paper run, compiled: no events {med['none'] * 1e3:.0f} ms; {N} set events "
           f"{med['set'] * 1e3:.0f} ms ({per['set'] * 1e3:.2f} ms each); {N} port faults "
-          f"{med['fault'] * 1e3:.0f} ms ({per['fault'] * 1e3:.3f} ms each)")
+          f"{med['fault'] * 1e3:.0f} ms ({per['fault'] * 1e3:.3f} ms each); a condition event "
+          f"{med['condition'] * 1e3:.0f} ms ({per_step * 1e6:.1f} us per base step)")
     print(json.dumps({"none_s": med["none"], "set_s": med["set"], "fault_s": med["fault"],
+                      "condition_s": med["condition"], "per_step_watched_s": per_step,
                       "per_set_event_s": per["set"], "per_fault_s": per["fault"],
                       "spread_none_s": max(walls["none"]) - min(walls["none"])}))
 

@@ -27,12 +27,13 @@ _MODULES = {
     "routing": ("Demux", "Math", "Mux", "Product", "Selector"),
     "signals": ("Chirp", "Noise", "Pulse", "Ramp", "Table"),
     "sources": ("Constant", "Sine", "Step"),
+    "watch": ("ConditionWatch",),
 }
 _WHERE = {name: module for module, names in _MODULES.items() for name in names}
 
-__all__ = ["Backlash", "Chirp", "Constant", "Data", "DeadZone", "Delay", "Demux", "FirstOrder",
-           "Gain", "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise", "Pid",
-           "PortFault", "Product", "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay",
+__all__ = ["Backlash", "Chirp", "ConditionWatch", "Constant", "Data", "DeadZone", "Delay", "Demux",
+           "FirstOrder", "Gain", "Integrator", "Lookup1D", "Lookup2D", "Math", "Mux", "Noise",
+           "Pid", "PortFault", "Product", "Pulse", "Quantizer", "Ramp", "RateLimiter", "Relay",
            "Saturation", "Selector", "Sine", "StateSpace", "Step", "Sum", "Table",
            "TransferFunction", "TransportDelay", "ZeroOrderHold"]
 

@@ -109,7 +109,7 @@ class PortFault(Component):
         if self.fault not in FAULTS:
             return [("fault", f"fault '{self.fault}' is unknown.",
                      f"use one of: {', '.join(FAULTS)}.")]
-        if not self.stop > self.start:
+        if not self.stop > self.start and math.isfinite(self.start):
             return [("stop", f"the fault ends ({self.stop:g} s) before it begins "
                      f"({self.start:g} s).", "give stop after start.")]
         return []

@@ -242,6 +242,8 @@ class Execution:
         self.algorithm.prepare(system, self.signals, system.record.decimation, check_finite)
         self.outcome = Outcome(n_steps=exp.n_steps)
         self._relay: _Relay | None = None
+        self._changes = list(system.changes)  # and those the condition events add
+        self._seen = {w.block: 0.0 for w in system.watches}  # each watch's firings handled
         self._n = 0
         self._rows: list[tuple[float, ...]] = []
         self._finished = False
@@ -322,11 +324,18 @@ class Execution:
     def _loop(self, n_steps: int) -> None:
         chunk = FIRST_CHUNK
         variable = self.algorithm.variable_step  # its steps must not depend on the chunks
+        watching = bool(self.system.watches)
         while self._n < n_steps:
             upcoming = self._changed()
             n1 = n_steps if variable else min(n_steps, self._n + chunk, upcoming)
             t0 = time.perf_counter()
-            self._n = self._advance(n1)
+            if watching:  # a step at a time: the conditions are looked at between steps
+                while self._n < n1:
+                    self._n = self._advance(self._n + 1)
+                    if self._watched():
+                        break
+            else:
+                self._n = self._advance(n1)
             dt = time.perf_counter() - t0
             self._emit()
             chunk = int(min(max(1, chunk * CHUNK_GROWTH), 200_000,
@@ -340,6 +349,7 @@ class Execution:
         while self._n < n_steps:
             self._changed()
             self._n = self._advance(self._n + 1)
+            self._watched()
             pacer(self._n)
             if self._n % every == 0:
                 self._emit()
@@ -351,11 +361,32 @@ class Execution:
         if self._signalled:
             raise RunInterrupted(self._signalled)
 
+    def _watched(self) -> bool:
+        """Whether a condition event fired in the step just taken (its watch block counted):
+        its action's changes are then due before the next step, and the firing is kept in the
+        outcome (`Outcome.fired`)."""
+        fired = False
+        for watch in self.system.watches:
+            block = self.system.components[watch.block]
+            count = float(block.get("count"))
+            if count <= self._seen[watch.block]:
+                continue
+            self._seen[watch.block] = count
+            at = self._time(self._n)
+            self._changes += watch.fired(self._n, at)
+            self.outcome.fired.append({
+                "when": watch.condition, "action": watch.action, "target": watch.target,
+                "located": float(block.get("located")), "at": at,
+                "until": at + watch.duration if watch.change is None else None,
+                **({"value": watch.value} if math.isfinite(watch.value) else {})})
+            fired = True
+        return fired
+
     def _changed(self) -> int:
-        """Set the parameters due before the present step (`System.changes`), the algorithm
-        told which components changed; the step of the next change (a chunk ends there), or
-        the end of time."""
-        changes = self.system.changes
+        """Set the parameters due before the present step (`System.changes` and those of the
+        condition events fired), the algorithm told which components changed; the step of the
+        next change (a chunk ends there), or the end of time."""
+        changes = self._changes
         due = [c for c in changes if c.step == self._n]
         if due:
             from twmr.scenario.events import apply_change

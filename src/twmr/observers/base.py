@@ -34,7 +34,8 @@ class Outcome:
     step to the end, set-up and initialization excluded), `realtime_factor` simulated time over
     it; `extra` holds pacing statistics and components' reports; `stopped_by` names the FMU that
     ended a completed run early (`experiment.fmu_terminate: stop`) and the time [s];
-    `statistics` the master's counts per block and per algebraic loop (`twmr.master.stats`)."""
+    `statistics` the master's counts per block and per algebraic loop (`twmr.master.stats`);
+    `fired` the condition events as they happened."""
 
     status: str = "completed"
     error: str = ""
@@ -46,6 +47,9 @@ class Outcome:
     statistics: dict[str, Any] = field(default_factory=dict)
     lateness_us: np.ndarray | None = None
     stopped_by: dict[str, Any] | None = None
+    #: each firing of a condition event: its condition, action and target, the located
+    #: crossing time and the time its action applied [s]
+    fired: list[dict[str, Any]] = field(default_factory=list)
 
 
 class Observer:

@@ -87,6 +87,8 @@ class SignalSummary(Observer):
         }
         if outcome.stopped_by is not None:
             self.document["stopped_by"] = outcome.stopped_by
+        if outcome.fired:
+            self.document["fired"] = list(outcome.fired)
         if run is not None and run.folder is not None:
             write_summary(self.document, run.folder / FILENAME)
 

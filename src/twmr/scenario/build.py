@@ -29,7 +29,7 @@ from twmr.core.errors import (
 from twmr.core.port import CLOCK, STRING, TEXT_TYPES
 from twmr.core.units import conversion, known_unit
 from twmr.registry import ALGORITHMS, kinds, lookup, plugins, suggest
-from twmr.scenario.events import Change, insert_faults, parameter_changes
+from twmr.scenario.events import Change, Watch, insert_faults, parameter_changes
 from twmr.scenario.flatten import Exposed, Flat, Wire, flatten
 from twmr.scenario.graph import (
     Loop,
@@ -152,10 +152,11 @@ class _Builder:
         self.fail_if_problems()
         marks: list[Any] = []
         changes: list[Change] = []
+        watches: list[Watch] = []
         if self.spec.events:
             changes, found, marks = parameter_changes(self.spec, comps, experiment)
             self.problems += found
-            self.spec, found, faults = insert_faults(self.spec, comps, experiment)
+            self.spec, found, faults, watches = insert_faults(self.spec, comps, experiment)
             self.problems += found
             marks = [*faults, *marks]
             self.fail_if_problems()
@@ -189,7 +190,8 @@ class _Builder:
         self.fail_if_problems()
         multiples = {n: int(c.step_multiple.value) for n, c in self.spec.components.items()}
         return System(comps, conns, exec_order, experiment, record, multiples, self.spec.source,
-                      events=tuple(marks), changes=tuple(changes), bodies=bodies)
+                      events=tuple(marks), changes=tuple(changes), bodies=bodies,
+                      watches=tuple(watches))
 
     def cycle_location(self, cycle: list[tuple[str, str]], conns: list[Connection]) -> Location:
         """Where the first wire of `cycle` (a closed walk of ports) is written."""

@@ -215,7 +215,9 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
         tuple(EventSpec(given("events", i, "at"), _maybe(given, "events", i, "until"),
                         _maybe(given, "events", i, "port"), _maybe(given, "events", i, "fault"),
                         _maybe(given, "events", i, "value"), _maybe(given, "events", i, "seed"),
-                        at("events", i), _maybe(given, "events", i, "set"))
+                        at("events", i), _maybe(given, "events", i, "set"),
+                        *(_maybe(given, "events", i, key)
+                          for key in ("when", "hysteresis", "duration")))
               for i in range(len(data.get("events") or []))))
 
 

@@ -110,7 +110,8 @@ class RecordingSpec:
 class EventSpec:
     """An event during the run (`events:`): a fault on a port from `at` until `until` [s] (None:
     the end), `port` ('comp.port') frozen, biased, scaled, noisy, dropped out or stuck at
-    `value`; or, with `set` ('comp.parameter'), the parameter set to `value` from `at` on."""
+    `value`; or, with `set` ('comp.parameter'), the parameter set to `value` from `at` on. With
+    `when` in place of `at`, either happens each time the condition becomes true."""
 
     at: Given[Any]
     until: Given[Any] | None
@@ -120,6 +121,11 @@ class EventSpec:
     seed: Given[Any] | None
     where: Location
     set: Given[str] | None = None
+    #: a condition ('comp.port[i] > c') in place of `at`, its hysteresis, and how long a fault
+    #: it opens lasts [s] (None: to the end)
+    when: Given[str] | None = None
+    hysteresis: Given[Any] | None = None
+    duration: Given[Any] | None = None
 
 
 @dataclass(frozen=True)

@@ -104,6 +104,8 @@ class System:
     events: tuple[Any, ...] = ()
     #: parameters set during the run, by base step (`twmr.scenario.events.Change`)
     changes: tuple[Any, ...] = ()
+    #: the condition events, watched between steps (`twmr.scenario.events.Watch`)
+    watches: tuple[Any, ...] = ()
     #: the vehicles the scenario describes (`body:`), by pose port ('plant.pose'): in place of
     #: what their blocks say (`Component.bodies`)
     bodies: dict[str, dict[str, float]] = field(default_factory=dict)
