@@ -121,5 +121,5 @@ def test_an_event_that_cannot_be_is_refused_at_check(tmp_path: Path, event: str,
 def test_condition_events_are_refused_on_the_adaptive_master(tmp_path: Path) -> None:
     path = _scenario(tmp_path, '  - {when: "s.y > 0.5", set: g.k, value: 3.0}',
                      algorithm="adaptive")
-    with pytest.raises(ScenarioError, match="condition events .* fixed-step masters"):
+    with pytest.raises(ScenarioError, match=r"condition events .* fixed-step masters"):
         twmr.load(path)
