@@ -5,6 +5,7 @@ paced run's timing. The style (`COLOURS`, `line_style`, `legend_outside`, `save`
 `twmr compare` and the sweep report."""
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
@@ -101,14 +102,20 @@ def is_planar_position(port: str, units: list[str]) -> bool:
 
 
 def event_marks(summary: Mapping[str, Any]) -> list[tuple[float, str]]:
-    """(time, text) of each event of a run's summary: a parameter set, a fault's start and end."""
+    """(time, text) of each event of a run's summary, in time order: a parameter set, a fault's
+    start and end, each firing of a condition event."""
     marks: list[tuple[float, str]] = []
     for event in summary.get("events") or []:
         what = f"{event.get('port')} {event.get('fault')}"
         marks.append((float(event["at"]), what))
         if event.get("until") is not None:
             marks.append((float(event["until"]), f"{what} ends"))
-    return marks
+    for fired in summary.get("fired") or []:  # condition events, as they happened
+        what = f"{fired.get('target')} {fired.get('action')}"
+        marks.append((float(fired["at"]), f"{what} ({fired.get('when')})"))
+        if fired.get("until") is not None and math.isfinite(float(fired["until"])):
+            marks.append((float(fired["until"]), f"{what} ends"))
+    return sorted(marks)
 
 
 def plot_result(data: np.ndarray, units: Mapping[str, str], out_dir: str | Path,

@@ -71,12 +71,15 @@ def _labels(ax: object) -> list[str]:
 
 def test_limits_dashed_reference_over_time_and_events_marked(tmp_path: Path) -> None:
     text = (ROOT / "scenarios" / "paper_trajectory1_asmc.yaml").read_text()
-    text += "events:\n  - {at: 1.0, set: plant.scale, value: 1.5}\n"
+    text += ("events:\n  - {at: 1.0, set: plant.scale, value: 1.5}\n"
+             "  - {when: 'plant.pose[1] < 0.0', set: ctrl.k, value: 50.0}\n")
     result = twmr.simulate(twmr.load(text, ["experiment.stop=2"]), tmp_path / "run")
     from twmr.plots import event_marks
 
     marks = event_marks(result.summary)
-    assert marks == [(1.0, "plant.scale set")]
+    fired, = result.summary["fired"]
+    assert marks == sorted([(1.0, "plant.scale set"),
+                            (fired["at"], "ctrl.k set (plant.pose[1] < 0.0)")])
     figures = result_figures(result.data, result.units, "paper", result.summary.get("ports"),
                              marks)
     torque = figures["ctrl_torque"].axes[0]
@@ -84,7 +87,7 @@ def test_limits_dashed_reference_over_time_and_events_marked(tmp_path: Path) -> 
     assert dashed == [-48.0, 48.0]  # the controller's torque_limit
     vertical = [ln.get_xdata()[0] for ln in torque.get_lines()
                 if len(ln.get_xdata()) == 2 and ln.get_xdata()[0] == ln.get_xdata()[1]]
-    assert vertical == [1.0]  # the event
+    assert sorted(vertical) == sorted([1.0, fired["at"]])  # the events
     x_axis, y_axis = figures["xy_time"].axes
     assert [lb.split(":")[0] for lb in _labels(x_axis)] == ["ref.position", "plant.pose"]
     assert x_axis.get_ylabel() == "x [m]" and y_axis.get_ylabel() == "y [m]"
