@@ -23,6 +23,7 @@ refuse.
 """
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import threading
@@ -85,6 +86,10 @@ class CanMotorDrive(Component, BusMember):
     log_file = Parameter("auto", type=STRING, description="frame log (.blf | .asc) in the "
                          "results folder; 'auto' = "
                          "<results>/<name>_frames.blf, '' = none")
+    on_pause = Parameter("hold", type=STRING, description="while the run is paused: hold "
+                         "(zero torque every step period, the drives' watchdogs fed) | trip "
+                         "(nothing sent: the drives' own watchdogs trip, and the host stops "
+                         "the run on it)")
 
     torque_command = Input(size=2, unit="N.m", description="(tau_R, tau_L) requested")
     wheel_speed = Input(size=2, unit="rad/s", description="load speed (fed to the emulator)")
@@ -124,6 +129,10 @@ class CanMotorDrive(Component, BusMember):
         problems = self.drive_problems()
         if problems and problems[0][0] == "protocol":
             return problems
+        if self.on_pause not in ("hold", "trip"):
+            problems.append(("on_pause", f"on_pause '{self.on_pause}' is unknown.",
+                             "give hold (zero torque, watchdogs fed) or trip (the drives' "
+                             "watchdogs trip)."))
         log = Path(self.log_file)
         if self.log_file not in ("auto", "") and (log.is_absolute() or ".." in log.parts or
                                                   log.suffix.lower() not in (".blf", ".asc")):
@@ -293,8 +302,27 @@ class CanMotorDrive(Component, BusMember):
         self._publish(time.monotonic())
         self._age_max = 0.0  # measured over the steps
         run = getattr(self, "_run", None)
+        self._period = getattr(run, "step", 0.0) or 0.01
         self._holding: ZeroTorque | None = ZeroTorque(self._live(), len(self._nodes),
-                                                      getattr(run, "step", 0.0) or 0.01)
+                                                      self._period)
+
+    def hold(self, t: float) -> None:
+        """While the run is paused: a fault the drives report stops the run (zero torque and
+        disabled); `on_pause: hold` sends zero torque every step period from a thread of its
+        own until the next step, `trip` sends nothing."""
+        self._t = t
+        if self.link is None:
+            return
+        fault = self.link.fault
+        if fault is not None:
+            if self.on_pause == "trip":
+                fault = dataclasses.replace(fault, what=f"{fault.what}, while the run was "
+                                            f"paused with on_pause: trip (nothing sent, as "
+                                            f"asked)", fix="on_pause: hold keeps the drives' "
+                                            "watchdogs fed with zero torque while paused")
+            self._trip(fault)
+        if self.on_pause == "hold" and getattr(self, "_holding", None) is None:
+            self._holding = ZeroTorque(self.link, len(self._nodes), self._period)
 
     def _release(self) -> None:
         """Stop holding the drives at zero torque (the run's own commands follow)."""

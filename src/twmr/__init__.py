@@ -1,8 +1,9 @@
 """twmr-cosim: co-simulation of wheeled mobile robots (engine).
 
 `twmr.load`, `twmr.simulate` (how a run goes: `twmr.Options`), `twmr.build`, `twmr.read_result`,
-`twmr.sweep`, `twmr.tune` (see `twmr.api`), and all a block of your own needs: `Component`,
-`Input`, `Output`, `Parameter`, `State`, `Kernel` and `CosimError` (`docs/components.md`).
+`twmr.sweep`, `twmr.tune` (see `twmr.api`), `twmr.Stepping` (a run step by step), and all a
+block of your own needs: `Component`, `Input`, `Output`, `Parameter`, `State`, `Kernel` and
+`CosimError` (`docs/components.md`).
 Imported on first use, so `import twmr` stays light.
 """
 from __future__ import annotations
@@ -17,7 +18,7 @@ _FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", 
          **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
                          "twmr.core"),
          "Kernel": "twmr.core.kernel", "Options": "twmr.core.run", "fit": "twmr.fitting",
-         "linearize": "twmr.linear_analysis"}
+         "linearize": "twmr.linear_analysis", "Stepping": "twmr.stepping"}
 __all__ = sorted([*_FROM, "__version__"])
 
 

@@ -22,7 +22,7 @@ import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from twmr.core.errors import CosimError
 from twmr.core.run import Options
@@ -31,6 +31,9 @@ from twmr.observers.base import Observer
 from twmr.result import Result, read_result
 from twmr.scenario.structure import ScenarioSpec
 from twmr.scenario.system import System
+
+if TYPE_CHECKING:
+    from twmr.master.gate import Gate
 
 __all__ = ["Result", "Scenario", "build", "load", "read_result", "simulate", "sweep", "tune"]
 log = logging.getLogger("twmr.run")
@@ -134,7 +137,8 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
              *, formats: Sequence[str] = (), observers: Sequence[Observer] = (),
              metrics: Sequence[str] = (), progress: bool = False,
              header: dict[str, Any] | None = None, live: str | None = None,
-             compiled: str | None = None, options: Options | None = None) -> Result:
+             compiled: str | None = None, options: Options | None = None,
+             gate: Gate | None = None) -> Result:
     """Run a scenario to its stop time and return its `Result`.
 
     `out`: the run's folder (crash-consistent `result.arrows`, `summary.json`, the asked export
@@ -143,7 +147,9 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     `live`: '[HOST:]PORT' of a live view of the run in the browser (`docs/live.md`; its URL is
     logged), closed when the run ends. `options`: how the run goes (`twmr.Options`: the compiled
     loop, time per block, every FMU message); `compiled`: 'auto' | 'on' | 'off' sets
-    `options.compiled` (docs/components.md; None: `TWMR_COMPILED`, default 'auto').
+    `options.compiled` (docs/components.md; None: `TWMR_COMPILED`, default 'auto'). `gate`
+    pauses, steps and stops the run from another thread (`twmr.master.gate`; `twmr.Stepping`
+    drives one); a stopped run's result has status 'stopped'.
     Raises a `CosimError` (or `KeyboardInterrupt`) after every component is terminated; the
     results so far are in `<out>.incomplete` (see the module's docstring)."""
     from twmr.master.algorithm import algorithm_for
@@ -173,12 +179,14 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
 
         extra.append(ProgressBar())
     if live is not None:
+        from twmr.master.gate import Gate
         from twmr.observers.live import LiveView
 
-        extra.append(LiveView(live))
+        gate = gate or Gate()
+        extra.append(LiveView(live, gate=gate))
     if out is None:
         ex = Execution(system, [store, summary, *extra, *observers], algorithm=algorithm,
-                       options=options)
+                       options=options, gate=gate)
         ex.run()
         result = Result(ex.columns, ex.units, store.data(), summary.document,
                         ticks=store.tick_table())
@@ -191,7 +199,7 @@ def simulate(scenario: Scenario | str | Path | dict[str, Any], out: str | Path |
     try:
         stage = _stage(final)
         ex = Execution(system, [store, summary, PacingReport(), *extra, *observers], stage,
-                       algorithm=algorithm, options=options)
+                       algorithm=algorithm, options=options, gate=gate)
         error: BaseException | None = None
         try:
             ex.run()

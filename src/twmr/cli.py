@@ -80,7 +80,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         result = api.simulate(scenario, out, formats=formats, metrics=metrics,
                               progress=not args.quiet, options=options,
-                              observers=[o for o in (live, foxglove) if o is not None])
+                              observers=[o for o in (live, foxglove) if o is not None],
+                              gate=live.gate if live is not None else None)
     except (CosimError, KeyboardInterrupt) as err:
         folder = getattr(err, "partial_results", None)
         if folder is not None and args.plot:
@@ -145,9 +146,10 @@ def _live_view(args: argparse.Namespace) -> Any:
             raise CosimError("--live-keep keeps the live view up after the run, and there is "
                              "none. Fix: add --live PORT (e.g. --live 0), or drop --live-keep.")
         return None
+    from twmr.master.gate import Gate
     from twmr.observers.live import LiveView
 
-    live = LiveView(args.live, keep=args.live_keep)
+    live = LiveView(args.live, keep=args.live_keep, gate=Gate())
     print(f"live view: {live.start()}", file=sys.stderr, flush=True)
     return live
 

@@ -378,3 +378,50 @@ def test_a_subsystem_closes_into_one_block_and_opens_again(browser, tmp_path):
     assert "robot.plant.pose[1]" in charted
     assert sorted(reopened) == sorted(opened)
     assert errors == [], errors
+
+
+def test_the_page_pauses_steps_and_resumes_the_run(browser, tmp_path):
+    """Pause holds the run (no row arrives however long the page waits for one), Step 0.1 s
+    takes exactly 100 steps (10 rows at decimation 10) and pauses again, Resume runs it to the
+    end; summary.json says it completed after a pause."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select, WebDriverWait
+
+    def rows() -> int:
+        return browser.execute_script("return twmrLive.data.length ? twmrLive.data[0].length "
+                                      ": 0;")
+
+    def last_time() -> float:
+        return browser.execute_script("return twmrLive.data[0][twmrLive.data[0].length - 1];")
+
+    proc, url, _ = _start_run(tmp_path / "run", stop=6.0, pace="2")
+    try:
+        browser.get(url)
+        wait = WebDriverWait(browser, 120, poll_frequency=0.2)
+        wait.until(lambda d: rows() > 20)
+        browser.find_element(By.ID, "runpause").click()
+        wait.until(lambda d: d.execute_script("return twmrLive.runPaused === true;"))
+        # the rows taken before the pause arrive; then none: the run waits
+        settled = []
+        wait.until(lambda d: settled.append(rows()) or (len(settled) > 5
+                                                        and len(set(settled[-5:])) == 1))
+        held, t_held = rows(), last_time()
+        threading.Event().wait(1.0)
+        assert rows() == held  # a second later: still nothing (the run is paused)
+        Select(browser.find_element(By.ID, "stepsize")).select_by_value("0.1")
+        browser.find_element(By.ID, "runstep").click()
+        wait.until(lambda d: rows() >= held + 10)
+        threading.Event().wait(1.0)
+        stepped, t_stepped = rows(), last_time()
+        browser.find_element(By.ID, "runpause").click()  # Resume
+        wait.until(lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
+        end = browser.execute_script("return twmrLive.end;")
+        errors = _severe(browser)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    assert stepped == held + 10 and t_stepped == pytest.approx(t_held + 0.1, abs=1e-9)
+    assert end["status"] == "completed" and end["steps_done"] == 6000
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["pacing"]["paused_s"] > 1.0
+    assert errors == [], errors

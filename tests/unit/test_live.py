@@ -262,3 +262,37 @@ def test_a_page_that_connects_while_the_view_closes_is_turned_away(view):
         while True:
             late[0].recv(timeout=10)
     assert closed.value.rcvd is not None and closed.value.rcvd.code == 1001
+
+
+def test_a_pages_commands_act_on_the_gate_and_nothing_else_does() -> None:
+    from twmr.master.gate import Gate
+
+    gate = Gate()
+    live = LiveView("0", gate=gate)
+    for text in ("not json", "[1, 2]", '{"type": "reboot"}', '{"type": "step", "steps": -5}',
+                 '{"type": "step", "steps": "10"}', '{"type": "step", "steps": 1e12}'):
+        live.command(text)
+        assert not gate.paused
+    live.command('{"type": "pause"}')
+    assert gate.paused
+    live.command('{"type": "step", "steps": 25}')
+    assert gate.paused and gate._limit == 25
+    live.command('{"type": "resume"}')
+    assert not gate.paused
+
+
+def test_the_last_page_leaving_a_paused_run_lets_it_go_on() -> None:
+    """Nothing waits forever: a page that pauses the run and goes resumes it."""
+    from twmr.master.gate import Gate
+
+    gate = Gate()
+    live = LiveView("0", gate=gate)
+    live.started(RUN)
+    try:
+        with connect(f"ws://127.0.0.1:{live.port}/ws") as page:
+            assert json.loads(page.recv(timeout=10))["control"] is True
+            page.send('{"type": "pause"}')
+            assert json.loads(page.recv(timeout=10)) == {"type": "control", "paused": True}
+        _wait_for(lambda: not gate.paused)
+    finally:
+        live.close()

@@ -396,6 +396,10 @@ class Component:
         `height`, `ahead` (how far the body's centre is ahead of the pose's point); {}: none."""
         return {}
 
+    def hold(self, t: float) -> None:
+        """Called every 50 ms while the run is paused at time t [s] (`twmr.master.gate`):
+        hardware keeps itself safe here (a drive sends zero torque, feeding its watchdog)."""
+
     def vectors(self) -> dict[str, list[dict[str, Any]]]:
         """Output port holding a planar pose -> the vectors 3D views draw on its vehicle, each
         `{"label", "port", "element", "at", "along", "scale"[, "colour"]}`: element `element`

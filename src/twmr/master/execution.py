@@ -12,6 +12,7 @@ a failing observer is reported after the stop, never instead of it.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import gc
 import locale
 import logging
@@ -32,6 +33,7 @@ from twmr.core.raised import described
 from twmr.core.run import Options, RunContext
 from twmr.core.warned import OncePerRun
 from twmr.master.algorithm import Algorithm, NonFinite, admit, algorithm_for
+from twmr.master.gate import Gate, RunStopped
 from twmr.master.jacobi_start import propagate_start_values
 from twmr.master.ticks import Event, Tick, TickEvents, binary_signals
 from twmr.observers.base import Observer, Outcome, RunStart
@@ -106,6 +108,11 @@ class Pacer:
 
     def start(self) -> None:
         self.t0, self.t0_unix_ns = time.perf_counter_ns(), time.time_ns()
+
+    def shift(self, seconds: float) -> None:
+        """Every deadline from now on `seconds` later (the run was paused that long)."""
+        if seconds > 0:
+            self.t0 += round(seconds * 1e9)
 
     def __call__(self, n: int) -> None:
         target = self.t0 + n * self.h_ns
@@ -223,8 +230,12 @@ class Execution:
 
     def __init__(self, system: System, observers: Sequence[Observer] = (),
                  folder: str | Path | None = None, check_finite: bool = True,
-                 algorithm: Algorithm | None = None, options: Options | None = None):
+                 algorithm: Algorithm | None = None, options: Options | None = None,
+                 gate: Gate | None = None):
         self.system = system
+        self.gate = gate  # pauses, steps and stops the run from another thread
+        if gate is not None:
+            gate.execution = self
         self.options = options or Options()
         self.observers = list(observers)
         self.folder = Path(folder) if folder is not None else None
@@ -301,6 +312,9 @@ class Execution:
             self._finished = True
         except FmuTerminated as exc:
             error = self._fmu_ended(exc)
+        except RunStopped:
+            self.outcome.status = "stopped"
+            self.outcome.error = ""
         except BaseException as exc:  # noqa: BLE001 - every stop path ends the same way below
             error = exc
         finally:
@@ -316,6 +330,8 @@ class Execution:
         finally:
             self._restore_signals(previous)
             once.detach()
+            if self.gate is not None:
+                self.gate.end()
         if error is not None:
             raise error
         return self.outcome
@@ -326,8 +342,10 @@ class Execution:
         variable = self.algorithm.variable_step  # its steps must not depend on the chunks
         watching = bool(self.system.watches)
         while self._n < n_steps:
+            limit = self._allowed()
             upcoming = self._changed()
-            n1 = n_steps if variable else min(n_steps, self._n + chunk, upcoming)
+            n1 = min(n_steps, limit) if variable else min(n_steps, self._n + chunk, upcoming,
+                                                          limit)
             t0 = time.perf_counter()
             if watching:  # a step at a time: the conditions are looked at between steps
                 while self._n < n1:
@@ -336,6 +354,8 @@ class Execution:
                         break
             else:
                 self._n = self._advance(n1)
+            if self.gate is not None:
+                self.gate.reached(self._n)
             dt = time.perf_counter() - t0
             self._emit()
             chunk = int(min(max(1, chunk * CHUNK_GROWTH), 200_000,
@@ -347,9 +367,15 @@ class Execution:
         every = max(1, round(CHUNK_SECONDS / self.system.experiment.step))
         pacer.start()
         while self._n < n_steps:
+            if self.gate is not None:
+                before = self.gate.paused_s
+                self._allowed()
+                pacer.shift(self.gate.paused_s - before)  # no catching up after a pause
             self._changed()
             self._n = self._advance(self._n + 1)
             self._watched()
+            if self.gate is not None:
+                self.gate.reached(self._n)
             pacer(self._n)
             if self._n % every == 0:
                 self._emit()
@@ -360,6 +386,43 @@ class Execution:
         while no stop signal came."""
         if self._signalled:
             raise RunInterrupted(self._signalled)
+
+    def _allowed(self) -> int:
+        """The step the gate lets the run reach (waiting while it is paused, every component
+        held safe meanwhile: `Component.hold`); no gate: the end of time."""
+        if self.gate is None:
+            return 1 << 62
+        if self.gate.paused and self._rows:
+            self._emit()  # what was taken is seen while the run waits
+        return self.gate.allowed(self._n, self._hold)
+
+    def _hold(self) -> None:
+        """Each component's `hold` while the run is paused; a CosimError (a drive's fault)
+        ends the run as a step's would."""
+        t = self._time(self._n)
+        for name in self.system.order:
+            try:
+                self.system.components[name].hold(t)
+            except CosimError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - a user block's own code
+                raise ComponentError(name, t, described("hold()", exc, "check the block's "
+                                                        "hold().")) from exc
+
+    def request_change(self, name: str, value: Any) -> None:
+        """Set parameter `name` ('comp.parameter') to `value` before the next step, as a set
+        event does; CosimError when it cannot (call it while the run waits at its gate)."""
+        from twmr.core.errors import Location
+        from twmr.scenario.events import _change
+
+        problems: list[Any] = []
+        change = _change(name, value, self._time(self._n), self.system.components,
+                         self.system.experiment, Location(), problems)
+        if change is None:
+            problem = problems[0]
+            raise CosimError(problem.message.replace("events: ", "", 1)
+                             + (f" Fix: {problem.hint}" if problem.hint else ""))
+        self._changes.append(dataclasses.replace(change, step=self._n))
 
     def _watched(self) -> bool:
         """Whether a condition event fired in the step just taken (its watch block counted):
@@ -531,6 +594,8 @@ class Execution:
         out.wall_time = wall
         out.realtime_factor = (self._n * self.system.experiment.step / out.wall_time
                                if out.wall_time else 0.0)
+        if self.gate is not None and self.gate.paused_s:
+            out.extra["paused_s"] = round(self.gate.paused_s, 3)
         if self.pacer is not None and self.pacer.released_ns:
             out.extra.update(self.pacer.stats())
             out.lateness_us = self.pacer.lateness_us()

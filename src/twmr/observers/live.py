@@ -35,6 +35,7 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from twmr.core.errors import CosimError
+from twmr.master.gate import Gate
 from twmr.observers.base import Observer, Outcome, RunStart
 from twmr.plots import STEPWISE_TYPES, element_names, group_ports, is_planar_position
 
@@ -134,9 +135,11 @@ class LiveView(Observer):
     """Serves the live page on `address` ('[HOST:]PORT', see `parse_address`) from `start()` (or
     the run's start) to `close()`; `keep`: stay up after the run (else `finished` closes)."""
 
-    def __init__(self, address: str = f"{DEFAULT_HOST}:0", keep: bool = False):
+    def __init__(self, address: str = f"{DEFAULT_HOST}:0", keep: bool = False,
+                 gate: Gate | None = None):
         self.host, self.port = parse_address(address)
         self.keep = keep
+        self.gate = gate  # the page's Pause, Step and Resume act on the run through it
         self.clients: list[_Client] = []
         self._lock = threading.Lock()
         self._start_message: str | None = None
@@ -300,11 +303,16 @@ class LiveView(Observer):
             closing = self._closing
             if not closing:
                 self.clients.append(client)
-                first = [m for m in (self._start_message, self._history_frame(),
+                control = json.dumps({"type": "control", "paused": True}) \
+                    if self.gate is not None and self.gate.paused else None
+                first = [m for m in (self._start_message, self._history_frame(), control,
                                      self._end_message) if m is not None]
         if closing:
             connection.close(1001, "the live view closed")
             return
+        listener = threading.Thread(target=self._listen, args=(client,), daemon=True,
+                                    name="twmr-live-listen")
+        listener.start()
         try:
             for message in first:
                 connection.send(message)
@@ -316,6 +324,45 @@ class LiveView(Observer):
         finally:
             with self._lock:
                 self.clients.remove(client)
+                left = not self.clients
+            if left and self.gate is not None and self.gate.paused and not self._closing:
+                log.warning("live view: the last page left a paused run; it goes on")
+                self.gate.resume()
+
+    def _listen(self, client: _Client) -> None:
+        """The page's commands (`command`); when it goes, its sender is told to end."""
+        from websockets.exceptions import ConnectionClosed
+
+        try:
+            for message in client.connection:
+                if isinstance(message, str):
+                    self.command(message)
+        except ConnectionClosed:
+            pass
+        finally:
+            client.push(None)
+
+    def command(self, text: str) -> None:
+        """A page's `{"type": "pause" | "resume" | "step", "steps": n}` acted on through the
+        gate (none: ignored), and every page told where the run is (`control`); anything else
+        is ignored."""
+        try:
+            message = json.loads(text)
+        except ValueError:
+            return
+        gate = self.gate
+        if gate is None or not isinstance(message, dict):
+            return
+        kind, steps = message.get("type"), message.get("steps", 1)
+        if kind == "pause":
+            gate.pause()
+        elif kind == "resume":
+            gate.resume()
+        elif kind == "step" and isinstance(steps, int) and 0 < steps <= 10**7:
+            gate.grant(steps)
+        else:
+            return
+        self._broadcast(json.dumps({"type": "control", "paused": gate.paused}))
 
     def _history_frame(self) -> bytes | None:
         if not self._history:
@@ -355,7 +402,8 @@ class LiveView(Observer):
                               "scenario": run.scenario, "ports": ports, "planar": planar,
                               "labels": [labels[c] for c in columns],
                               "stepped": [stepped[c] for c in columns],
-                              "diagram": run.system is not None})
+                              "diagram": run.system is not None,
+                              "control": self.gate is not None})
         with self._lock:
             self._start_message, self._end_message = message, None
             self._system, self._diagrams = run.system, {}
