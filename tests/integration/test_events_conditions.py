@@ -123,3 +123,33 @@ def test_condition_events_are_refused_on_the_adaptive_master(tmp_path: Path) -> 
                      algorithm="adaptive")
     with pytest.raises(ScenarioError, match=r"condition events .* fixed-step masters"):
         twmr.load(path)
+
+
+def test_an_events_keys_are_overrides_and_sweep_names(tmp_path: Path) -> None:
+    """`events.<name or number>.<key>=value` moves an event (a fault campaign's sweep varies
+    it): the rows change at the new time; a name, key or value that cannot be is refused with
+    the event names and the fix, at check and by a sweep's --vary."""
+    from twmr.sweeps.engine import SweepError, check_names
+    from twmr.sweeps.spec import parse_vary
+
+    path = _scenario(tmp_path, "  - {name: boost, at: 0.5, set: g.k, value: 3.0}\n"
+                               '  - {when: "s.y > 0.5", set: g.k, value: 2.0}')
+    moved = twmr.simulate(twmr.load(path, ["events.boost.at=0.25", "events.2.value=5.0"]))
+    t, u, y = (np.asarray(moved[c]) for c in ("time", "s.y", "g.y"))
+    assert np.array_equal(y[t < 0.085 - 1e-9], u[t < 0.085 - 1e-9])     # k = 1
+    assert np.array_equal(y[(t > 0.085 - 1e-9) & (t < 0.25 - 1e-9)],  # the condition: k = 5
+                          5.0 * u[(t > 0.085 - 1e-9) & (t < 0.25 - 1e-9)])
+    moved_on = (t >= 0.25 - 1e-9) & (t < 1.085 - 1e-9)  # until the condition fires again
+    assert np.array_equal(y[moved_on], 3.0 * u[moved_on])  # the event moved
+    for override, said in (("events.bost.at=1", "no event 'bost' (did you mean 'boost'?) "
+                                                "(its events: boost, 2)"),
+                           ("events.boost.att=1", "has no 'att' to set (did you mean 'at'?)"),
+                           ("events.boost.at=-5", "outside the run"),
+                           ("events.2.hysteresis=-1", "less than the minimum of 0")):
+        with pytest.raises(ScenarioError, match="Fix:") as caught:
+            twmr.load(path, [override])
+        assert said in str(caught.value), str(caught.value)
+    scenario = twmr.load(path)
+    check_names(scenario, [parse_vary("events.boost.at=uniform:0.2:0.8")])
+    with pytest.raises(SweepError, match=r"--vary events.bost.at: .*no event 'bost'.*Fix:"):
+        check_names(scenario, [parse_vary("events.bost.at=uniform:0.2:0.8")])

@@ -217,7 +217,7 @@ def from_data(data: Any, lines: Lines, base_dir: Path) -> ScenarioSpec:
                         _maybe(given, "events", i, "value"), _maybe(given, "events", i, "seed"),
                         at("events", i), _maybe(given, "events", i, "set"),
                         *(_maybe(given, "events", i, key)
-                          for key in ("when", "hysteresis", "duration")))
+                          for key in ("when", "hysteresis", "duration", "name")))
               for i in range(len(data.get("events") or []))))
 
 

@@ -2,9 +2,10 @@
 `twmr.load`) replaces the scenario's, located at its `--set` text.
 
 `comp.name=value` sets a parameter (or the initial value of an input or state) or the
-component's `step_multiple`; `experiment.name=value` an experiment setting. A block inside a
-subsystem is named by its path: `robot.plant.scale=2` (the last dot separates the name);
-`assign` is the same for values an including file sets (`parameters: {plant.scale: 2}`).
+component's `step_multiple`; `experiment.name=value` an experiment setting;
+`events.<name or number>.<key>=value` a key of an event (its time, value, condition...). A
+block inside a subsystem is named by its path: `robot.plant.scale=2` (the last dot separates the
+name); `assign` is the same for values an including file sets (`parameters: {plant.scale: 2}`).
 Values are YAML scalars or flow lists; each is checked against the same JSON Schema as the
 file's values.
 """
@@ -66,6 +67,12 @@ def _parse(text: str, key: str, value: str, loc: Location, problems: list[Proble
 def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSpec:
     loc = Location("--set", 0, text)
     key, sep, value = text.partition("=")
+    if key.strip().startswith("events.") and "events" not in spec.components:
+        ok, parsed = _parse(text, key.strip(), value, loc, problems) if sep else (False, None)
+        if not sep:
+            problems.append(Problem(loc, f"cannot read the override '{text}'.",
+                                    "write events.<name or number>.<key>=value."))
+        return _set_event(spec, key.strip(), parsed, loc, problems) if ok else spec
     path, name = _split(spec, key.strip())
     comp = ".".join(path)
     if not sep or not path or not name or not comp:
@@ -92,6 +99,53 @@ def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSp
     written = value.strip()
     as_written = written if isinstance(parsed, (int, float)) and written != str(parsed) else None
     return assign(spec, path, name, Given(parsed, loc, as_written), problems)
+
+
+#: what an override may change in an event: every key of an event but its name
+_EVENT_KEYS = ("at", "until", "value", "seed", "when", "hysteresis", "duration")
+
+
+def event_key(spec: ScenarioSpec, key: str) -> tuple[int, str]:
+    """(the 0-based index, the key) of the event `events.<name or number>.<key>` names;
+    ValueError saying what is wrong and the fix."""
+    _, _, rest = key.partition(".")
+    which, _, field = rest.rpartition(".")
+    names = [str(e.name.value) if e.name is not None else str(k)
+             for k, e in enumerate(spec.events, 1)]
+    index = names.index(which) if which in names else (
+        int(which) - 1 if which.isdigit() and 1 <= int(which) <= len(spec.events) else -1)
+    if index < 0:
+        there = ", ".join(names) or "none"
+        raise ValueError(f"'{key}': the scenario has no event '{which}'"
+                         f"{suggest(which, names)} (its events: {there}). Fix: name an event "
+                         f"by its name: or its number from 1, e.g. events.1.at=5.0.")
+    if field not in _EVENT_KEYS:
+        raise ValueError(f"'{key}': an event has no '{field}' to set"
+                         f"{suggest(field, list(_EVENT_KEYS))}. Fix: set one of: "
+                         f"{', '.join(_EVENT_KEYS)}.")
+    return index, field
+
+
+def _set_event(spec: ScenarioSpec, key: str, value: Any, loc: Location,
+               problems: list[Problem]) -> ScenarioSpec:
+    """`spec` with `events.<name or 1-based number>.<key>` set to `value` (a fault campaign's
+    sweep: `--vary events.drop.at=uniform:5:25`), or unchanged after the problem."""
+    try:
+        index, field = event_key(spec, key)
+    except ValueError as err:
+        message, _, fix = str(err).partition(" Fix: ")
+        problems.append(Problem(loc, message, fix))
+        return spec
+    allowed = schema()["properties"]["events"]["items"]["properties"][field]
+    found = schema_problems(_number(value) if field != "when" else value, lambda *_: loc,
+                            ("events", index, field), allowed)
+    problems += found
+    if found:
+        return spec
+    given = Given(_number(value) if field != "when" else value, loc)
+    event = dataclasses.replace(spec.events[index], **{field: given})  # type: ignore[arg-type]
+    events = (*spec.events[:index], event, *spec.events[index + 1:])
+    return dataclasses.replace(spec, events=events)
 
 
 def _number(value: Any) -> Any:

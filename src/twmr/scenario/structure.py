@@ -126,6 +126,8 @@ class EventSpec:
     when: Given[str] | None = None
     hysteresis: Given[Any] | None = None
     duration: Given[Any] | None = None
+    #: what overrides call it (`events.<name>.at=5`)
+    name: Given[str] | None = None
 
 
 @dataclass(frozen=True)

@@ -91,6 +91,16 @@ def check_names(scenario: Any, varies: list[Vary], option: str = "--vary") -> No
     for v in varies:
         key, index = v.target
         comp, _, param = key.rpartition(".")
+        if key.startswith("events.") and "events" not in comps:
+            from twmr.scenario.overrides import event_key
+
+            try:
+                event_key(scenario.spec, key)
+            except ValueError as err:
+                raise SweepError(f"{option} {v.name}: {err}") from None
+            if index is not None:
+                raise SweepError(f"{option} {v.name}: an event's keys have no elements.")
+            continue
         if comp == "experiment":
             known = ["start", "stop", "step", "algorithm", "realtime"]
         elif comp in comps:
