@@ -78,6 +78,20 @@ def _shown(get: Callable[..., list[Any]], factor: float, offset: float
 _FMI2_DISCARDED = "(fmi2DoStep returned fmi2Discard and fmi2Terminated is true)"
 
 
+def _tunable(md: Any, ports: list[FmuPort]) -> frozenset[str]:
+    """The parameter ports whose FMU variables are all of variability tunable."""
+    by_name = {v.name: v for v in md.modelVariables}
+    found = set()
+    for p in ports:
+        if p.kind != "parameter":
+            continue
+        behind = [by_name[p.name]] if p.name in by_name else [
+            v for n, v in by_name.items() if n.startswith(f"{p.name}[")]
+        if behind and all(v.variability == "tunable" for v in behind):
+            found.add(p.name)
+    return frozenset(found)
+
+
 class FmuComponent(Component):
     """An FMU stepped through fmpy; ports from its modelDescription."""
 
@@ -153,6 +167,9 @@ class FmuComponent(Component):
                                            if v.causality == "structuralParameter" and
                                            getattr(v, "alias", None) is None)
         self.aliases = aliases_of(self.md)
+        #: parameters the FMU lets change between communication points (variability tunable)
+        self.tunable = _tunable(self.md, self.ports) if not self.me else frozenset()
+        self._initialized = False
         self.path = runnable(self.source_path, self.md, label)
         self.log = FmuLog(label)
         # FMUs built by pythonfmu itself (generationTool "PythonFMU x"; not twmr's Python exports,
@@ -272,6 +289,13 @@ class FmuComponent(Component):
             raise ValueError(f"'{name}' is an alias of '{self.aliases[name]}' in the FMU (one "
                              f"variable under two names, read only as '{name}'); set "
                              f"'{self.aliases[name]}'")
+        if getattr(self, "_initialized", False):  # during the run (a set event)
+            if name not in self.tunable:
+                raise ValueError(f"'{name}' is not a tunable parameter of the FMU: it takes "
+                                 f"it only before it is initialized")
+            super().set_parameter(name, value)
+            self._write([p for p in self.ports if p.name == name])
+            return
         super().set_parameter(name, value)
         self._given.add(name)
         if name in self.sizing_parameters:
@@ -462,6 +486,7 @@ class FmuComponent(Component):
             self._get(self._plan(outputs, 0))
         except Exception as exc:  # noqa: BLE001
             raise self._error("reading the outputs after initialization", exc) from exc
+        self._initialized = True
 
     def check_bus_data(self, port: str, data: bytes, t: float) -> None:
         """Decode the LS-BUS operations an FMU put on bus port `port` at t [s]; malformed ones

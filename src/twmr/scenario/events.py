@@ -434,8 +434,16 @@ def _fixed(comp: Component, name: str) -> str:
         return "it sizes the block's ports (it changes the block's ports)"
     if name in comp.construction_parameters:
         return "the block is made from it"
-    if getattr(comp, "kind", "") == "fmu":
-        return "an FMU's parameters are set before it is initialized (not built yet mid-run)"
+    tunable = getattr(comp, "tunable", None)
+    if getattr(comp, "kind", "") == "fmu" and (tunable is None or name not in tunable):
+        if tunable is None:
+            return ("an FMU in a worker process (isolate: true) takes its parameters only "
+                    "before it is initialized (changes during the run not built for it)")
+        if getattr(comp, "me", False):
+            return ("a model-exchange FMU's parameters are set before it is initialized (a "
+                    "tunable one would need an event iteration, not built)")
+        return ("the FMU declares it fixed (variability not tunable): it takes it only "
+                "before it is initialized")
     if comp.needs_realtime:
         return "the block is hardware in the loop"
     return ""
