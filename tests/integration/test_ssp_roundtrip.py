@@ -55,3 +55,36 @@ def test_a_scenario_with_subsystems_exports_flat_and_runs_as_its_yaml(tmp_path) 
     for column in ours.columns[1:]:
         assert np.array_equal(ours[column], theirs[column.replace("robot.", "robot__")]), \
             column
+
+
+def test_the_events_go_into_the_ssp_and_come_back(tmp_path) -> None:
+    """A set event (a gain the controller's FMU declares tunable), a timed fault and a condition
+    fault on the nested paper robot: the SSP's system holds no event block (another tool runs
+    it without them), our annotation holds the events with the elements' names, and the SSP
+    loaded back fires them as the YAML does, the same rows."""
+    import zipfile
+
+    import twmr
+
+    nested = r.ROOT / "scenarios" / "nested" / "paper_trajectory1_asmc.yaml"
+    text = nested.read_text(encoding="utf-8").replace(
+        "path: ", f"path: {nested.parent}/", 1) + (
+        "events:\n"
+        "  - {name: gain, at: 0.2, set: ctrl.k, value: 40.0}\n"
+        "  - {at: 0.3, until: 0.35, port: robot.plant.wheel_speed, fault: freeze}\n"
+        "  - {when: 'robot.plant.pose[1] > 0.55', port: ctrl.torque, fault: scale, "
+        "value: 0.5, duration: 0.05}\n")
+    scenario = tmp_path / "events.yaml"
+    scenario.write_text(text, encoding="utf-8")
+    ssp = export_ssp(scenario, tmp_path / "events.ssp", ["experiment.stop=0.5"])
+    ssd = zipfile.ZipFile(ssp).read("SystemStructure.ssd").decode()
+    assert "fault" not in ssd.split("<ssd:DefaultExperiment")[0].lower()  # no event block
+    assert 'set="&quot;ctrl.k&quot;"' in ssd and "robot__plant.wheel_speed" in ssd
+    assert "robot__plant.pose[1] &gt; 0.55" in ssd
+    ours = twmr.simulate(twmr.load(scenario, ["experiment.stop=0.5"]))
+    theirs = twmr.simulate(twmr.load(str(ssp)))
+    assert [f["located"] for f in theirs.summary["fired"]] == \
+        [f["located"] for f in ours.summary["fired"]] and ours.summary["fired"]
+    for column in ("robot.plant.pose[1]", "ctrl.torque[1]", "robot.plant.wheel_speed[2]"):
+        assert np.array_equal(ours[column], theirs[column.replace("robot.", "robot__")]), \
+            column

@@ -29,6 +29,7 @@ from twmr.core.errors import Location, Problem, ScenarioError
 from twmr.core.units import Unit
 from twmr.fmi.ssp.archive import unpacked
 from twmr.fmi.ssp.common import enumerations, transformation, units
+from twmr.fmi.ssp.events import read_events
 from twmr.fmi.ssp.flatten import Edge, EndKey, Flattener, Fmu, Path_
 from twmr.fmi.ssp.params import Entry, Value, parameter_mapping, parameter_set
 from twmr.fmi.ssp.schema import validate
@@ -146,9 +147,12 @@ class _Reader:
                     multiple, comps[name].where))
         self.fail_if_problems()
         top = at(source, root)
+        note = _experiment_note(root)
+        events = read_events(note.find(f"{{{TWMR}}}Events") if note is not None else None,
+                             lambda e, what: at(source, e, what))
         return ScenarioSpec(source=source, base_dir=self.root, components=comps,
                             connections=tuple(conns), open=tuple(opened), experiment=experiment,
-                            record=record,
+                            record=record, events=events,
                             description=root.get("description") or root.get("name") or "",
                             sections={"components": top, "connections": top})
 

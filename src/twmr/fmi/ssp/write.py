@@ -5,13 +5,14 @@ The archive holds `SystemStructure.ssd` (the system: one component per block, it
 the connections with their unit conversions as linear transformations, the units, the
 `DefaultExperiment`), `resources/<block>.fmu` (each block's FMU, `twmr.fmi.ssp.blocks`) and
 `resources/<block>.ssv` (the block's parameter values and initial states, bound to it). The
-base step, the algorithm and the recorded signals go into annotations: the experiment's
+base step, the algorithm, the recorded signals and the events go into annotations: the experiment's
 `org.twmr-cosim` one (ours) and libcosim's `com.opensimulationplatform` fixed-step one. The
 element prefixes are written as the standard's examples write them (ssd:, ssc:, ssv:), which the
 parsers of libcosim and Ecos require. docs/systems.md, SSP export describes the mapping.
 """
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import os
 import tempfile
@@ -24,8 +25,9 @@ from typing import Any
 from twmr.core.errors import CosimError, UnitError
 from twmr.core.units import BASES, parse_unit
 from twmr.fmi.ssp.blocks import BlockFmu, block_fmus
+from twmr.fmi.ssp.events import events_element
 from twmr.fmi.ssp.xmlsafe import NS
-from twmr.scenario.structure import ScenarioSpec
+from twmr.scenario.structure import EventSpec, ScenarioSpec
 from twmr.scenario.system import Connection, System
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -61,8 +63,11 @@ def export_ssp(scenario: str | Path, out: str | Path, overrides: Sequence[str] =
     if target.suffix.lower() != ".ssp":
         raise CosimError(f"export: '{target}' does not end in .ssp. Fix: give --out X.ssp.")
     spec = scenario_spec(load_structure(scenario), overrides=overrides)
+    build_system(spec)  # the events checked with the rest
+    events = spec.events  # written in our annotation: the system is exported without them
+    spec = dataclasses.replace(spec, events=())
     system = build_system(spec)
-    spec = flatten(spec).spec  # subsystems as their blocks, named by path ('robot.plant')
+    spec = dataclasses.replace(flatten(spec).spec, events=events)  # blocks named by path
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="twmr-ssp-") as tmp:
         blocks = block_fmus(system, spec, Path(tmp), fmi, python)
@@ -120,7 +125,7 @@ def ssd(system: System, spec: ScenarioSpec, blocks: dict[str, BlockFmu], ssp: in
             if base is not None:
                 ET.SubElement(ET.SubElement(defs, _q(SSC, "Unit"), name=unit),
                               _q(SSC, "BaseUnit"), base)
-    root.append(default_experiment(system))
+    root.append(default_experiment(system, spec.events))
     ET.indent(root)
     return ET.tostring(root, encoding="utf-8", xml_declaration=True)
 
@@ -213,9 +218,9 @@ def _wires(system: System, blocks: dict[str, BlockFmu], c: Connection
     return out
 
 
-def default_experiment(system: System) -> ET.Element:
-    """ssd:DefaultExperiment: start and stop; the base step, algorithm and recording in our
-    annotation, the base step again in libcosim's."""
+def default_experiment(system: System, events: tuple[EventSpec, ...] = ()) -> ET.Element:
+    """ssd:DefaultExperiment: start and stop; the base step, algorithm, recording and events
+    in our annotation, the base step again in libcosim's."""
     exp = system.experiment
     el = ET.Element(_q(SSD, "DefaultExperiment"), startTime=repr(exp.start),
                     stopTime=repr(exp.stop))
@@ -233,6 +238,8 @@ def default_experiment(system: System) -> ET.Element:
     record = ET.SubElement(run, _q(TWMR, "Record"), decimation=str(system.record.decimation))
     for comp, port in system.record.signals:
         ET.SubElement(record, _q(TWMR, "Signal"), element=element_name(comp), port=port)
+    if events:
+        run.append(events_element(events, _q(TWMR, "Events"), element_name))
     osp = ET.SubElement(notes, _q(SSC, "Annotation"), type="com.opensimulationplatform")
     ET.SubElement(ET.SubElement(osp, _q(OSP, "Algorithm")), _q(OSP, "FixedStepAlgorithm"),
                   baseStepSize=repr(exp.step))
