@@ -7,6 +7,7 @@ ASC or BLF, by suffix) with its direction, so a run can be replayed (`twmr.hw.re
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import threading
 import time
@@ -158,6 +159,15 @@ class FrameGuard(can.Listener):
     def on_error(self, exc: Exception) -> None:
         self.count += 1
         self.report(self.frame, exc)
+
+
+def discard_unsent(bus: Any) -> None:
+    """Discard the frames `bus` (a python-can bus) holds unsent, where its interface can
+    (`flush_tx_buffer`; the others send what they hold first)."""
+    if bus is None:
+        return
+    with contextlib.suppress(NotImplementedError, can.CanError, OSError):
+        bus.flush_tx_buffer()
 
 
 def frame_text(msg: can.Message | None) -> str:

@@ -86,6 +86,13 @@ class BusCore:
     def handed(self, name: str, timeout: float) -> bool:
         raise NotImplementedError
 
+    def discard(self, name: str) -> int:
+        """Forget the frames `name` queued and not yet on the wire (python-can's
+        `flush_tx_buffer`: a host that stops sends its stop frames next, not after a backlog);
+        how many."""
+        with self._cond:
+            return self.model.drop(name)
+
     def __init__(self, name: str, model: CanBusModel, offset: float):
         self.name, self.model = name, model
         self.offset = offset
@@ -345,6 +352,10 @@ class BlockBus(can.BusABC):
         """Wait (at most `timeout` [s]) until the frames sent so far are on the wire and handed
         to the others; whether they are."""
         return self._runner.handed(self.name, timeout)
+
+    def flush_tx_buffer(self) -> None:
+        """Discard the frames sent and not yet on the wire (python-can's API)."""
+        self._runner.discard(self.name)
 
     def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
         try:

@@ -71,9 +71,10 @@ def frame_fault(bus: CanBus) -> FrameFault | str | None:
             if not 0 <= ident < 1 << 29:
                 return f"fault_ids '{text}': {ident:#x} is outside 0 .. 0x1FFFFFFF"
             ids.add(ident)
+    senders = frozenset(n.strip() for n in str(bus.fault_node).split(",") if n.strip())
     return FrameFault(frozenset(ids), float(bus.fault_start), float(bus.fault_stop),
                       float(bus.fault_probability), int(bus.fault_seed), int(bus.fault_count),
-                      str(bus.fault), float(bus.fault_delay), int(bus.fault_bit))
+                      str(bus.fault), float(bus.fault_delay), int(bus.fault_bit), senders)
 
 
 def channel_of(run_id: int, name: str) -> str:
@@ -142,6 +143,9 @@ class CanBus(Component):
                       "fault_ids names: " + "; ".join(f"{k}: {v}" for k, v in FAULTS.items()))
     fault_ids = Parameter("", type=STRING, description="the fault's frames: these identifiers "
                           "('0x00C, 0x02C', decimal or hex); 'all': every frame; '': no fault")
+    fault_node = Parameter("", type=STRING, description="the participants whose frames the "
+                           "fault takes (their names, by commas; a bus_off's nodes); '': "
+                           "every one")
     fault_start = Parameter(0.0, unit="s", description="run time the fault begins")
     fault_stop = Parameter(math.inf, unit="s", description="run time the fault ends (it takes "
                            "frames ending on the wire before it)")
@@ -513,6 +517,14 @@ class CanBus(Component):
         if problems:
             out["problems"] = problems[:5]
         return out
+
+    def stopping(self) -> None:
+        """The injected fault ends as the run stops, before the hosts send their stop frames
+        (zero torque and disable pass, even through a babbling node's flood)."""
+        bus = getattr(self, "bus", None)
+        if bus is not None:
+            with bus_lock(bus):
+                bus.model.fault = None
 
     def terminate(self) -> None:
         """After the components behind its terminals (`terminate_stage`): the frames each

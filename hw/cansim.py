@@ -253,7 +253,16 @@ FAULTS = {
                "computed: a gateway's or a node's memory)",
     "crc_error": "one bit flipped on the wire: no receiver accepts it, its sender sees the error "
                  "frame and sends it again (unless it discards frames)",
+    "error_frame": "destroyed by an error frame that every participant sees (a disturbed bus); "
+                   "its sender sends it again (unless it discards frames)",
+    "bus_off": "its sender is bus-off for the window: the frame never reaches the wire and the "
+               "sender gets a bus error (a node whose error counter passed 255)",
+    "babble": "a babbling node floods the bus with frames of the lowest identifier named (0x000 "
+              "for all) back to back for the window: they win every arbitration and the others "
+              "wait",
 }
+#: the name a babbling node's frames come from
+BABBLER = "babbling node"
 
 
 @dataclass(frozen=True)
@@ -272,11 +281,14 @@ class FrameFault:
     kind: str = "drop"
     delay: float = 0.0
     bit: int = -1
+    #: the participants whose frames it takes (empty: every one)
+    senders: frozenset[str] = frozenset()
 
-    def applies(self, frame: can.Message, t: float) -> bool:
-        """Whether `frame`, ending at run time t [s], is one the fault may take."""
+    def applies(self, frame: can.Message, t: float, sender: str = "") -> bool:
+        """Whether `frame` of `sender`, ending at run time t [s], is one the fault may take."""
         return self.start <= t < self.stop and (not self.ids or
-                                                frame.arbitration_id in self.ids)
+                                                frame.arbitration_id in self.ids) and \
+            (not self.senders or sender in self.senders)
 
 
 def flipped(frame: can.Message, bit: int) -> can.Message:
@@ -328,10 +340,12 @@ class CanBusModel:
     def join(self, name: str) -> None:
         self.members.add(name)
 
-    def _taken(self, frame: can.Message, end: float) -> bool:
-        """Whether the fault takes `frame`, ending on the wire at bus time `end`."""
+    def _taken(self, frame: can.Message, end: float, sender: str = "") -> bool:
+        """Whether the fault takes `frame` of `sender`, ending on the wire at bus time `end`
+        (a babbling node's frames and a bus-off are not taken here)."""
         fault = self.fault
-        if fault is None or not fault.applies(frame, end + self.run_offset) or \
+        if fault is None or fault.kind in ("babble", "bus_off") or sender == BABBLER or \
+                not fault.applies(frame, end + self.run_offset, sender) or \
                 (fault.count and self.faulted >= fault.count) or \
                 (fault.probability < 1.0 and self._draw() >= fault.probability) or \
                 (fault.kind == "corrupt" and not frame.data):
@@ -357,6 +371,14 @@ class CanBusModel:
                              "wire, no receiver accepted it", start=start),
                     BusEvent("bus_error", end, frame, sender, "CRC error: a bit flipped on the "
                              "wire (the bus's crc_error fault)", start=start)]
+        if fault.kind == "error_frame":
+            if sender not in self.discarding:
+                self._queues.setdefault(sender, deque()).appendleft(item)
+            seen = [BusEvent("bus_error", end, frame, member, "error frame: the frame was "
+                             "destroyed on the wire (the bus's error_frame fault)", start=start)
+                    for member in sorted(self.members | {sender})]
+            return [BusEvent("faulted", end, frame, sender, "error_frame: destroyed by an "
+                             "error frame every participant saw", start=start), *seen]
         out = [BusEvent("confirm", end, frame, sender, start=start)]
         if not heard:
             return out
@@ -378,6 +400,35 @@ class CanBusModel:
                                 f"corrupt: data bit {bit} flipped, CRC valid", start=start),
                        BusEvent("transmit", end, flipped(frame, bit), sender, start=start)]
         return out
+
+    def _babble(self) -> None:
+        """Queue the babbling node's next frame, back to back from the bus's next free instant,
+        while its window lasts (`babble` fault)."""
+        fault = self.fault
+        if fault is None or fault.kind != "babble" or self._queues.get(BABBLER) or \
+                math.isnan(self.run_offset) or (fault.count and self.faulted >= fault.count):
+            return
+        at = max(self._free_at, fault.start - self.run_offset)
+        if at + self.run_offset >= fault.stop:
+            return
+        ident = min(fault.ids) if fault.ids else 0
+        self.faulted += 1
+        self._seq += 1
+        self._queues.setdefault(BABBLER, deque()).append(_Pending(
+            can.Message(arbitration_id=ident, data=bytes(8), is_extended_id=ident > 0x7FF),
+            BABBLER, at, self._seq, at))
+
+    def _bus_off(self, item: _Pending, start: float) -> bool:
+        """Whether `item`'s sender is bus-off at bus time `start` (`bus_off` fault)."""
+        fault = self.fault
+        if fault is None or fault.kind != "bus_off" or item.sender == BABBLER:
+            return False
+        t = start + self.run_offset
+        if not (fault.start <= t < fault.stop) or (fault.senders and
+                                                   item.sender not in fault.senders):
+            return False
+        self.faulted += 1
+        return True
 
     def leave(self, name: str) -> None:
         """`name` is gone; frames it submitted stay queued (they are on their way)."""
@@ -436,8 +487,11 @@ class CanBusModel:
                 self._on_wire = None
                 self._free_at = start + timing.to_free
                 self.busy_time += timing.to_free
-                if self._taken(item.frame, end):
+                if self._taken(item.frame, end, item.sender):
                     events += self._faulted(item, start, end)
+                elif item.sender == BABBLER:
+                    events.append(BusEvent("transmit", end, item.frame, item.sender,
+                                           start=start))
                 elif self.members - {item.sender}:
                     events.append(BusEvent("transmit", end, item.frame, item.sender,
                                            start=start))
@@ -452,6 +506,7 @@ class CanBusModel:
                                            "ACK error: no other participant on the bus "
                                            "acknowledged it", start=start))
                 continue
+            self._babble()
             heads = [q[0] for q in self._queues.values() if q]
             if not heads:
                 break
@@ -460,6 +515,12 @@ class CanBusModel:
                 break
             contenders = [h for h in heads if h.time <= start + SAME_INSTANT]
             winner = min(contenders, key=lambda h: (priority(h.frame), h.seq))
+            if self._bus_off(winner, start):
+                self._queues[winner.sender].popleft()
+                events.append(BusEvent("bus_error", start, winner.frame, winner.sender,
+                                       "bus-off: the node may not send (the bus's bus_off "
+                                       "fault)", start=start))
+                continue
             self.longest_wait = max(self.longest_wait, start - max(winner.time, winner.queued))
             self._queues[winner.sender].popleft()
             for lost in contenders:

@@ -30,7 +30,7 @@ import canopen
 
 from twmr.hw import c_nodes
 from twmr.hw import cia402 as c
-from twmr.hw.bus import FrameLog, describe, frame_text, strict_canopen
+from twmr.hw.bus import FrameLog, describe, discard_unsent, frame_text, strict_canopen
 from twmr.hw.cia402 import State
 from twmr.hw.link import DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
@@ -346,8 +346,10 @@ class Cia402Link(Link):
                 for n in self.nodes}
 
     def disable(self, emergency: bool = False) -> None:
-        """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis."""
+        """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis, the frames
+        still waiting to be sent discarded first where the interface can."""
         self.running = False
+        discard_unsent(self.network.bus)
         word = c.DISABLE_VOLTAGE if emergency else c.SHUTDOWN
         with contextlib.suppress(LinkError):
             self._send({n: word for n in self.nodes}, {})

@@ -28,7 +28,7 @@ import can
 
 from twmr.hw import c_nodes
 from twmr.hw import protocol as p
-from twmr.hw.bus import FrameGuard, FrameLog, describe, frame_text
+from twmr.hw.bus import FrameGuard, FrameLog, describe, discard_unsent, frame_text
 from twmr.hw.link import DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
@@ -330,8 +330,11 @@ class OdriveLink(Link):
         return dict(self.watchdog)
 
     def disable(self, emergency: bool = False) -> None:
-        """Zero torque, then IDLE (or Estop when `emergency`) to every axis; errors ignored."""
+        """Zero torque, then IDLE (or Estop when `emergency`) to every axis; errors ignored.
+        Frames still waiting to be sent (a backlog behind a flood) are discarded first, where
+        the interface can: the stop goes out next."""
         self.running = False
+        discard_unsent(self.bus)
         for n in self.nodes:
             for ident, data in (p.encode_torque(n, 0.0, self.gear),
                                 p.encode_estop(n) if emergency else

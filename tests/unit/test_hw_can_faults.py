@@ -146,3 +146,65 @@ def test_the_block_refuses_an_unknown_fault() -> None:
     assert [p[0] for p in problems] == ["fault"] and "drop, duplicate" in problems[0][2]
     assert frame_fault(CanBus("can0", fault="delay", fault_ids="0x10", fault_delay=0.002)) == \
         FrameFault(frozenset({0x10}), kind="delay", delay=0.002)
+
+
+def _two_senders(fault: FrameFault, frames: int = 100, period: float = 1e-3) -> list[BusEvent]:
+    """'host' sends 0x0E and 'drive' sends 0x1E every `period` [s]."""
+    model = CanBusModel(bitrate=1e6, fault=fault)
+    for name in ("host", "drive"):
+        model.join(name)
+    events: list[BusEvent] = []
+    for k in range(frames):
+        for sender, ident in (("host", 0x0E), ("drive", 0x1E)):
+            model.submit(sender, can.Message(arbitration_id=ident, data=bytes(8),
+                                             is_extended_id=False), k * period)
+        events += model.advance((k + 1) * period)
+    return events
+
+
+def test_a_fault_on_one_node_takes_only_its_frames() -> None:
+    events = _two_senders(FrameFault(kind="drop", senders=frozenset({"drive"})))
+    lost = [e for e in events if e.kind == "dropped"]
+    assert len(lost) == 100 and {(e.sender, e.frame.arbitration_id) for e in lost} == {
+        ("drive", 0x1E)}
+    assert kinds(events, 0x0E) == ["transmit", "confirm"] * 100
+
+
+def test_an_error_frame_is_seen_by_every_node_and_the_frame_sent_again() -> None:
+    events = _two_senders(FrameFault(frozenset({0x0E}), start=0.02, stop=0.03,
+                                     kind="error_frame"))
+    errors = [e for e in events if e.kind == "bus_error"]
+    # each destroyed 0x0E: an error to both nodes; sent again at once, destroyed again while
+    # the window lasts (0x0E wins every arbitration), then through
+    assert errors and {e.sender for e in errors} == {"host", "drive"}
+    assert all(0.02 <= e.time < 0.03 for e in errors)
+    assert len([e for e in errors if e.sender == "host"]) == len(
+        [e for e in errors if e.sender == "drive"])
+    assert kinds(events, 0x0E).count("transmit") == 100  # every frame got through in the end
+    assert all("error frame" in e.detail for e in errors)
+
+
+def test_a_node_bus_off_sends_nothing_for_the_window_and_is_told() -> None:
+    events = _two_senders(FrameFault(start=0.02, stop=0.05, kind="bus_off",
+                                     senders=frozenset({"host"})))
+    refused = [e for e in events if e.kind == "bus_error"]
+    assert len(refused) == 30 and {e.sender for e in refused} == {"host"}
+    assert all("bus-off" in e.detail and 0.02 <= e.time < 0.05 for e in refused)
+    sent = [e for e in events if e.kind == "transmit" and e.sender == "host"]
+    assert len(sent) == 70 and not any(0.02 <= e.time < 0.05 for e in sent)
+    assert kinds(events, 0x1E).count("transmit") == 100  # the other node unharmed
+
+
+def test_a_babbling_node_floods_the_bus_and_the_others_wait() -> None:
+    from twmr.hw.cansim import BABBLER, frame_timing
+
+    events = _two_senders(FrameFault(frozenset({0x001}), start=0.02, stop=0.03,
+                                     kind="babble"))
+    babble = [e for e in events if e.sender == BABBLER]
+    assert {e.kind for e in babble} == {"transmit"} and \
+        {e.frame.arbitration_id for e in babble} == {0x001}
+    slot = frame_timing(babble[0].frame, 1e6).to_free
+    assert abs(len(babble) - 0.01 / slot) <= 2  # back to back for 10 ms
+    host = [e.time for e in events if e.kind == "transmit" and e.sender == "host"]
+    assert not any(0.02 + slot < t < 0.03 for t in host)  # nothing of the others gets through
+    assert len(host) == 100  # they wait, then go

@@ -396,6 +396,11 @@ class Component:
         `height`, `ahead` (how far the body's centre is ahead of the pose's point); {}: none."""
         return {}
 
+    def stopping(self) -> None:
+        """The run has stopped stepping (completed, failed or stopped): called on every
+        component before any `terminate`, so that what the stops send can pass (a bus ends its
+        injected faults here)."""
+
     def hold(self, t: float) -> None:
         """Called every 50 ms while the run is paused at time t [s] (`twmr.master.gate`):
         hardware keeps itself safe here (a drive sends zero torque, feeding its watchdog)."""

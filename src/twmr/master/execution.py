@@ -679,6 +679,11 @@ class Execution:
         order of their `terminate_stage` (a bus after the hosts whose last frames it carries)."""
         components = self.system.components
         with held_signals():
+            for name in self.system.order:
+                try:
+                    components[name].stopping()
+                except BaseException:  # noqa: BLE001 - every component is told whatever fails
+                    log.warning("stopping() of '%s' failed", name, exc_info=True)
             for name in sorted(self.system.order, key=lambda n: components[n].terminate_stage):
                 try:
                     components[name].terminate()
