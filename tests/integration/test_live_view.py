@@ -425,3 +425,45 @@ def test_the_page_pauses_steps_and_resumes_the_run(browser, tmp_path):
     summary = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert summary["status"] == "completed" and summary["pacing"]["paused_s"] > 1.0
     assert errors == [], errors
+
+
+def test_events_are_marked_on_the_scopes(browser, tmp_path):
+    """A timed set event (its mark from the start) and a condition event (its mark when it
+    fires, pushed to the page) are drawn as dashed vertical lines on each scope at their times,
+    labelled; the fired one at the time summary.json gives."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    scenario = tmp_path / "events.yaml"
+    scenario.write_text(SCENARIO.read_text(encoding="utf-8") + (
+        "events:\n  - {at: 0.5, set: ctrl.k, value: 50.0}\n"
+        "  - {when: 'plant.pose[1] < 0.3', set: ctrl.k, value: 55.0}\n"), encoding="utf-8")
+    proc, url, _ = _start_run(tmp_path / "run", stop=2.0, pace="2", scenario=scenario)
+    try:
+        browser.get(url)
+        WebDriverWait(browser, 120, poll_frequency=0.5).until(
+            lambda d: d.execute_script("return twmrLive.end && twmrLive.end.status;"))
+        browser.execute_script("twmrLive.window = 'all'; draw();")
+        marks = browser.execute_script("return twmrLive.marks;")
+        grey = browser.execute_script("""
+            const u = twmrLive.charts[0], out = [];
+            u.redraw();
+            for (const m of twmrLive.marks) {
+              const x = Math.round(u.valToPos(m.at, "x", true));
+              const col = u.ctx.getImageData(x, u.bbox.top, 1, u.bbox.height).data;
+              let n = 0;
+              for (let i = 0; i < col.length; i += 4)
+                if (Math.abs(col[i] - 120) < 25 && Math.abs(col[i + 1] - 120) < 25 &&
+                    Math.abs(col[i + 2] - 120) < 25) n += 1;
+              out.push(n);
+            }
+            return out;""")
+        errors = _severe(browser)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(60)
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    fired = summary["fired"][0]
+    assert sorted(m["at"] for m in marks) == sorted([0.5, fired["at"]])
+    assert any(m["text"] == "ctrl.k set (plant.pose[1] < 0.3)" for m in marks)
+    assert all(n > 20 for n in grey), grey  # a dashed line down each mark's pixel column
+    assert errors == [], errors

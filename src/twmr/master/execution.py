@@ -272,7 +272,9 @@ class Execution:
         self._wall0 = math.nan
         try:
             start = RunStart(tuple(self.columns), tuple(self.units), exp.step, exp.n_steps,
-                             self.folder, self.system.source, {"ports": self._recorded_ports()},
+                             self.folder, self.system.source,
+                             {"ports": self._recorded_ports(),
+                              "events": [m.plain() for m in self.system.events]},
                              tuple(self.ticks.names), self.system)
             for obs in self.observers:
                 self._write(obs.started, start)
@@ -437,11 +439,13 @@ class Execution:
             self._seen[watch.block] = count
             at = self._time(self._n)
             self._changes += watch.fired(self._n, at)
-            self.outcome.fired.append({
-                "when": watch.condition, "action": watch.action, "target": watch.target,
-                "located": float(block.get("located")), "at": at,
-                "until": at + watch.duration if watch.change is None else None,
-                **({"value": watch.value} if math.isfinite(watch.value) else {})})
+            record = {"when": watch.condition, "action": watch.action, "target": watch.target,
+                      "located": float(block.get("located")), "at": at,
+                      "until": at + watch.duration if watch.change is None else None,
+                      **({"value": watch.value} if math.isfinite(watch.value) else {})}
+            self.outcome.fired.append(record)
+            for obs in self.observers:
+                self._write(obs.fired, record)
             fired = True
         return fired
 

@@ -68,5 +68,9 @@ class Observer:
         chunk: (time [s], index into `RunStart.binary`, the bytes), in the order taken (an
         output's ticks inside a step keep their own times, so not always sorted by time)."""
 
+    def fired(self, event: dict[str, Any]) -> None:
+        """A condition event fired (as `Outcome.fired` keeps it: when, action, target, located
+        and at [s])."""
+
     def finished(self, outcome: Outcome) -> None:
         """The run ended (every component is already terminated)."""

@@ -37,7 +37,13 @@ import numpy as np
 from twmr.core.errors import CosimError
 from twmr.master.gate import Gate
 from twmr.observers.base import Observer, Outcome, RunStart
-from twmr.plots import STEPWISE_TYPES, element_names, group_ports, is_planar_position
+from twmr.plots import (
+    STEPWISE_TYPES,
+    element_names,
+    event_marks,
+    group_ports,
+    is_planar_position,
+)
 
 log = logging.getLogger("twmr.live")
 
@@ -148,6 +154,7 @@ class LiveView(Observer):
         self._end_message: str | None = None
         self._system: Any = None
         self._diagrams: dict[frozenset[str], bytes] = {}
+        self._marks: list[str] = []  # the condition events fired, as messages
         self._server: Any = None
         self._thread: threading.Thread | None = None
         self._closing = False
@@ -306,7 +313,7 @@ class LiveView(Observer):
                 control = json.dumps({"type": "control", "paused": True}) \
                     if self.gate is not None and self.gate.paused else None
                 first = [m for m in (self._start_message, self._history_frame(), control,
-                                     self._end_message) if m is not None]
+                                     *self._marks, self._end_message) if m is not None]
         if closing:
             connection.close(1001, "the live view closed")
             return
@@ -403,11 +410,13 @@ class LiveView(Observer):
                               "labels": [labels[c] for c in columns],
                               "stepped": [stepped[c] for c in columns],
                               "diagram": run.system is not None,
-                              "control": self.gate is not None})
+                              "control": self.gate is not None,
+                              "marks": [{"at": t, "text": text} for t, text in event_marks(
+                                  {"events": run.metadata.get("events", [])})]})
         with self._lock:
             self._start_message, self._end_message = message, None
             self._system, self._diagrams = run.system, {}
-            self._history, self._history_rows = [], 0
+            self._history, self._history_rows, self._marks = [], 0, []
         self._broadcast(message)
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
@@ -426,6 +435,16 @@ class LiveView(Observer):
         if self._history_rows > HISTORY_ROWS:
             kept = np.concatenate(self._history)[::2]
             self._history, self._history_rows = [kept], len(kept)
+
+    def fired(self, event: dict[str, Any]) -> None:
+        """A condition event as a mark on the scopes of every page (and of those that join
+        later)."""
+        message = json.dumps({"type": "mark", "at": event["at"],
+                              "text": f"{event['target']} {event['action']} "
+                                      f"({event['when']})"})
+        with self._lock:
+            self._marks.append(message)
+        self._broadcast(message)
 
     def finished(self, outcome: Outcome) -> None:
         message = json.dumps({"type": "end", "status": outcome.status, "error": outcome.error,
