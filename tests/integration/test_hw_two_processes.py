@@ -146,3 +146,33 @@ def test_no_drive_on_the_bus_says_no_heartbeat_arrived(cwd: Path) -> None:
     para = "\n".join(assert_clean_error(o, mentions=("'motor'", "drive node 0")))
     assert "no heartbeat arrived within 1 s on udp_multicast:239.74." in para, o.describe()
     assert "Heartbeat(" not in para, o.describe()
+
+
+def test_a_lost_torque_frame_on_a_bus_to_another_process_trips_that_drive(cwd: Path) -> None:
+    """The bus block between the host and drives emulated in another process (real frames over
+    udp_multicast) loses node 0's Set_Input_Torque from 0.3 s (`fault: drop`): the drive in the
+    other process hears no torque, its own axis watchdog trips, and the host stops the run on
+    the heartbeat that says so — a fault on a cross-process bus, made by the block as the
+    frames cross it. The drive block is given the emulator's endpoint table: without one, a
+    drive in another process is not protected by its own watchdog and keeps its last torque
+    (the run's report says so), which is why the table matters."""
+    name = bench(cwd, stop=3.0, through_bus=True)
+    # the emulator's endpoint table, so the host arms each drive's own watchdog (0.1 s)
+    table = Path(p.__file__).resolve().parent / "data" / "odrive-endpoints-emulated.json"
+    text = (cwd / name).read_text().replace(
+        "emulate: false,", f"emulate: false, endpoints: '{table}',").replace(
+        "parameters: {can_config: can.ini}",
+        f"parameters: {{can_config: can.ini, fault_ids: "
+        f"'{p.can_id(0, p.SET_INPUT_TORQUE):#x}', fault_start: 0.3}}")
+    (cwd / name).write_text(text)
+    emulator = Emulator(cwd)
+    try:
+        o = run_cli(["run", name, "-q"], cwd, timeout=300)
+    finally:
+        emulator.stop()
+    para = "\n".join(assert_clean_error(o, mentions=("'motor'", "drive node 0")))
+    assert "WATCHDOG_TIMER_EXPIRED" in para, o.describe()
+    log = read_log(cwd / "results" / "bench.incomplete" / "can0_frames.arrows")
+    lost = log[log.event == "dropped"]
+    assert len(lost) > 10 and set(lost.id.astype(int)) == {p.can_id(0, p.SET_INPUT_TORQUE)}
+    assert lost.time.min() >= 0.3
