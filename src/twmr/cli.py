@@ -273,8 +273,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
     scenario = Path(args.scenario)
     out = Path(args.out) if args.out else Path("fits") / (scenario.stem or "scenario")
     result = fit(scenario, [Experiment(d, until=args.until) for d in args.data], args.estimate,
-                 pairs,
-                 sigma=sigma, overrides=args.set, out=out, max_runs=args.max_runs)
+                 pairs, sigma=sigma, overrides=args.set, out=out, max_runs=args.max_runs,
+                 starts=args.starts, seed=args.seed, workers=args.workers,
+                 scheduler=args.scheduler)
     print(result.text())
     print(f"fit.json, fitted.yaml and residuals.png in {out}/")
     return 0
@@ -716,7 +717,17 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="override for every run (repeatable)")
     fi.add_argument("--until", type=float, help="fit the data up to this time [s] only, each "
                     "run stopped there")
-    fi.add_argument("--max-runs", type=int, default=200, help="at most this many runs")
+    fi.add_argument("--max-runs", type=int, default=200, help="at most this many runs (per "
+                    "local fit)")
+    fi.add_argument("--starts", type=int, default=1, help="a global start: local fits from "
+                    "the start values and from STARTS - 1 points of a Latin hypercube over the "
+                    "bounds, the lowest cost kept (default 1)")
+    fi.add_argument("--seed", type=int, default=0, help="seed of the global start's points")
+    fit_where = fi.add_mutually_exclusive_group()
+    fit_where.add_argument("--workers", type=int, help="the local fits on a Dask cluster of "
+                           "this many local worker processes")
+    fit_where.add_argument("--scheduler", metavar="ADDRESS", help="the local fits on the Dask "
+                           "cluster at ADDRESS")
     fi.add_argument("--out", help="folder of the fit (default fits/<scenario>); a fit asked "
                     "again there resumes")
     fi.set_defaults(fn=cmd_fit)

@@ -1,7 +1,9 @@
 """Fitting a scenario to measured data (`twmr fit`, `twmr.fit`): the values of chosen
 parameters and initial states (`Estimate`) that make chosen signals of runs match measured ones,
 over one or more experiments (each its data and its own overrides), by scipy's `least_squares`
-(trust region reflective within the bounds) on the reruns of a built system (`twmr.build`).
+(trust region reflective within the bounds) on the reruns of a built system (`twmr.build`);
+with a global start, local fits from several points of a Latin hypercube over the bounds (on a
+Dask cluster, one task each), the lowest cost kept.
 
 Residuals: (model - data) / sigma at the data's times, the model linear between its recorded
 points; sigma per signal (the measurement's standard deviation [signal's unit]; default: that of
@@ -105,6 +107,8 @@ class FitResult:
     folder: Path | None
     status: str
     residual_rms: dict[str, float] = field(default_factory=dict)
+    #: each local fit of a global start: its start, what it found, its cost and runs
+    starts: list[dict[str, Any]] = field(default_factory=list)
 
     def text(self) -> str:
         """A table of the estimates with their intervals."""
@@ -117,6 +121,12 @@ class FitResult:
         rms = ", ".join(f"{k} {v:.3g}" for k, v in self.residual_rms.items())
         lines.append(f"cost {self.cost:.6g} after {self.runs} runs ({self.resumed} read from "
                      f"the journal); {self.status}; residual RMS: {rms}")
+        if len(self.starts) > 1:
+            costs = sorted(s["cost"] for s in self.starts)
+            near = sum(c <= costs[0] * (1 + 1e-6) + 1e-12 for c in costs)
+            lines.append(f"global start: {len(self.starts)} local fits, {near} of them reached "
+                         f"the lowest cost; the others stopped at "
+                         f"{', '.join(f'{c:.4g}' for c in costs[near:]) or 'none'}")
         return "\n".join(lines)
 
 
@@ -132,14 +142,16 @@ class _Measured:
 def fit(scenario: str | Path | Any, data: Sequence[str | Path | Experiment] | str | Path,
         estimate: Sequence[str | Estimate], match: Sequence[str] | Mapping[str, str],
         *, sigma: Mapping[str, float] | None = None, overrides: Sequence[str] = (),
-        out: str | Path | None = None, max_runs: int = 200) -> FitResult:
+        out: str | Path | None = None, max_runs: int = 200, starts: int = 1, seed: int = 0,
+        workers: int | None = None, scheduler: str | None = None) -> FitResult:
     """Estimate `estimate` so that the signals `match` (model signal names; a mapping: model
     signal -> data column) of runs of `scenario` match `data` (one or more experiments).
     `sigma`: per signal the measurement's standard deviation (default: the data column's).
     `out`: the fit's folder (journal, fit.json, fitted.yaml, residuals.png; None: nothing
-    written, nothing resumed). At most `max_runs` runs."""
-    from scipy.optimize import least_squares
-
+    written, nothing resumed). At most `max_runs` runs per local fit. `starts` > 1: a global
+    start — local fits from the given start and from `starts - 1` points of a Latin hypercube
+    over the bounds (`seed`), the lowest cost kept; on a Dask cluster of `workers` local
+    processes or at `scheduler` when either is given, one local fit a task."""
     from twmr.api import load
     from twmr.built import build
 
@@ -147,6 +159,9 @@ def fit(scenario: str | Path | Any, data: Sequence[str | Path | Experiment] | st
     names = [e.name for e in estimates]
     if len(set(names)) != len(names):
         raise CosimError(f"an estimate is named twice ({', '.join(names)}). Fix: name each once.")
+    if not isinstance(starts, int) or isinstance(starts, bool) or starts < 1:
+        raise CosimError(f"starts {starts!r}: give a whole number of at least 1 (1: one local "
+                         f"fit from the start values).")
     pairs = dict(match) if isinstance(match, Mapping) else {m: m for m in match}
     if not pairs:
         raise CosimError("no signal to match. Fix: name the model signals the data measures "
@@ -162,8 +177,75 @@ def fit(scenario: str | Path | Any, data: Sequence[str | Path | Experiment] | st
         raise CosimError(f"sigma of {', '.join(bad)} is not above 0 (a constant measured "
                          f"signal has no spread to weigh it by). Fix: give --sigma NAME=VALUE.")
     key = _key(loaded, overrides, estimates, pairs, sigmas, measured)
-    journal = _Journal(Path(out), key) if out is not None else None
+    folder = Path(out) if out is not None else None
+    tasks = [_Local(loaded, estimates, measured, sigmas, x0, max_runs, folder, key, k)
+             for k, x0 in enumerate(_start_points(estimates, start, starts, seed))]
+    if len(tasks) > 1 and (workers is not None or scheduler):
+        outcomes = _on_cluster(tasks, workers, scheduler)
+    else:
+        outcomes = []
+        for task in tasks:
+            outcomes.append(_solve(task))
+            if len(tasks) > 1:
+                log.info("fit: start %d of %d: cost %.6g", task.number + 1, len(tasks),
+                         outcomes[-1]["cost"])
+    best = min(outcomes, key=lambda o: o["cost"])
+    m_total, p = len(best["fun"]), len(estimates)
+    stderr, interval, corr = _uncertainty(best["jac"], best["fun"], best["x"], m_total, p)
+    result = FitResult({e.name: float(v) for e, v in zip(estimates, best["x"], strict=True)},
+                       dict(zip(names, stderr, strict=True)),
+                       dict(zip(names, interval, strict=True)), corr, float(best["cost"]),
+                       sum(o["made"] for o in outcomes), sum(o["read"] for o in outcomes),
+                       folder, best["message"], _rms(best["fun"], measured, pairs),
+                       [{"start": [float(v) for v in t.start], "found": [float(v) for v in o["x"]],
+                         "cost": o["cost"], "runs": o["made"] + o["read"]}
+                        for t, o in zip(tasks, outcomes, strict=True)])
+    if folder is not None:
+        _report(folder, result, loaded, estimates, overrides, built, measured, sigmas)
+    return result
+
+
+def _start_points(estimates: list[Estimate], start: np.ndarray, starts: int, seed: int
+                  ) -> list[np.ndarray]:
+    """The given start, then `starts - 1` points of a Latin hypercube over the bounds."""
+    points = [start]
+    if starts > 1:
+        from scipy.stats import qmc
+
+        lows = np.array([e.low for e in estimates])
+        highs = np.array([e.high for e in estimates])
+        unit = qmc.LatinHypercube(d=len(estimates), seed=seed).random(starts - 1)
+        points += list(lows + unit * (highs - lows))
+    return points
+
+
+@dataclass
+class _Local:
+    """One local least-squares fit from `start`, made where it runs (this process or a Dask
+    worker), journalled as start `number` of the fit in `folder` (None: not journalled)."""
+
+    scenario: Any
+    estimates: list[Estimate]
+    measured: list[_Measured]
+    sigmas: dict[str, float]
+    start: np.ndarray
+    max_runs: int
+    folder: Path | None
+    key: str
+    number: int
+
+
+def _solve(task: _Local) -> dict[str, Any]:
+    """The local fit of `task`: its optimum x, cost, residuals and Jacobian there, scipy's
+    message, the runs made and those read from its journal."""
+    from scipy.optimize import least_squares
+
+    from twmr.built import build
+
+    built = build(task.scenario)
+    journal = _Journal(task.folder, task.key, task.number) if task.folder is not None else None
     runs = {"made": 0, "read": 0}
+    estimates, measured = task.estimates, task.measured
 
     def residuals(x: np.ndarray) -> np.ndarray:
         if journal is not None and (kept := journal.get(x)) is not None:
@@ -177,7 +259,7 @@ def fit(scenario: str | Path | Any, data: Sequence[str | Path | Experiment] | st
             except CosimError as err:
                 raise CosimError(f"fit: the run of {m.label} with {', '.join(values)} failed: "
                                  f"{err}") from None
-            parts.append(_residuals(result, m, sigmas))
+            parts.append(_residuals(result, m, task.sigmas))
         r = np.concatenate(parts)
         runs["made"] += 1
         if journal is not None:
@@ -187,18 +269,26 @@ def fit(scenario: str | Path | Any, data: Sequence[str | Path | Experiment] | st
         return r
 
     lows, highs = np.array([e.low for e in estimates]), np.array([e.high for e in estimates])
-    solved = least_squares(residuals, start, bounds=(lows, highs), method="trf",
-                           diff_step=DIFF_STEP, x_scale="jac", max_nfev=max_runs)
-    m_total, p = len(solved.fun), len(estimates)
-    stderr, interval, corr = _uncertainty(solved.jac, solved.fun, solved.x, m_total, p)
-    result = FitResult({e.name: float(v) for e, v in zip(estimates, solved.x, strict=True)},
-                       dict(zip(names, stderr, strict=True)),
-                       dict(zip(names, interval, strict=True)), corr, float(solved.cost),
-                       runs["made"], runs["read"], Path(out) if out is not None else None,
-                       str(solved.message), _rms(solved.fun, measured, pairs))
-    if out is not None:
-        _report(Path(out), result, loaded, estimates, overrides, built, measured, sigmas)
-    return result
+    solved = least_squares(residuals, task.start, bounds=(lows, highs), method="trf",
+                           diff_step=DIFF_STEP, x_scale="jac", max_nfev=task.max_runs)
+    return {"x": solved.x, "cost": float(solved.cost), "fun": solved.fun, "jac": solved.jac,
+            "message": str(solved.message), **runs}
+
+
+def _on_cluster(tasks: list[_Local], workers: int | None, scheduler: str | None
+                ) -> list[dict[str, Any]]:
+    """The local fits of `tasks` on a Dask cluster, one task each."""
+    from twmr.sweeps.engine import dask_client
+
+    client, cluster = dask_client(workers, scheduler)
+    try:
+        futures = client.map(_solve, tasks, pure=False,
+                             key=[f"fit-start-{t.number}" for t in tasks])
+        return list(client.gather(futures))
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def _experiments(data: Sequence[str | Path | Experiment] | str | Path) -> list[Experiment]:
@@ -342,11 +432,13 @@ class _Journal:
     """The runs of a fit in `folder`: one JSON line per run (parameters, residual file, its
     SHA-256), keyed by the fit's settings."""
 
-    def __init__(self, folder: Path, key: str):
+    def __init__(self, folder: Path, key: str, number: int = 0):
         self.folder, self.key = folder, key
         folder.mkdir(parents=True, exist_ok=True)
-        (folder / "runs").mkdir(exist_ok=True)
-        self.path = folder / JOURNAL
+        # start 0 of a global start in runs.jsonl and runs/, start k in runs.k.jsonl, runs.k/
+        self.runs_dir = folder / ("runs" if number == 0 else f"runs.{number}")
+        self.runs_dir.mkdir(exist_ok=True)
+        self.path = folder / (JOURNAL if number == 0 else f"runs.{number}.jsonl")
         self.runs: dict[tuple[float, ...], tuple[str, str]] = {}
         if not self.path.exists():
             self.path.write_text(json.dumps({"key": key}) + "\n")
@@ -368,7 +460,7 @@ class _Journal:
         found = self.runs.get(tuple(float(v) for v in x))
         if found is None:
             return None
-        file = self.folder / "runs" / found[0]
+        file = self.runs_dir / found[0]
         try:
             data = file.read_bytes()
         except OSError:
@@ -380,9 +472,9 @@ class _Journal:
     def add(self, x: np.ndarray, r: np.ndarray) -> None:
         name = f"{len(self.runs):05d}.f8"
         data = np.ascontiguousarray(r, dtype="<f8").tobytes()
-        tmp = self.folder / "runs" / f".{name}.tmp"
+        tmp = self.runs_dir / f".{name}.tmp"
         tmp.write_bytes(data)
-        os.replace(tmp, self.folder / "runs" / name)
+        os.replace(tmp, self.runs_dir / name)
         point = [float(v) for v in x]
         digest = hashlib.sha256(data).hexdigest()
         with open(self.path, "a") as f:
@@ -405,6 +497,7 @@ def _report(folder: Path, result: FitResult, scenario: Any, estimates: list[Esti
               "status": result.status, "sigma": dict(sigmas),
               "residual_rms": result.residual_rms,
               "bounds": {e.name: [e.low, e.high] for e in estimates},
+              **({"starts": result.starts} if len(result.starts) > 1 else {}),
               "data": [m.label for m in measured]}
     _write(folder / REPORT, json.dumps(report, indent=2))
     settings: list[str | tuple[str, Any]] = [*overrides, *result.estimates.items()]
