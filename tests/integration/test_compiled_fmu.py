@@ -52,7 +52,7 @@ def test_fmus_in_the_compiled_loop_bit_identical(fmus, which: list[str], algorit
     compiled, extra = run(text, "on")
     assert extra["algorithm.compiled"] is True
     assert extra["algorithm.driver"] is True  # FMUs as kinds of the driver, no generated loop
-    assert python.shape == (301, 16) and np.array_equal(python, compiled)
+    assert python.shape == (301, 21) and np.array_equal(python, compiled)
 
 
 def test_auto_keeps_fmus_in_the_python_loop(fmus) -> None:
