@@ -1,8 +1,8 @@
-"""A CAN frame log as measured samples for the `data` block (`database:` given): the frames of a
-log python-can reads (.blf, .asc, .log of candump, .trc, ...) or of a bus block's own log
-(`<bus>_frames.arrows`), decoded with a CAN database (DBC, ARXML, KCD; cantools, as `can_io`
-reads it) into the signals asked for as `Message.Signal` columns, in the units `can_io` gives
-their ports.
+"""A CAN frame log as measured samples for the `data` block: the frames of a log python-can reads
+(.blf, .asc, .log of candump, .trc, ...) or of a bus block's own log (`<bus>_frames.arrows`),
+decoded with a CAN database (`database:`; DBC, ARXML, KCD; cantools, as `can_io` reads it) into
+the signals asked for as `Message.Signal` columns, in the units `can_io` gives their ports, or by
+a drive protocol (`protocol:`, as `twmr replay` decodes it) into `<node>.<signal>` columns.
 
 A signal holds the value of its message's last frame (CAN is sample and hold), on the times of
 the frames of the messages asked for; the samples start at the first frame after which every
@@ -72,6 +72,65 @@ def read_can_log(path: Path, database: Path, columns: tuple[str, ...]
         raise CosimError(f"{path}: no frame gives {', '.join(missing or columns)} "
                          f"({len(frames)} frames in the log{undecoded}). Fix: check that the "
                          f"log holds these messages and that {database.name} describes them.")
+    return ["time", *columns], ["s", *units], np.array(rows, dtype=float)
+
+
+def read_drive_log(path: Path, protocol: str, columns: tuple[str, ...]
+                   ) -> tuple[list[str], list[str], np.ndarray]:
+    """(['time', *columns], their units, the samples) of the frame log `path` decoded by the
+    drive protocol `protocol` as `twmr replay` decodes it (`Link.decode`, at the wheel with
+    gear 1), its columns '<node>.<signal>' ('0.speed', '1.torque_command'); CosimError naming
+    the file, the column and the fix."""
+    import can
+
+    from twmr.hw.link import protocols
+    from twmr.hw.replay import Decoder
+    from twmr.registry import suggest
+
+    known = sorted(protocols())
+    if protocol not in known:
+        raise CosimError(f"{path}: protocol '{protocol}' is not a CAN protocol here"
+                         f"{suggest(protocol, known)} (known: {', '.join(known)}). Fix: give "
+                         f"protocol: one of them, or database: a DBC for other frames.")
+    decoder = Decoder(protocol)
+    units_of = decoder._link.signal_units
+    wanted: list[tuple[int, str]] = []
+    units: list[str] = []
+    for column in columns:
+        node, _, signal = column.partition(".")
+        if not node.isdigit() or not signal:
+            raise CosimError(f"{path}: column '{column}' is not '<node>.<signal>'. Fix: name "
+                             f"columns as the {protocol} frames decode, e.g. 0.speed, "
+                             f"1.torque_command (signals: {', '.join(units_of)}).")
+        wanted.append((int(node), signal))
+        units.append(units_of.get(signal, ""))
+    frames = _frames(path)
+    t0 = frames[0][0] if frames and path.suffix.lower() != ".arrows" else 0.0
+    last: dict[tuple[int, str], float] = {}
+    seen: set[tuple[int | None, str]] = set()
+    rows: list[list[float]] = []
+    for t, ident, extended, data in frames:
+        msg = can.Message(arbitration_id=ident, is_extended_id=extended, data=data)
+        try:
+            signals = decoder(msg)
+        except (ValueError, IndexError, TypeError):
+            continue
+        hit = False
+        for node, signal, value in signals:
+            seen.add((node, signal))
+            if node is not None and (node, signal) in wanted:
+                last[(node, signal)] = float(value)
+                hit = True
+        if hit and all(w in last for w in wanted):
+            rows.append([round(t - t0, 6) if t0 else t, *(last[w] for w in wanted)])
+    if not rows:
+        missing = [f"{n}.{s}" for n, s in wanted if (n, s) not in last]
+        there = sorted(f"{n}.{s}" for n, s in seen if n is not None)
+        hint = suggest(missing[0], there) if missing else ""
+        raise CosimError(f"{path}: no frame gives {', '.join(missing or columns)} as "
+                         f"{protocol} decodes the log{hint} (it holds: "
+                         f"{', '.join(there[:12]) or 'nothing of ' + protocol}). Fix: name "
+                         f"columns the log holds, or give the right protocol.")
     return ["time", *columns], ["s", *units], np.array(rows, dtype=float)
 
 

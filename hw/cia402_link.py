@@ -54,6 +54,9 @@ class Cia402Link(Link):
     default_nodes: ClassVar[tuple[int, int]] = (1, 2)
     Options: ClassVar[type] = c.Cia402Options
     c_node: ClassVar[Any] = c_nodes.CIA402
+    signal_units: ClassVar[dict[str, str]] = {
+        "torque_command": "N.m", "angle": "rad", "speed": "rad/s", "statusword": "",
+        "controlword": ""}
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
         problems = self.check(spec)

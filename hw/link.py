@@ -124,6 +124,8 @@ class Link(ABC):
     #: the protocol's host side in C for a controller FMU on a CAN terminal (`twmr export KIND
     #: --fmi 3 --can NAME`, twmr.fmi.cexport.busnode.CNode), or None
     c_node: ClassVar[Any] = None
+    #: the units of the signals `decode` gives (at the wheel, SI): '' for a count or a code
+    signal_units: ClassVar[dict[str, str]] = {}
     fault: Fault | None
     fault_at: float  # time.perf_counter() when `fault` was latched (nan: none)
     rtt_ns: list[int]

@@ -42,6 +42,9 @@ class OdriveLink(Link):
     default_nodes: ClassVar[tuple[int, int]] = (0, 1)
     Options: ClassVar[type] = p.OdriveOptions
     c_node: ClassVar[Any] = c_nodes.ODRIVE
+    signal_units: ClassVar[dict[str, str]] = {
+        "torque_command": "N.m", "angle": "rad", "speed": "rad/s", "speed_limit": "rad/s",
+        "current_limit": "A", "axis_error": "", "axis_state": "", "requested_state": ""}
 
     def __init__(self, spec: DriveSpec, options: dict[str, Any], log: FrameLog | None = None):
         problems = self.check(spec)

@@ -28,7 +28,7 @@ class Data(Component):
 
     kind = "data"
     sized_by: ClassVar[dict[str, str]] = {"y": "n"}
-    construction_parameters = ("file", "columns", "time_column", "unit", "database")
+    construction_parameters = ("file", "columns", "time_column", "unit", "database", "protocol")
     file = Parameter("", type=STRING, description="the samples: a CSV, Parquet or .mat file, "
                      "or a run's folder, relative to the scenario ('': times and values inline)")
     columns = Parameter((), type=STRING, size=0, description="the file's columns played, one "
@@ -37,6 +37,9 @@ class Data(Component):
     database = Parameter("", type=STRING, description="a CAN database (DBC, ARXML, KCD) "
                          "decoding `file` as a CAN frame log (.blf, .asc, .log, .trc, a run's "
                          "<bus>_frames.arrows), its columns 'Message.Signal' ('': no log)")
+    protocol = Parameter("", type=STRING, description="a drive protocol (odrive, cia402) "
+                         "decoding `file` as a CAN frame log as `twmr replay` does, its columns "
+                         "'<node>.<signal>' ('0.speed'; '': no log)")
     unit = Parameter("", type=STRING, description="the unit of y ('': the columns' own)")
     n = Parameter(1, type=INTEGER, min=1, description="number of elements (the columns)")
     times = Parameter((0.0, 1.0), size=0, unit="s", description="sample times, non-decreasing "
@@ -77,7 +80,12 @@ class Data(Component):
         database = str(construction.get("database", "") or "")
         db = None if not database else Path(database) if Path(database).is_absolute() \
             else base_dir / database
-        samples = read_samples(path, columns, str(construction.get("time_column", "time")), db)
+        protocol = str(construction.get("protocol", "") or "")
+        if db is not None and protocol:
+            raise ValueError(f"database '{database}' and protocol '{protocol}' are both given; "
+                             f"a frame log is decoded by one of them")
+        samples = read_samples(path, columns, str(construction.get("time_column", "time")), db,
+                               protocol)
         unit = str(construction.get("unit", "") or "")
         if unit and samples.unit and unit != samples.unit:
             raise ValueError(f"unit '{unit}' is given and the file's columns are in "

@@ -28,10 +28,11 @@ class Samples:
 
 
 def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time",
-                 database: Path | None = None) -> Samples:
+                 database: Path | None = None, protocol: str = "") -> Samples:
     """The samples of `columns` over `time_column` in the file (or run folder) `path`, or, with
     a CAN `database`, of the frame log `path` decoded by the `can` sample reader (its columns
-    'Message.Signal'); CosimError naming file, column and row for what cannot be played."""
+    'Message.Signal'), with a drive `protocol`, decoded by the `drive` one (its columns
+    '<node>.<signal>'); CosimError naming file, column and row for what cannot be played."""
     from twmr.registry import SAMPLE_READERS, plugin, suggest
     from twmr.result import read_result
 
@@ -43,6 +44,10 @@ def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time"
         time_column = "time"
         names, units, table = plugin(SAMPLE_READERS, "can", "sample reader")(path, database,
                                                                               columns)
+    elif protocol:
+        time_column = "time"
+        names, units, table = plugin(SAMPLE_READERS, "drive", "sample reader")(path, protocol,
+                                                                                columns)
     else:
         result = read_result(path)
         names, units = split_units(result.columns, result.units)
