@@ -27,6 +27,15 @@ class Samples:
     unit: str
 
 
+def _ros2_bag(path: Path) -> bool:
+    """Whether `path` is a ROS 2 bag (checked only when the ROS 2 extra is installed)."""
+    try:
+        from twmr.ros2.bag_samples import is_bag
+    except ImportError:
+        return False
+    return is_bag(path)
+
+
 def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time",
                  database: Path | None = None, protocol: str = "") -> Samples:
     """The samples of `columns` over `time_column` in the file (or run folder) `path`, or, with
@@ -48,6 +57,9 @@ def read_samples(path: Path, columns: tuple[str, ...], time_column: str = "time"
         time_column = "time"
         names, units, table = plugin(SAMPLE_READERS, "drive", "sample reader")(path, protocol,
                                                                                 columns)
+    elif _ros2_bag(path):
+        time_column = "time"
+        names, units, table = plugin(SAMPLE_READERS, "ros2", "sample reader")(path, columns)
     else:
         result = read_result(path)
         names, units = split_units(result.columns, result.units)
