@@ -86,12 +86,21 @@ class BusCore:
     def handed(self, name: str, timeout: float) -> bool:
         raise NotImplementedError
 
+    def bus_time(self) -> float:
+        """The bus's present time [s of bus time]."""
+        raise NotImplementedError
+
     def discard(self, name: str) -> int:
         """Forget the frames `name` queued and not yet on the wire (python-can's
-        `flush_tx_buffer`: a host that stops sends its stop frames next, not after a backlog);
-        how many."""
+        `flush_tx_buffer`: a host that stops sends its stop frames next, not after a backlog),
+        each logged as `discarded`; how many."""
         with self._cond:
-            return self.model.drop(name)
+            frames = self.model.take(name)
+            now = self.bus_time()
+            for frame in frames:
+                self._record(BusEvent("discarded", now, frame, name, "unsent, discarded by its "
+                                      "sender as it stopped (flush_tx_buffer)"))
+            return len(frames)
 
     def __init__(self, name: str, model: CanBusModel, offset: float):
         self.name, self.model = name, model
@@ -246,6 +255,9 @@ class BusRunner(BusCore):
     def now(self) -> float:
         """Bus time [s] (the run's time once the block has stepped)."""
         return time.monotonic() + (0.0 if math.isnan(self.offset) else self.offset)
+
+    def bus_time(self) -> float:
+        return time.monotonic()  # bus time is the monotonic clock (the log adds the offset)
 
     # -- the thread ----------------------------------------------------------------------------
     def _run(self) -> None:

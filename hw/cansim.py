@@ -437,8 +437,11 @@ class CanBusModel:
     def drop(self, name: str) -> int:
         """Forget the frames `name` queued and not yet on the wire (a node that stopped); how
         many."""
-        queued = self._queues.pop(name, ())
-        return len(queued)
+        return len(self.take(name))
+
+    def take(self, name: str) -> list[can.Message]:
+        """The frames `name` queued and not yet on the wire, taken off the bus (in order)."""
+        return [item.frame for item in self._queues.pop(name, ())]
 
     def pending(self, name: str) -> int:
         """Frames of `name` not yet finished on the wire."""

@@ -33,6 +33,9 @@ class SteppedBus(BusCore):
         if channel:
             register(channel, self)
 
+    def bus_time(self) -> float:
+        return self.clock
+
     def join(self, member: Participant, keeps_open: bool = True) -> str:
         """Add `member`; its name on the bus (made unique with '#2', '#3', ...)."""
         with self._cond:

@@ -17,6 +17,7 @@ import can
 import pytest
 
 from tests.hostile.runner import BENCH, assert_clean_error, assert_ok, run_cli
+from tests.integration.test_hw_canbus import sent_as_logged
 from twmr.hw import protocol as p
 from twmr.hw.canbus import read_log
 
@@ -133,10 +134,7 @@ def test_the_bench_runs_against_drives_emulated_in_another_process(cwd: Path,
         assert set(moved.sender) == {"motor", f"udp_multicast:{config_of(cwd)}"}
         # what came in through the gateway is the drives' (no echo of the host's own frames)
         assert not any(p.split_id(int(i))[1] == p.SET_INPUT_TORQUE for i in outside.id)
-        host = moved[moved.sender == "motor"]
-        tx = [m for m in frames if not m.is_rx]
-        assert [(m.arbitration_id, bytes(m.data)) for m in tx] == \
-            list(zip(host.id.astype(int), host.data, strict=True))
+        assert sent_as_logged([m for m in frames if not m.is_rx], log, "motor")
         assert (log.event == "bus_error").sum() == 0
 
 
