@@ -19,6 +19,7 @@ existing one by its scheduler address — with the rows collected into `DIR/runs
 """
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import json
 import logging
@@ -428,7 +429,7 @@ class Finished:
                 given.add(future.key)
                 yield future
                 continue
-            time.sleep(0.02)
+            self._wait()
             now = time.monotonic()
             if now - checked < 1.0:
                 continue
@@ -445,6 +446,18 @@ class Finished:
                             NO_WORKER_PATIENCE, len(left))
                 yield from left
                 return
+
+
+    def _wait(self) -> None:
+        """Until a future finishes (woken by it, not polled) or 1 s has passed."""
+        left = [f for f in self.futures if not f.done()]
+        if not left:  # finished, and not yet handed to `pending` by its callback
+            time.sleep(0.001)
+            return
+        from dask.distributed import wait
+
+        with contextlib.suppress(TimeoutError, asyncio.TimeoutError):
+            wait(left, timeout=1.0, return_when="FIRST_COMPLETED")
 
 
 def settled(future: Any) -> None:
