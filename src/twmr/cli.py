@@ -353,7 +353,7 @@ def _design(model: Any, args: argparse.Namespace, out: Path) -> list[str]:
                              f"0.9,0.8 or 0.9+0.1j,0.9-0.1j.") from None
 
     made = design(model, args.design, q=args.output_weight, r=args.input_weight,
-                  w=args.process_noise, v=args.measurement_noise,
+                  w=args.process_noise, v=args.measurement_noise, qi=args.integral_weight,
                   poles=poles(args.poles, "--poles"),
                   observer_poles=poles(args.observer_poles, "--observer-poles"))
     plain = made.plain()
@@ -750,8 +750,11 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     "singular values)")
     li.add_argument("--tol", type=float, default=1e-7, help="relative Hankel singular value "
                     "below which a state is dropped")
-    li.add_argument("--design", choices=("lqg", "place"), help="design an output-feedback "
-                    "controller on the model (controller.yaml, design.json)")
+    li.add_argument("--design", choices=("lqg", "lqi", "place"), help="design an "
+                    "output-feedback controller on the model (controller.yaml, design.json); "
+                    "lqi: lqg with an integrator per output")
+    li.add_argument("--integral-weight", type=float, default=1.0, metavar="QI",
+                    help="lqi: weight on the outputs' integrals (default 1)")
     li.add_argument("--output-weight", type=float, default=1.0, metavar="Q",
                     help="lqg: weight on the outputs (default 1)")
     li.add_argument("--input-weight", type=float, default=1.0, metavar="R",

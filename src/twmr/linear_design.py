@@ -10,11 +10,18 @@ chose), so the design is too, and is made so that it does not depend on that rea
   estimator gain L is the steady Kalman predictor's for process noise entering at the inputs
   (covariance B (w I) B') and measurement noise v I. A change of state coordinates changes K
   and L but not the controller's transfer function nor the closed loop's poles.
+- **LQI**: LQG with integral action: an integrator per output, z[k+1] = z[k] + y[k], and
+  [Kx Kz] = dlqr of the plant augmented with them (weights q on the outputs, qi on their
+  integrals, r on the inputs); with the same Kalman predictor for x. It drives the outputs back
+  to the point's values under a constant disturbance (a steady error LQG leaves). It needs at
+  least as many inputs as outputs.
 - **Pole placement**: K and L placing the regulator's and the estimator's discrete poles.
 
 The controller (a predicting estimator: strictly proper, u[k] depends on y up to k - 1):
 
     x^[k+1] = (A - B K - L C + L D K) x^[k] + L y[k],   u[k] = -K x^[k]
+
+and for LQI, with the integrators' states z beside x^ (u[k] = -Kx x^[k] - Kz z[k]).
 
 Both work on deviations from the point the model was taken at (y - y0 in, u - u0 out). The
 closed loop's poles are those of A - B K and A - L C (separation). `block_yaml()` writes the
@@ -33,7 +40,7 @@ import numpy as np
 from twmr.core.errors import CosimError
 from twmr.linear_analysis import LinearModel, continuous_twin
 
-METHODS = ("lqg", "place")
+METHODS = ("lqg", "lqi", "place")
 
 
 @dataclass
@@ -111,11 +118,12 @@ class Design:
 
 
 def design(model: LinearModel, method: str = "lqg", *, q: float = 1.0, r: float = 1.0,
-           w: float = 1.0, v: float = 1.0, poles: Sequence[complex] = (),
+           w: float = 1.0, v: float = 1.0, qi: float = 1.0, poles: Sequence[complex] = (),
            observer_poles: Sequence[complex] = ()) -> Design:
     """An output-feedback controller of `model` by `method` 'lqg' (weights q on the outputs, r
-    on the inputs; noise intensities w at the inputs, v on the outputs) or 'place' (the
-    regulator's discrete `poles` and the estimator's `observer_poles`, one per state)."""
+    on the inputs; noise intensities w at the inputs, v on the outputs), 'lqi' (LQG with an
+    integrator per output, weighed qi) or 'place' (the regulator's discrete `poles` and the
+    estimator's `observer_poles`, one per state)."""
     import control
 
     A, B, C, D = model.A, model.B, model.C, model.D
@@ -123,6 +131,8 @@ def design(model: LinearModel, method: str = "lqg", *, q: float = 1.0, r: float 
     if n == 0:
         raise CosimError("the linear model has no state: there is nothing to control. Fix: "
                          "linearise at a point where the inputs move the outputs.")
+    if method == "lqi":
+        return _lqi(model, q, r, w, v, qi)
     if method == "lqg":
         for label, value in (("output weight q", q), ("input weight r", r),
                              ("process noise w", w), ("measurement noise v", v)):
@@ -147,6 +157,36 @@ def design(model: LinearModel, method: str = "lqg", *, q: float = 1.0, r: float 
     K, L = np.asarray(K, dtype=float), np.asarray(L, dtype=float)
     Ac = A - B @ K - L @ C + L @ D @ K
     return Design(model, method, K, L, Ac, L, -K)
+
+
+def _lqi(model: LinearModel, q: float, r: float, w: float, v: float, qi: float) -> Design:
+    """LQG with an integrator per output (the module docstring)."""
+    import control
+
+    A, B, C, D = model.A, model.B, model.C, model.D
+    n, m, p = model.order, B.shape[1], C.shape[0]
+    for label, value in (("output weight q", q), ("input weight r", r), ("process noise w", w),
+                         ("measurement noise v", v), ("integral weight qi", qi)):
+        if not (math.isfinite(value) and value > 0):
+            raise CosimError(f"{label} {value}: a weight is above 0. Fix: give a positive "
+                             f"number.")
+    if m < p:
+        raise CosimError(f"lqi integrates each of the {p} outputs with {m} input(s): fewer "
+                         f"inputs than integrators cannot hold them all at zero. Fix: "
+                         f"linearise to at most {m} output(s), or use --design lqg.")
+    Aa = np.block([[A, np.zeros((n, p))], [C, np.eye(p)]])
+    Ba = np.vstack([B, D])
+    Qa = np.block([[C.T @ (q * np.eye(p)) @ C + 1e-12 * np.eye(n), np.zeros((n, p))],
+                   [np.zeros((p, n)), qi * np.eye(p)]])
+    Ka, _, _ = control.dlqr(Aa, Ba, Qa, r * np.eye(m))
+    Ka = np.asarray(Ka, dtype=float)
+    Kx, Kz = Ka[:, :n], Ka[:, n:]
+    G = B @ (w * np.eye(m)) @ B.T + 1e-12 * np.eye(n)
+    L = _kalman_predictor(A, C, G, v * np.eye(p))
+    Ac = np.block([[A - B @ Kx - L @ C + L @ D @ Kx, -B @ Kz + L @ D @ Kz],
+                   [np.zeros((p, n)), np.eye(p)]])
+    Bc = np.vstack([L, np.eye(p)])
+    return Design(model, "lqi", Ka, L, Ac, Bc, -Ka)
 
 
 def _kalman_predictor(A: np.ndarray, C: np.ndarray, Qn: np.ndarray, Rn: np.ndarray

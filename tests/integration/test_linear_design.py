@@ -10,7 +10,7 @@ import control
 import numpy as np
 import pytest
 import yaml
-from scipy.linalg import solve_discrete_are
+from scipy.linalg import block_diag, solve_discrete_are
 
 import twmr
 from tests.integration.test_linearize import MSD, analytic_msd
@@ -72,6 +72,49 @@ def test_the_controller_block_closes_the_loop_as_the_discrete_design_does(model,
     # closed-loop time constant 0.73 s against the plant's own 5 s: within 0.1 of the start
     # over the last second (the plant alone would still be at about 0.6 of it)
     assert np.abs(y[-100:]).max() < 0.1 * 0.1
+
+
+def test_lqi_gives_the_poles_of_the_augmented_design_and_no_steady_error(model, tmp_path
+                                                                         ) -> None:
+    """LQI: the closed-loop poles are those of dlqr on the exact model augmented with an
+    output integrator, and the Kalman predictor's; wired to the plant with a constant force
+    on it (1 N from 0.5 s), the controller's output brings the displacement back to 0 (LQG
+    leaves the steady error python-control's closed loop predicts for it)."""
+    q, r, w, v, qi = 400.0, 0.5, 2.0, 1e-3, 50.0
+    ours = design(model, "lqi", q=q, r=r, w=w, v=v, qi=qi)
+    ref = analytic_msd()
+    A, B, C = np.asarray(ref.A), np.asarray(ref.B), np.asarray(ref.C)
+    Aa = np.block([[A, np.zeros((2, 1))], [C, np.eye(1)]])
+    Ba = np.vstack([B, np.zeros((1, 1))])
+    K, _, _ = control.dlqr(Aa, Ba, block_diag(C.T @ C * q, [[qi]]), np.array([[r]]))
+    P = solve_discrete_are(A.T, C.T, B @ B.T * w, np.array([[v]]))
+    L = A @ P @ C.T @ np.linalg.inv(C @ P @ C.T + v)
+    expected = np.concatenate([np.linalg.eigvals(Aa - Ba @ K), np.linalg.eigvals(A - L @ C)])
+    assert np.sort_complex(ours.closed_loop_poles()) == pytest.approx(
+        np.sort_complex(expected), abs=1e-6)
+    finals = {}
+    for method in ("lqi", "lqg"):
+        made = design(model, method, q=q, r=r, w=w, v=v, qi=qi)
+        block = yaml.safe_load(made.block_yaml("ctrl"))
+        scenario = yaml.safe_load(MSD)
+        scenario["components"] = {"msd": scenario["components"]["msd"], **block,
+                                  "push": {"kind": "step", "parameters": {"time": 0.5,
+                                                                          "height": 1.0}},
+                                  "sum": {"kind": "sum"}}
+        scenario["connections"] = ["msd.y -> ctrl.u", "ctrl.y -> sum.u1", "push.y -> sum.u2",
+                                   "sum.y -> msd.u"]
+        scenario["experiment"]["stop"] = 20.0
+        scenario["record"] = {"signals": ["msd.y"]}
+        y = np.asarray(twmr.simulate(twmr.load(yaml.safe_dump(scenario))).data["msd.y"])
+        finals[method] = y[-1]
+        # python-control's steady state of the same loop (force at the plant's input)
+        loop = control.feedback(analytic_msd(), made.controller(), sign=1)
+        finals[f"{method} predicted"] = float(np.real(control.dcgain(loop)))
+    assert abs(finals["lqi"]) < 1e-6 and abs(finals["lqi predicted"]) < 1e-9
+    assert finals["lqg"] == pytest.approx(finals["lqg predicted"], rel=1e-3)
+    assert abs(finals["lqg"]) > 1e-3  # the steady error integral action removes
+    with pytest.raises(CosimError, match="a weight is above 0"):
+        design(model, "lqi", qi=0.0)
 
 
 def test_bad_designs_are_refused(model) -> None:
