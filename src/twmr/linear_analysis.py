@@ -213,7 +213,12 @@ def _fit_error(markov: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
 
 
 def _scalar_input(port: str, system: Any) -> None:
-    comp, _, name = port.rpartition(".")
+    """`port` is a scalar port or one element of a port ('comp.port[i]'); else CosimError."""
+    import re
+
+    found = re.fullmatch(r"(.*)\[(\d+)\]", port)
+    whole = found[1] if found else port
+    comp, _, name = whole.rpartition(".")
     c = system.components.get(comp)
     if c is None or name not in c.variables:
         from twmr.registry import suggest
@@ -222,10 +227,13 @@ def _scalar_input(port: str, system: Any) -> None:
         raise CosimError(f"'{port}' names no port of the scenario"
                          f"{suggest(comp if c is None else name, where)}. Fix: give COMP.PORT "
                          f"of a wired port.")
-    if c.variables[name].width != 1:
-        raise CosimError(f"'{port}' has {c.variables[name].width} elements: an input is "
-                         f"perturbed whole, so it must be a scalar port. Fix: linearise from a "
-                         f"scalar port (a demux's output, one element's wire).")
+    width = c.variables[name].width
+    if found is not None and not 1 <= int(found[2]) <= width:
+        raise CosimError(f"'{port}': '{whole}' has {width} element(s). Fix: give "
+                         f"{whole}[1] to {whole}[{width}].")
+    if found is None and width != 1:
+        raise CosimError(f"'{port}' has {width} elements: an input is perturbed one element "
+                         f"at a time. Fix: give {port}[1] (to {port}[{width}]).")
 
 
 def _run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
@@ -241,15 +249,17 @@ def _run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: 
     if port is not None:
         events += (EventSpec(Given(at, where), Given(at + h, where), Given(port, where),
                              Given("bias", where), Given(value, where), None, where),)
-    record = RecordingSpec(tuple(Given(o, where) for o in outputs), Given(1, where), where)
+    ports = dict.fromkeys(o.partition("[")[0] for o in outputs)  # an element: its port's
+    record = RecordingSpec(tuple(Given(o, where) for o in ports), Given(1, where), where)
     experiment = dataclasses.replace(spec.experiment, stop=Given(stop, where),
                                      realtime=Given(False, where))
     changed = dataclasses.replace(spec, events=events, record=record, experiment=experiment)
     result = simulate(load(changed), None)
-    columns = [c for c in result.columns if c != "time"]
+    kept = [j for j, c in enumerate(result.columns)
+            if c != "time" and (c in outputs or c.partition("[")[0] in outputs)]
     t = np.asarray(result["time"])
-    rows = result.values[t >= at - 1e-9 * h, 1:]
-    return np.asarray(rows, dtype=float), columns
+    rows = result.values[t >= at - 1e-9 * h][:, kept]
+    return np.asarray(rows, dtype=float), [result.columns[j] for j in kept]
 
 
 def loop_at(model: LinearModel) -> Any:
@@ -264,18 +274,31 @@ def loop_at(model: LinearModel) -> Any:
 
 
 def source_of(scenario: Any, port: str) -> str:
-    """The output that feeds input `port` ('' when none)."""
+    """The output that feeds input `port` ('' when none); for an element ('comp.port[i]') the
+    element of the output that feeds it."""
+    import re
+
     from twmr.scenario.graph import parse_end
 
-    comp, _, name = port.rpartition(".")
+    found = re.fullmatch(r"(.*)\[(\d+)\]", port)
+    whole, element = (found[1], int(found[2])) if found else (port, 0)
+    comp, _, name = whole.rpartition(".")
     for wire in scenario.spec.connections:
         left, _, right = str(wire.value).partition("->")
         try:
             src, dst = parse_end(left), parse_end(right)
         except ValueError:
             continue
-        if (dst.comp, dst.port) == (comp, name):
+        if (dst.comp, dst.port) != (comp, name):
+            continue
+        if not element:
             return f"{src.comp}.{src.port}"
+        into = list(dst.index) if dst.index is not None else None
+        if into is not None and element - 1 not in into:
+            continue
+        k = into.index(element - 1) if into is not None else element - 1
+        fed = src.index[k] if src.index is not None else k
+        return f"{src.comp}.{src.port}[{fed + 1}]"
     return ""
 
 

@@ -90,3 +90,22 @@ def test_bad_events_are_refused_at_their_line(tmp_path: Path, event: str, said: 
     with pytest.raises(CosimError, match=said) as err:
         twmr.load(path)
     assert "faults.yaml:8" in str(err.value)
+
+
+def test_a_fault_on_one_element_leaves_the_others_alone() -> None:
+    """`port: "ctrl.torque[2]"`: the right wheel's torque passes as computed, the left's is
+    stuck at 3 N.m from 1 s; an element that does not exist is refused at check."""
+    from twmr.core.errors import ScenarioError
+
+    path = Path(__file__).resolve().parents[2] / "scenarios" / "paper_trajectory1_asmc.yaml"
+    text = path.read_text(encoding="utf-8")
+    r = twmr.simulate(twmr.load(text + 'events:\n  - {at: 1.0, port: "ctrl.torque[2]", '
+                                       'fault: stuck_at, value: 3.0}\n',
+                                ["experiment.stop=2"]))
+    t = np.asarray(r["time"])
+    right, left = np.asarray(r["motor.torque[1]"]), np.asarray(r["motor.torque[2]"])
+    assert np.all(left[t >= 1.0] == 3.0) and np.all(left[t < 1.0] != 3.0)
+    assert np.array_equal(right, np.clip(np.asarray(r["ctrl.torque[1]"]), -48.0, 48.0))
+    assert r.summary["events"][0]["port"] == "ctrl.torque[2]"
+    with pytest.raises(ScenarioError, match=r"has 2 element\(s\); element 3 does not exist"):
+        twmr.load(text + 'events:\n  - {at: 1.0, port: "ctrl.torque[3]", fault: freeze}\n')

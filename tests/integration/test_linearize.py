@@ -15,7 +15,7 @@ import pytest
 
 import twmr
 from twmr.core.errors import CosimError
-from twmr.linear_analysis import loop_at
+from twmr.linear_analysis import loop_at, source_of
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -89,6 +89,41 @@ def test_the_margins_of_a_loop_broken_at_a_wire_are_python_controls() -> None:
     got, want = control.margin(loop_at(model)), control.margin(analytic)
     assert all(np.isfinite(want))
     np.testing.assert_allclose(got, want, rtol=1e-6)
+
+
+VECTOR_LOOP = f"""components:
+  r: {{kind: constant, parameters: {{value: 1.0}}}}
+  e: {{kind: sum, parameters: {{n: 2, signs: '+-'}}}}
+  k: {{kind: gain, parameters: {{n_in: 2, n_out: 2, K: [[3.0, 0.0], [0.0, 1.5]]}}}}
+  z: {{kind: delay}}
+  z2: {{kind: delay}}
+  plant: {{kind: first_order, parameters: {{K: 2.0, T: 0.5}}}}
+  plant2: {{kind: first_order, parameters: {{K: 1.0, T: 0.2}}}}
+connections: ["r.y -> e.u1[1]", "r.y -> e.u1[2]", "plant.y -> e.u2[1]", "plant2.y -> e.u2[2]",
+              e.y -> k.u, "k.y[1] -> z.u", "k.y[2] -> z2.u", z.y -> plant.u, z2.y -> plant2.u]
+experiment: {{stop: 5.0, step: {H}}}
+"""
+
+
+def test_a_loop_broken_at_one_element_of_a_vector_wire_is_that_channels() -> None:
+    """Two decoupled loops behind one 2x2 gain: the loop broken at element 1 of the gain's
+    input (fed by element 1 of the error) has the margins of 3 G1(z) / z, the one at element
+    2 those of 1.5 G2(z) / z; the perturbation enters that element alone (a fault on one
+    element of the port)."""
+    scenario = twmr.load(VECTOR_LOOP)
+    assert source_of(scenario, "k.u[2]") == "e.y[2]"
+    for element, gain, tau, k_plant in ((1, 3.0, 0.5, 2.0), (2, 1.5, 0.2, 1.0)):
+        model = twmr.linearize(scenario, [f"k.u[{element}]"], [f"e.y[{element}]"], at=2.0,
+                               horizon=80)
+        assert model.outputs == [f"e.y[{element}]"]
+        a = np.exp(-H / tau)
+        analytic = gain * control.tf([k_plant * (1 - a)], [1.0, -a, 0.0], H)
+        np.testing.assert_allclose(control.margin(loop_at(model)), control.margin(analytic),
+                                   rtol=1e-6)
+    with pytest.raises(CosimError, match=r"has 2 elements: an input is perturbed one element"):
+        twmr.linearize(scenario, ["k.u"], ["e.y[1]"], at=2.0, horizon=20)
+    with pytest.raises(CosimError, match=r"give k.u\[1\] to k.u\[2\]"):
+        twmr.linearize(scenario, ["k.u[3]"], ["e.y[1]"], at=2.0, horizon=20)
 
 
 def test_the_nyquist_curve_of_a_loop_is_the_closed_form(tmp_path: Path) -> None:

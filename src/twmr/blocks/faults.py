@@ -6,7 +6,9 @@ made faulty, element-wise; before and after, the input as it is:
 - `bias`: u + value; `scale`: u value;
 - `noise`: u + value N(0, 1), one Philox-4x32-10 normal sequence per element (`seed`), a sample per
   step;
-- `dropout`: 0 (the signal is lost); `stuck_at`: value.
+- `dropout`: 0 (the signal is lost); `stuck_at`: value;
+
+on every element, or on element `element` alone (from 1).
 
 Its ports take the unit of the faulted port (`unit`), so the wire converts as before.
 """
@@ -35,11 +37,15 @@ class FaultParams(NamedTuple):
     stop: float  #: [s] (inf: to the end)
     value: float
     seed: float
+    element: float  #: the element faulted, from 1 (0: every one)
 
 
 @elementwise
 def faulty(u: float, held: float, i: float, k: float, p: FaultParams) -> float:
-    """Element i of the faulty output: u, the held value, or the fault's value."""
+    """Element i of the faulty output: u, the held value, or the fault's value (u itself for
+    an element the fault leaves alone)."""
+    if p.element > 0.0 and i != p.element - 1.0:
+        return u
     if p.code == 0.0:
         return held
     if p.code == 1.0:
@@ -84,6 +90,8 @@ class PortFault(Component):
     stop = Parameter(math.inf, unit="s", description="when it ends (inf: with the run)")
     value = Parameter(0.0, description="bias, factor, noise deviation or stuck value")
     seed = Parameter(0, type=INTEGER, min=0, max=2**32 - 1, description="noise: its seed")
+    element = Parameter(0, type=INTEGER, min=0, description="the element faulted, from 1 "
+                        "(0: every one)")
     unit = Parameter("", type=STRING, description="the unit of the faulted port")
     u = Input(0.0)
     y = Output(0.0, depends_on=("u",))
@@ -103,12 +111,17 @@ class PortFault(Component):
     def examples(cls, h: float) -> tuple[dict[str, Any], ...]:
         """Parameter sets for tests (tests/property/test_block_forms.py)."""
         return ({"fault": "freeze", "start": 2 * h}, {"fault": "bias", "value": 0.5, "n": 3},
-                {"fault": "noise", "value": 0.1, "seed": 7, "n": 2, "stop": 5 * h})
+                {"fault": "noise", "value": 0.1, "seed": 7, "n": 2, "stop": 5 * h},
+                {"fault": "stuck_at", "value": -1.0, "n": 3, "element": 2})
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         if self.fault not in FAULTS:
             return [("fault", f"fault '{self.fault}' is unknown.",
                      f"use one of: {', '.join(FAULTS)}.")]
+        if self.element > self.variables["u"].width:
+            return [("element", f"element {self.element} of a port of "
+                     f"{self.variables['u'].width} element(s).",
+                     f"give 1 to {self.variables['u'].width}, or 0 for every one.")]
         if not self.stop > self.start and math.isfinite(self.start):
             return [("stop", f"the fault ends ({self.stop:g} s) before it begins "
                      f"({self.start:g} s).", "give stop after start.")]
@@ -119,5 +132,6 @@ class PortFault(Component):
         zeros: Any = 0.0 if n == 1 else (0.0,) * n
         index: Any = 0.0 if n == 1 else tuple(float(i) for i in range(n))
         return Kernel(params=FaultParams(FAULTS[self.fault], float(self.start), float(self.stop),
-                                         float(self.value), float(self.seed)),
+                                         float(self.value), float(self.seed),
+                                         float(self.element)),
                       state=(zeros, index, 0.0), evaluate=fault_evaluate, step=fault_step)

@@ -262,7 +262,7 @@ def _fault_block(k: int, event: EventSpec, start: float, stop: float,
     found = _port(event, comps, problems)
     if found is None:
         return None
-    comp, port, output = found
+    comp, port, output, element = found
     text = f"{comp}.{port}"
     if not output and text in opened:
         problems.append(Problem(event.port.where, f"events: '{text}' is listed under "
@@ -281,7 +281,7 @@ def _fault_block(k: int, event: EventSpec, start: float, stop: float,
     value = float(event.value.value) if event.value is not None else 0.0
     block.set_parameter("n", var.width)
     for key, given in (("fault", event.fault.value), ("start", start), ("stop", stop),
-                       ("value", value),
+                       ("value", value), ("element", element),
                        ("seed", event.seed.value if event.seed is not None else 0)):
         block.set_parameter(key, given)
     comps[name] = block
@@ -292,7 +292,7 @@ def _fault_block(k: int, event: EventSpec, start: float, stop: float,
         wires[i] = _rerouted(wires[i], output, comp, port, name)
     wires.append(Given(f"{text} -> {name}.u" if output else f"{name}.y -> {text}",
                        event.where))
-    return text, name, value
+    return (f"{text}[{element}]" if element else text), name, value
 
 
 def _is_fault(event: EventSpec, problems: list[Problem]) -> bool:
@@ -470,10 +470,15 @@ def _ports_of(comp: Component) -> tuple[Any, ...]:
 
 
 def _port(event: EventSpec, comps: dict[str, Component], problems: list[Problem]
-          ) -> tuple[str, str, bool] | None:
-    """(component, port, whether an output) the event names; None after its problem."""
+          ) -> tuple[str, str, bool, int] | None:
+    """(component, port, whether an output, the element from 1 or 0 for all) the event names
+    ('comp.port' or 'comp.port[i]'); None after its problem."""
     assert event.port is not None
     text = str(event.port.value).strip()
+    element = 0
+    found = re.fullmatch(r"(.*)\[(\d+)\]", text)
+    if found is not None:
+        text, element = found[1], int(found[2])
     comp, _, port = text.rpartition(".")
     if comp not in comps:
         problems.append(Problem(event.port.where, f"events: '{text}' names no component"
@@ -485,7 +490,13 @@ def _port(event: EventSpec, comps: dict[str, Component], problems: list[Problem]
         problems.append(Problem(event.port.where, f"events: '{comp}' has no port '{port}'"
                                 f"{suggest(port, ports)}.", f"known: {', '.join(ports)}."))
         return None
-    return comp, port, port in comps[comp].outputs
+    width = comps[comp].variables[port].width
+    if element > width or (found is not None and element < 1):
+        problems.append(Problem(event.port.where, f"events: '{text}' has {width} element(s); "
+                                f"element {element} does not exist.",
+                                f"give {text}[1] to {text}[{width}], or {text} for all."))
+        return None
+    return comp, port, port in comps[comp].outputs, element
 
 
 def _window(event: EventSpec, experiment: Experiment, problems: list[Problem]
