@@ -340,15 +340,16 @@ def test_a_subsystem_closes_into_one_block_and_opens_again(browser, tmp_path):
             "return [...document.querySelectorAll('#diagram g.block')].map(g => g.dataset.name);")
 
     nested = ROOT / "scenarios" / "nested" / "paper_trajectory1_asmc.yaml"
+    inside = ["ctrl", "ref", "robot.motor", "robot.plant", "robot.slip"]
     proc, url, _ = _start_run(tmp_path / "run", stop=2.0, pace="4", scenario=nested)
     try:
         browser.get(url)
         wait = WebDriverWait(browser, 120, poll_frequency=0.2)
-        wait.until(lambda d: len(names()) > 0)
+        wait.until(lambda d: sorted(names()) == inside)
         opened = names()
         browser.find_element(By.CSS_SELECTOR,
                              '#diagram g.subsystem[data-name="robot"] text').click()
-        wait.until(lambda d: "robot" in names())
+        wait.until(lambda d: sorted(names()) == ["ctrl", "ref", "robot"])
         closed = names()
         ports = browser.execute_script(
             "return [...document.querySelectorAll('#diagram g.block.closed g.port')].map("
@@ -361,13 +362,13 @@ def test_a_subsystem_closes_into_one_block_and_opens_again(browser, tmp_path):
         charted = browser.execute_script(
             "return twmrLive.charts.flatMap(c => c.cols.map(i => twmrLive.columns[i]));")
         browser.find_element(By.CSS_SELECTOR, '#diagram g.block.closed text.head').click()
-        wait.until(lambda d: "robot" not in names())
+        wait.until(lambda d: sorted(names()) == inside)
         reopened = names()
         errors = _severe(browser)
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(60)
-    assert sorted(opened) == ["ctrl", "ref", "robot.motor", "robot.plant", "robot.slip"]
+    assert sorted(opened) == inside
     assert sorted(closed) == ["ctrl", "ref", "robot"]
     assert sorted(ports) == ["robot.motor.torque_command", "robot.plant.pose",
                              "robot.plant.wheel_speed"]

@@ -376,6 +376,11 @@ class LiveView(Observer):
             return None
         return _frame(-1.0, np.concatenate(self._history))
 
+    def _push_all(self, message: str) -> None:
+        """`message` to every page (the caller holds the lock)."""
+        for client in self.clients:
+            client.push(message)
+
     def _broadcast(self, message: str) -> None:
         with self._lock:
             for client in self.clients:
@@ -413,11 +418,11 @@ class LiveView(Observer):
                               "control": self.gate is not None,
                               "marks": [{"at": t, "text": text} for t, text in event_marks(
                                   {"events": run.metadata.get("events", [])})]})
-        with self._lock:
+        with self._lock:  # a page joining now gets it once: in its first messages or here
             self._start_message, self._end_message = message, None
             self._system, self._diagrams = run.system, {}
             self._history, self._history_rows, self._marks = [], 0, []
-        self._broadcast(message)
+            self._push_all(message)
 
     def rows(self, block: np.ndarray, steps_done: int) -> None:
         if not len(block):
@@ -444,14 +449,14 @@ class LiveView(Observer):
                                       f"({event['when']})"})
         with self._lock:
             self._marks.append(message)
-        self._broadcast(message)
+            self._push_all(message)
 
     def finished(self, outcome: Outcome) -> None:
         message = json.dumps({"type": "end", "status": outcome.status, "error": outcome.error,
                               "steps_done": outcome.steps_done})
         with self._lock:
             self._end_message = message
-        self._broadcast(message)
+            self._push_all(message)
         if not self.keep:
             self.close()
 
