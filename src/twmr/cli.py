@@ -291,6 +291,8 @@ def cmd_linearize(args: argparse.Namespace) -> int:
 
     scenario = api.load(Path(args.scenario), args.set)
     inputs, outputs = list(args.input), list(args.output)
+    if args.fmu:
+        return _linearize_fmu(scenario, args)
     if args.loop:
         source = source_of(scenario, args.loop)
         if not source or inputs or outputs:
@@ -334,6 +336,34 @@ def cmd_linearize(args: argparse.Namespace) -> int:
         written += ", design.json, controller.yaml"
     print("\n".join(lines))
     print(f"{written} in {out}/")
+    return 0
+
+
+def _linearize_fmu(scenario: Any, args: argparse.Namespace) -> int:
+    """`twmr linearize --fmu COMP`: the FMU's continuous model by its directional derivatives."""
+    import json
+
+    import numpy as np
+
+    from twmr.linear_analysis import linearize_fmu
+
+    if args.input or args.output or args.loop or args.design:
+        raise CosimError("--fmu linearises one FMU by its directional derivatives: give it "
+                         "alone, without --input, --output, --loop or --design.")
+    model = linearize_fmu(scenario, args.fmu, at=args.at)
+    out = Path(args.out) if args.out else Path("linear") / Path(args.scenario).stem
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "linear.json").write_text(json.dumps(model.plain(), indent=2))
+    np.set_printoptions(precision=6, suppress=True)
+    print(f"{args.fmu} at t = {model.at:g} s (continuous, by its directional derivatives): "
+          f"states {', '.join(model.states)}; inputs {', '.join(model.inputs) or 'none'}; "
+          f"outputs {', '.join(model.outputs) or 'none'}")
+    print("A =\n" + str(model.A))
+    if model.B.size:
+        print("B =\n" + str(model.B))
+    print("C =\n" + str(model.C))
+    print("poles: " + ", ".join(f"{complex(z):.6g}" for z in np.sort_complex(model.poles())))
+    print(f"linear.json in {out}/")
     return 0
 
 
@@ -750,6 +780,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     "singular values)")
     li.add_argument("--tol", type=float, default=1e-7, help="relative Hankel singular value "
                     "below which a state is dropped")
+    li.add_argument("--fmu", metavar="COMP", help="the continuous model of the "
+                    "model-exchange FMU COMP at --at by its directional derivatives (every "
+                    "state, its real inputs and outputs)")
     li.add_argument("--design", choices=("lqg", "lqi", "place"), help="design an "
                     "output-feedback controller on the model (controller.yaml, design.json); "
                     "lqi: lqg with an integrator per output")

@@ -369,3 +369,82 @@ def nyquist_figure(loop: Any, dt: float, path: str | Path, title: str = "") -> t
     if title:
         ax.set_title(title, fontsize=9, loc="left")
     return save(fig, path), points
+
+
+@dataclass
+class FmuLinear:
+    """x' = A x + B u, y = C x + D u of a model-exchange FMU at time `at` [s] of a run, from its
+    directional derivatives (continuous time; states, inputs and outputs by name)."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    at: float
+    states: list[str]
+    inputs: list[str]
+    outputs: list[str]
+
+    def poles(self) -> np.ndarray:
+        return np.linalg.eigvals(self.A) if self.A.size else np.zeros(0)
+
+    def plain(self) -> dict[str, Any]:
+        return {"A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(),
+                "D": self.D.tolist(), "at": self.at, "states": self.states,
+                "inputs": self.inputs, "outputs": self.outputs, "continuous": True,
+                "poles": [[float(z.real), float(z.imag)] for z in np.sort_complex(self.poles())]}
+
+
+def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float,
+                  overrides: Sequence[str] = ()) -> FmuLinear:
+    """The continuous linear model of the model-exchange FMU `component` at time `at` [s] of a
+    run of `scenario` (run to `at` step by step, paused there), by its directional derivatives
+    (FMI 2 fmi2GetDirectionalDerivative, FMI 3 fmi3GetDirectionalDerivative): every state, the
+    FMU's real inputs and outputs. CosimError when the FMU gives none or is not model exchange."""
+    from twmr.api import load
+    from twmr.fmi.fmu import FmuComponent
+    from twmr.stepping import Stepping
+
+    loaded = load(scenario, list(overrides))
+    comp = loaded.system.components.get(component)
+    if not isinstance(comp, FmuComponent):
+        from twmr.registry import suggest
+
+        fmus = [n for n, c in loaded.system.components.items() if isinstance(c, FmuComponent)]
+        raise CosimError(f"--fmu {component}: no FMU component of that name run in this "
+                         f"process{suggest(component, fmus)} (its FMUs: "
+                         f"{', '.join(fmus) or 'none'}). Fix: name a component of kind fmu "
+                         f"(without isolate: true).")
+    md = comp.md
+    iface = md.modelExchange
+    gives = iface is not None and (getattr(iface, "providesDirectionalDerivative", False) or
+                                   getattr(iface, "providesDirectionalDerivatives", False))
+    if not (comp.me and gives):
+        why = ("it runs as co-simulation: give it interface: model_exchange"
+               if iface is not None and gives else "its model exchange interface does not "
+               "provide directional derivatives")
+        raise CosimError(f"--fmu {component}: '{comp.source_path.name}' cannot be linearised by "
+                         f"its directional derivatives: {why}. Fix: linearise the scenario from "
+                         f"its ports (--input/--output), which needs no derivatives.")
+    real = ("Real", "Float64", "Float32")
+    rates = [d.variable for d in md.derivatives]  # der(x), the unknowns of A and B
+    states = [r.derivative for r in rates]  # x, the knowns of A and C
+    inputs = [v for v in md.modelVariables if v.causality == "input" and v.type in real]
+    outputs = [o.variable for o in md.outputs if o.variable.type in real]
+    unknowns = [v.valueReference for v in rates] + [v.valueReference for v in outputs]
+    n, p = len(states), len(outputs)
+    with Stepping(loaded) as run:
+        run.simulate_until(at)
+        fmu = comp._fmu  # the run waits between two steps: the FMU is at `at`
+        columns = [np.asarray(fmu.getDirectionalDerivative(unknowns, [v.valueReference], [1.0]),
+                              dtype=float) for v in (*states, *inputs)]
+        t = run.time
+        run.stop()
+    J = np.column_stack(columns) if columns else np.zeros((n + p, 0))
+    for i, out in enumerate(outputs):  # an output that is a state: its row is 1 there, by
+        for j, state in enumerate(states):  # definition (some FMUs give rates only)
+            if out.valueReference == state.valueReference:
+                J[n + i, :] = 0.0
+                J[n + i, j] = 1.0
+    return FmuLinear(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:], t, [v.name for v in states],
+                     [v.name for v in inputs], [v.name for v in outputs])

@@ -1,0 +1,63 @@
+"""An FMU's continuous linear model by its directional derivatives (`twmr linearize --fmu`):
+the Reference FMU VanDerPol (FMI 2.0, model exchange, which provides them) at t = 1.5 s of a
+run gives A = [[0, 1], [-2 mu x0 x1 - 1, mu (1 - x0^2)]] at the state the run reached there,
+and C the identity (its outputs are its states); an FMU run as co-simulation, or one without
+directional derivatives, is refused with the reason and the fix."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import twmr
+from tests.conformance.corpus import corpus
+from twmr.core.errors import CosimError
+from twmr.linear_analysis import linearize_fmu
+
+pytestmark = pytest.mark.timeout(240)
+
+
+def scenario(path: Path, interface: str = "model_exchange") -> dict:
+    return {"components": {"vdp": {"kind": "fmu", "parameters": {
+        "path": str(path), "interface": interface}}},
+        "experiment": {"stop": 5.0, "step": 0.01}}
+
+
+def test_vanderpol_gives_its_analytic_jacobian_at_the_runs_state() -> None:
+    path = corpus("reference-fmus", "VanDerPol_fmi2.fmu")
+    model = linearize_fmu(scenario(path), "vdp", at=1.5)
+    run = twmr.simulate(twmr.load(scenario(path), ["experiment.stop=1.5"]))
+    x0, x1, mu = float(run["vdp.x0"][-1]), float(run["vdp.x1"][-1]), 1.0
+    assert model.at == pytest.approx(1.5) and model.states == ["x0", "x1"]
+    np.testing.assert_allclose(model.A, [[0.0, 1.0], [-2 * mu * x0 * x1 - 1, mu * (1 - x0 ** 2)]],
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(model.C, np.eye(2))
+    assert model.B.shape == (2, 0) and model.inputs == []
+
+
+def test_what_cannot_be_linearised_so_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(CosimError, match=r"runs as co-simulation: give it interface: "
+                                         r"model_exchange.*Fix:"):
+        linearize_fmu(scenario(corpus("reference-fmus", "VanDerPol_fmi2.fmu"),
+                               "co_simulation"), "vdp", at=1.0)
+    with pytest.raises(CosimError, match="does not provide directional derivatives"):
+        linearize_fmu(scenario(corpus("reference-fmus", "Dahlquist_fmi2.fmu")), "vdp", at=1.0)
+    with pytest.raises(CosimError, match=r"no FMU component of that name.*did you mean 'vdp'"):
+        linearize_fmu(scenario(corpus("reference-fmus", "VanDerPol_fmi2.fmu")), "vpd", at=1.0)
+
+
+def test_the_command_writes_the_fmus_model(tmp_path: Path) -> None:
+    import yaml
+
+    (tmp_path / "vdp.yaml").write_text(yaml.safe_dump(scenario(
+        corpus("reference-fmus", "VanDerPol_fmi2.fmu"))))
+    done = subprocess.run([sys.executable, "-m", "twmr.cli", "linearize", "vdp.yaml", "--fmu",
+                           "vdp", "--at", "1.5", "--out", "lin"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=200)
+    assert done.returncode == 0, done.stderr
+    plain = json.loads((tmp_path / "lin" / "linear.json").read_text())
+    assert plain["continuous"] and plain["states"] == ["x0", "x1"] and "A =" in done.stdout
