@@ -109,6 +109,12 @@ class FrameLog:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self.path = Path(path)
         self._writer = can.Logger(str(path))
+        if isinstance(self._writer, can.BLFWriter):
+            # BLF stamps each frame after the file's start, which python-can takes from the
+            # first frame written: a received frame stamped before it (the notifier's thread
+            # is a little behind the sender's) would be read back at the start, to the ms.
+            # The start is now, before any frame of the bus this log is of.
+            self._writer.start_timestamp = int(time.time() * 1000) / 1000 - 0.001
         self._lock = threading.Lock()
         self.error = ""
 

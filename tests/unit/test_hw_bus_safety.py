@@ -89,3 +89,27 @@ def test_cia402_frames_decode_to_si() -> None:
     assert dec(frame(0x283, tpdo2)) == [(3, "angle", pytest.approx(2 * math.pi / 10 * 2))]
     assert dec(frame(0x083, bytes([0x10, 0x23, 1, 0, 0, 0, 0, 0]))) == [(3, "emcy", 0x2310)]
     assert dec(frame(0x080, b"")) == [(None, "sync", 1.0)]
+
+
+def test_a_frame_log_keeps_the_time_of_a_frame_received_before_the_first_written(
+        tmp_path: Path) -> None:
+    """The notifier's thread can hand a received frame after the sender has logged a later
+    one: in the BLF each keeps its own time (python-can's writer used to take the file's start
+    from the first frame written and put an earlier one at that start, to the ms)."""
+    import time
+
+    import can
+
+    from twmr.hw.bus import FrameLog
+
+    log = FrameLog(tmp_path / "frames.blf")
+    log.sent(can.Message(arbitration_id=0x0E, data=bytes(8), is_extended_id=False))
+    sent_at = time.time()
+    early = can.Message(arbitration_id=0x09, data=bytes(8), is_extended_id=False, is_rx=True,
+                        timestamp=sent_at - 0.0007)
+    log.received(early)
+    log.close()
+    frames = list(can.LogReader(str(tmp_path / "frames.blf")))
+    got = {m.arbitration_id: m.timestamp for m in frames}
+    assert got[0x09] == pytest.approx(sent_at - 0.0007, abs=2e-6)
+    assert got[0x09] < got[0x0E]
