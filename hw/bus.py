@@ -114,7 +114,8 @@ class FrameLog:
             # first frame written: a received frame stamped before it (the notifier's thread
             # is a little behind the sender's) would be read back at the start, to the ms.
             # The start is now, before any frame of the bus this log is of.
-            self._writer.start_timestamp = int(time.time() * 1000) / 1000 - 0.001
+            # (a whole ms, as python-can writes it into the file's header and reads it back)
+            self._writer.start_timestamp = (int(time.time() * 1000) - 1) / 1000
         self._lock = threading.Lock()
         self.error = ""
 
