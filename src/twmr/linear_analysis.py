@@ -214,11 +214,13 @@ def _fit_error(markov: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray,
 
 def _scalar_input(port: str, system: Any) -> None:
     """`port` is a scalar port or one element of a port ('comp.port[i]'); else CosimError."""
-    import re
+    from twmr.scenario.graph import element_of
 
-    found = re.fullmatch(r"(.*)\[(\d+)\]", port)
-    whole = found[1] if found else port
-    comp, _, name = whole.rpartition(".")
+    try:
+        comp, name, element = element_of(port, system.components)
+    except ValueError as err:
+        raise CosimError(f"{err}. Fix: give COMP.PORT or COMP.PORT[i].") from None
+    whole = f"{comp}.{name}"
     c = system.components.get(comp)
     if c is None or name not in c.variables:
         from twmr.registry import suggest
@@ -228,10 +230,10 @@ def _scalar_input(port: str, system: Any) -> None:
                          f"{suggest(comp if c is None else name, where)}. Fix: give COMP.PORT "
                          f"of a wired port.")
     width = c.variables[name].width
-    if found is not None and not 1 <= int(found[2]) <= width:
+    if element > width:
         raise CosimError(f"'{port}': '{whole}' has {width} element(s). Fix: give "
                          f"{whole}[1] to {whole}[{width}].")
-    if found is None and width != 1:
+    if not element and width != 1:
         raise CosimError(f"'{port}' has {width} elements: an input is perturbed one element "
                          f"at a time. Fix: give {port}[1] (to {port}[{width}]).")
 
@@ -276,13 +278,12 @@ def loop_at(model: LinearModel) -> Any:
 def source_of(scenario: Any, port: str) -> str:
     """The output that feeds input `port` ('' when none); for an element ('comp.port[i]') the
     element of the output that feeds it."""
-    import re
+    from twmr.scenario.graph import element_of, parse_end
 
-    from twmr.scenario.graph import parse_end
-
-    found = re.fullmatch(r"(.*)\[(\d+)\]", port)
-    whole, element = (found[1], int(found[2])) if found else (port, 0)
-    comp, _, name = whole.rpartition(".")
+    try:
+        comp, name, element = element_of(port, scenario.system.components)
+    except ValueError:
+        return ""
     for wire in scenario.spec.connections:
         left, _, right = str(wire.value).partition("->")
         try:

@@ -415,10 +415,10 @@ class Execution:
         """Set parameter `name` ('comp.parameter') to `value` before the next step, as a set
         event does; CosimError when it cannot (call it while the run waits at its gate)."""
         from twmr.core.errors import Location
-        from twmr.scenario.events import _change
+        from twmr.scenario.events import parameter_change
 
         problems: list[Any] = []
-        change = _change(name, value, self._time(self._n), self.system.components,
+        change = parameter_change(name, value, self._time(self._n), self.system.components,
                          self.system.experiment, Location(), problems)
         if change is None:
             problem = problems[0]

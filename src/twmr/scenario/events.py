@@ -20,7 +20,7 @@ from typing import Any
 from twmr.core.component import Component
 from twmr.core.errors import Problem
 from twmr.registry import suggest
-from twmr.scenario.graph import parse_end
+from twmr.scenario.graph import element_of, parse_end
 from twmr.scenario.structure import ComponentSpec, EventSpec, Given, ScenarioSpec
 from twmr.scenario.system import Experiment
 
@@ -219,7 +219,7 @@ def _watch(k: int, event: EventSpec, comps: dict[str, Component],
                                     f"value.", "give value: the parameter's new value."))
             return None
         target = str(event.set.value).strip()
-        change = _change(target, event.value.value, 0.0, comps, None, event.set.where,
+        change = parameter_change(target, event.value.value, 0.0, comps, None, event.set.where,
                          problems)
         if change is None:
             return None
@@ -334,7 +334,7 @@ def parameter_changes(spec: ScenarioSpec, comps: dict[str, Component], experimen
         start, stop = _window(event, experiment, problems)
         if start is None or stop is None:
             continue
-        change = _change(str(event.set.value).strip(), event.value.value, start, comps,
+        change = parameter_change(str(event.set.value).strip(), event.value.value, start, comps,
                          experiment, where, problems)
         if change is None:
             continue
@@ -360,7 +360,7 @@ def parameter_changes(spec: ScenarioSpec, comps: dict[str, Component], experimen
     return sorted(changes, key=lambda c: c.step), problems, marks
 
 
-def _change(text: str, value: Any, at: float, comps: dict[str, Component],
+def parameter_change(text: str, value: Any, at: float, comps: dict[str, Component],
             experiment: Experiment | None, where: Any, problems: list[Problem]
             ) -> Change | None:
     """The change `text` = value at time `at` [s] (with no `experiment`, at no step yet: a
@@ -474,12 +474,13 @@ def _port(event: EventSpec, comps: dict[str, Component], problems: list[Problem]
     """(component, port, whether an output, the element from 1 or 0 for all) the event names
     ('comp.port' or 'comp.port[i]'); None after its problem."""
     assert event.port is not None
-    text = str(event.port.value).strip()
-    element = 0
-    found = re.fullmatch(r"(.*)\[(\d+)\]", text)
-    if found is not None:
-        text, element = found[1], int(found[2])
-    comp, _, port = text.rpartition(".")
+    try:
+        comp, port, element = element_of(str(event.port.value), comps)
+    except ValueError as err:
+        problems.append(Problem(event.port.where, f"events: {err}.", "give comp.port or "
+                                "comp.port[i]."))
+        return None
+    text = f"{comp}.{port}"
     if comp not in comps:
         problems.append(Problem(event.port.where, f"events: '{text}' names no component"
                                 f"{suggest(comp, list(comps))}.", "give comp.port of a "
@@ -491,7 +492,7 @@ def _port(event: EventSpec, comps: dict[str, Component], problems: list[Problem]
                                 f"{suggest(port, ports)}.", f"known: {', '.join(ports)}."))
         return None
     width = comps[comp].variables[port].width
-    if element > width or (found is not None and element < 1):
+    if element > width:
         problems.append(Problem(event.port.where, f"events: '{text}' has {width} element(s); "
                                 f"element {element} does not exist.",
                                 f"give {text}[1] to {text}[{width}], or {text} for all."))

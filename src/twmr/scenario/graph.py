@@ -87,6 +87,17 @@ def resolve_end(comps: dict[str, Component], end: End) -> End:
     return end
 
 
+def element_of(text: str, comps: dict[str, Component]) -> tuple[str, str, int]:
+    """(component, port, element from 1 or 0 for the whole port) of 'comp.port' or
+    'comp.port[i]', the component found among dotted names (`resolve_end`); ValueError when
+    it is not of that form or selects more than one element."""
+    end = resolve_end(comps, parse_end(text))
+    if end.index is not None and len(end.index) != 1:
+        raise ValueError(f"'{end.text}' selects {len(end.index)} elements: name one "
+                         f"(comp.port[i]) or the whole port")
+    return end.comp, end.port, end.index[0] + 1 if end.index else 0
+
+
 def terminal_wires(comps: dict[str, Component], src: End, dst: End, loc: Location,
                    problems: list[Problem]) -> list[tuple[End, End]] | None:
     """The member wires of a wire between two bus terminals (each Tx member of one to the Rx
