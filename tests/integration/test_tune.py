@@ -107,10 +107,11 @@ def test_constraint_excludes_violating_trials(tmp_path):
 
 
 def test_dask_workers_give_the_same_trials(tmp_path):
-    """The proposals depend on the batch, not on where the runs go: a batch of 2 in this process
-    and on 2 Dask workers (their default batch) give the same trials."""
-    here = tune(tmp_path, 5, out=tmp_path / "one", batch=2)
-    there = tune(tmp_path, 5, out=tmp_path / "two", workers=2)
+    """The proposals depend on the batch, not on where the runs go nor on when they end: a
+    batch of 2 in this process and on 2 Dask workers (their default batch, the next batch
+    queued while one runs) give the same trials, past the sampler's random start-up too."""
+    here = tune(tmp_path, 14, out=tmp_path / "one", batch=2)
+    there = tune(tmp_path, 14, out=tmp_path / "two", workers=2)
     assert [t["ctrl.k"] for t in there.trials] == [t["ctrl.k"] for t in here.trials]
     assert [t["objective"] for t in there.trials] == pytest.approx(
         [t["objective"] for t in here.trials], rel=1e-12)

@@ -221,7 +221,8 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
     """Run the study `spec` into folder `out` (see the module's docstring): `workers` 1 runs in
     this process; more (or None: one per core) on a local Dask cluster on 127.0.0.1, or the
     trusted cluster at `scheduler`. `batch`: trials asked and run together (default: the number
-    of workers; give it to reproduce a study on another cluster)."""
+    of workers; give it to reproduce a study on another cluster); the next batch is asked (and
+    on a cluster queued) while one runs, at fixed points of the study."""
     from twmr.api import load
 
     spec.check()
@@ -272,29 +273,48 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
         for point in spec.start[len(outcome.trials):]:
             study.enqueue_trial(point)
         dists = {p.name: p.distribution() for p in spec.params}
-        while left > 0:
-            asked = [study.ask(dists) for _ in range(min(batch, left))]
-            for trial, (row, runs) in zip(asked, _evaluate(spec, scenario, content, bases, table,
-                                                            asked, client, base), strict=True):
-                _tell(study, trial, row)
-                assert journal is not None  # opened when trials are left
-                append_row(journal, {"trial": row, "runs": runs})
-                outcome.trials.append(row)
-                outcome.runs.extend(runs)
-                for r in runs:
-                    warned.add(r["run_id"], r.get("warnings", []))
-                outcome.ran += 1
-                left -= 1
-                if progress and bar is None:  # after the first trial: its figures are checked
-                    from tqdm import tqdm
 
-                    bar = tqdm(total=spec.trials, initial=len(outcome.trials) - 1,
-                               unit="trial", dynamic_ncols=True, desc="tune")
-                if bar is not None:
-                    best = _best(outcome.trials)
-                    bar.set_postfix(best=f"{best['objective']:.4g}" if best else "-",
-                                    refresh=False)
-                    bar.update(1)
+        def record(trial: Any, row: dict[str, Any], runs: list[dict[str, Any]]) -> None:
+            nonlocal bar
+            _tell(study, trial, row)
+            assert journal is not None  # opened when trials are left
+            append_row(journal, {"trial": row, "runs": runs})
+            outcome.trials.append(row)
+            outcome.runs.extend(runs)
+            for r in runs:
+                warned.add(r["run_id"], r.get("warnings", []))
+            outcome.ran += 1
+            if progress and bar is None:  # after the first trial: its figures are checked
+                from tqdm import tqdm
+
+                bar = tqdm(total=spec.trials, initial=len(outcome.trials) - 1,
+                           unit="trial", dynamic_ncols=True, desc="tune")
+            if bar is not None:
+                best = _best(outcome.trials)
+                bar.set_postfix(best=f"{best['objective']:.4g}" if best else "-",
+                                refresh=False)
+                bar.update(1)
+
+        # two batches in flight: the next one asked (and, on a cluster, queued) while one
+        # runs, at fixed points — before the one running is told — so the order of asks and
+        # tells, and with it every proposal, is the same in this process and on any cluster
+
+        def launch() -> tuple[list[Any], _Launched, float]:
+            nonlocal left
+            asked = [study.ask(dists) for _ in range(min(batch, left))]
+            left -= len(asked)
+            tasks = _tasks(spec, scenario, content, bases, table, asked)
+            return asked, _launch(tasks, client, f"trial{asked[0].number}"), time.perf_counter()
+
+        flight = launch() if left > 0 else None
+        while flight is not None:
+            following = launch() if left > 0 else None
+            asked, launched, t0 = flight
+            every = _land(launched, client, f"trial{asked[0].number}")
+            for trial, (row, runs) in zip(asked, _rows(
+                    spec, table, asked, every, base, time.perf_counter() - t0), strict=True):
+                record(trial, row, runs)
+            flight = following
         if spec.validation:
             if journal is None:
                 journal = open_journal(folder / JOURNAL)
@@ -337,14 +357,37 @@ def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str,
     one Dask task per worker (consecutive runs: a task costs a scheduling round trip); the
     runs of a batch lost with its worker (a crash inside an FMU) run again one by one, so only
     the run that crashes fails."""
-    if client is None:
-        return [execute(t) for t in tasks]
-    from dask.distributed import as_completed
+    return _land(_launch(tasks, client, prefix), client, prefix)
 
+
+@dataclass
+class _Launched:
+    """Runs sent to the cluster: the tasks, their batches and the batches' futures."""
+
+    tasks: list[RunTask]
+    batches: list[list[RunTask]]
+    futures: list[Any]
+
+
+def _launch(tasks: list[RunTask], client: Any, prefix: str) -> _Launched:
+    """`tasks` sent to the cluster at once, one Dask task per worker (no cluster: kept, to run
+    in this process when landed)."""
+    if client is None:
+        return _Launched(tasks, [], [])
     per = max(1, math.ceil(len(tasks) / _workers_of(client)))
     batches = [tasks[i:i + per] for i in range(0, len(tasks), per)]
     futures = client.map(execute_batch, batches, pure=False,
                          key=[f"{prefix}-{b[0].sample}-{b[0].run_id}-{len(b)}" for b in batches])
+    return _Launched(tasks, batches, futures)
+
+
+def _land(launched: _Launched, client: Any, prefix: str) -> list[dict[str, Any]]:
+    """The rows of launched tasks (in their order), once they have run (`_run_tasks`)."""
+    if client is None:
+        return [execute(t) for t in launched.tasks]
+    from dask.distributed import as_completed
+
+    futures, batches = launched.futures, launched.batches
     rows: dict[int, dict[str, Any]] = {}
     alone: list[RunTask] = []
     done = Finished(as_completed(futures), client, futures)
@@ -366,7 +409,7 @@ def _run_tasks(tasks: list[RunTask], client: Any, prefix: str) -> list[dict[str,
         rows.update((id(t), f.result() if f.status == "finished" else failed_row(
             t, no_worker() if f.cancelled() else lost_error(f.exception())))
             for f, t in zip(again, alone, strict=True))
-    return [rows[id(t)] for t in tasks]
+    return [rows[id(t)] for t in launched.tasks]
 
 
 def _run_baseline(spec: TuneSpec, scenario: Any, content: str, table: list[dict[str, Any]],
@@ -501,6 +544,14 @@ def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any]
     """A batch of trials: the scenario with each one's parameters over every realisation, all
     the runs at once; each trial's row and its runs' rows (in realisation order)."""
     t0 = time.perf_counter()
+    every = _run_tasks(_tasks(spec, scenario, content, bases, table, trials), client,
+                       f"trial{trials[0].number}")
+    return _rows(spec, table, trials, every, base, time.perf_counter() - t0)
+
+
+def _tasks(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any],
+           table: list[dict[str, Any]], trials: list[Any]) -> list[RunTask]:
+    """The runs of `trials`: each one's parameters over every realisation."""
     tasks: list[RunTask] = []
     for trial in trials:
         params = {p.name: trial.params[p.name] for p in spec.params}
@@ -509,8 +560,13 @@ def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any]
                           [*fixed, *overrides_of(values, spec.vary, bases)], scenario.source,
                           content, str(scenario.base_dir), list(spec.metrics))
                   for i, values in enumerate(table)]
-    every = _run_tasks(tasks, client, f"trial{trials[0].number}")
-    wall = time.perf_counter() - t0
+    return tasks
+
+
+def _rows(spec: TuneSpec, table: list[dict[str, Any]], trials: list[Any],
+          every: list[dict[str, Any]], base: dict[int, dict[str, Any]], wall: float
+          ) -> list[tuple[dict[str, Any], list[dict[str, Any]]]]:
+    """Each trial's row and its runs' rows, from the rows of all their runs in order."""
     n = len(table)
     return [_trial_row(spec, trial, every[j * n:(j + 1) * n], base, wall)
             for j, trial in enumerate(trials)]
