@@ -339,6 +339,17 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     return 0
 
 
+def _time_or_steady(text: str) -> float | str:
+    """--at: a time [s] or 'steady'."""
+    if text == "steady":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a time [s] nor 'steady'") \
+            from None
+
+
 def _linearize_fmu(scenario: Any, args: argparse.Namespace) -> int:
     """`twmr linearize --fmu COMP`: the FMU's continuous model by its directional derivatives."""
     import json
@@ -771,7 +782,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="a port whose response is measured (repeatable)")
     li.add_argument("--loop", metavar="COMP.PORT", help="break the loop at this input's wire: "
                     "its loop transfer and margins")
-    li.add_argument("--at", type=float, required=True, help="the point: a time of the run [s]")
+    li.add_argument("--at", type=_time_or_steady, required=True, metavar="T|steady",
+                    help="the point: a time of the run [s], or 'steady': the trim point the "
+                    "run settles at with its inputs (set them with --set)")
     li.add_argument("--horizon", type=int, default=200, help="steps of impulse response "
                     "(default 200)")
     li.add_argument("--amplitude", type=float, default=1e-3, help="height of the pulse, in "

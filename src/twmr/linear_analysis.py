@@ -34,6 +34,9 @@ from twmr.core.errors import CosimError, Location
 
 #: default relative Hankel singular value below which a state is dropped
 TOL = 1e-7
+#: `at` of the trim point (`steady_time`), and the relative change per step it allows
+STEADY = "steady"
+STEADY_TOL = 1e-9
 
 
 @dataclass
@@ -123,13 +126,14 @@ def continuous_twin(A: np.ndarray, B: np.ndarray, dt: float, what: str
 
 
 def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequence[str], *,
-              at: float, horizon: int = 200, amplitude: float = 1e-3,
+              at: float | str, horizon: int = 200, amplitude: float = 1e-3,
               order: int | None = None, tol: float = TOL,
               overrides: Sequence[str] = ()) -> LinearModel:
     """The discrete linear model from the input ports `inputs` (scalar ports, each perturbed at
     the wire) to the output ports `outputs` (their elements), around time `at` [s] of a run of
-    `scenario`, from the impulse response over `horizon` steps; order from the Hankel singular
-    values above `tol` of the largest, or `order`."""
+    `scenario` (or `at="steady"`: the trim point its run settles at, `steady_time`), from the
+    impulse response over `horizon` steps; order from the Hankel singular values above `tol` of
+    the largest, or `order`."""
     from twmr.api import load
 
     if not inputs or not outputs:
@@ -144,6 +148,11 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
     system = base.system
     h = float(system.experiment.step)
     start = float(system.experiment.start)
+    if at == STEADY:
+        at = steady_time(base, outputs)
+    elif isinstance(at, str):
+        raise CosimError(f"at = {at!r} is no point. Fix: give a time of the run [s] or "
+                         f"{STEADY!r} (the point the run settles at).")
     k0 = round((at - start) / h) if math.isfinite(at) else -1
     if k0 < 0 or abs(start + k0 * h - at) > 1e-9 * max(1.0, abs(at)):
         raise CosimError(f"at = {at:g} s is not a communication point of the run (start "
@@ -170,6 +179,32 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
     fit_error = _fit_error(markov, A, B, C, D)
     return LinearModel(A, B, C, D, h, t_at, list(inputs), columns, sv, fit_error,
                        nonlinearity, markov)
+
+
+def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,
+                tol: float = STEADY_TOL) -> float:
+    """The trim point of a run: the first communication point [s] from which every element of
+    `outputs` changes by at most `tol` (relative to max(1, its largest magnitude)) per step for
+    `window` steps, in a run of the loaded `scenario` to its stop with its own inputs (set them
+    with overrides: the steady state for those inputs). A run that does not settle before its
+    stop is refused, naming the output that moves most."""
+    system = scenario.system
+    h, start = float(system.experiment.step), float(system.experiment.start)
+    stop = float(system.experiment.stop)
+    y, columns = _run(scenario.spec, None, start, h, stop, outputs)
+    change = np.abs(np.diff(y, axis=0)) / np.maximum(1.0, np.abs(y).max(axis=0))
+    moving = np.max(change, axis=1) > tol if len(change) else np.zeros(0, bool)
+    settled = np.convolve(moving, np.ones(window), "valid") == 0 if len(moving) >= window \
+        else np.zeros(0, bool)
+    if not settled.any():
+        j = int(np.argmax(change[-window:].max(axis=0))) if len(change) else 0
+        last = float(change[-window:, j].max()) if len(change) else math.nan
+        raise CosimError(
+            f"the run does not settle by its stop ({stop:g} s): {columns[j] if columns else '?'}"
+            f" still changes by {last:.3g} (relative) per step over its last {window} steps, "
+            f"above {tol:g}. Fix: a later experiment.stop (--set experiment.stop=...), inputs "
+            f"held at values the system has a steady point for (--set), or a time --at T.")
+    return start + int(np.argmax(settled)) * h
 
 
 def era(markov: np.ndarray, order: int | None = None, tol: float = TOL
@@ -396,10 +431,11 @@ class FmuLinear:
                 "poles": [[float(z.real), float(z.imag)] for z in np.sort_complex(self.poles())]}
 
 
-def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float,
+def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str,
                   overrides: Sequence[str] = ()) -> FmuLinear:
     """The continuous linear model of the model-exchange FMU `component` at time `at` [s] of a
-    run of `scenario` (run to `at` step by step, paused there), by its directional derivatives
+    run of `scenario` (run to `at` step by step, paused there; "steady": the point its outputs
+    settle at, `steady_time`), by its directional derivatives
     (FMI 2 fmi2GetDirectionalDerivative, FMI 3 fmi3GetDirectionalDerivative): every state, the
     FMU's real inputs and outputs. CosimError when the FMU gives none or is not model exchange."""
     from twmr.api import load
@@ -416,6 +452,11 @@ def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float,
                          f"process{suggest(component, fmus)} (its FMUs: "
                          f"{', '.join(fmus) or 'none'}). Fix: name a component of kind fmu "
                          f"(without isolate: true).")
+    if at == STEADY:
+        at = steady_time(loaded, [f"{component}.{name}" for name in comp.outputs])
+    elif isinstance(at, str):
+        raise CosimError(f"at = {at!r} is no point. Fix: give a time of the run [s] or "
+                         f"{STEADY!r} (the point the run settles at).")
     md = comp.md
     iface = md.modelExchange
     gives = iface is not None and (getattr(iface, "providesDirectionalDerivative", False) or

@@ -162,3 +162,31 @@ def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -
         twmr.linearize(msd, ["msd.v"], ["msd.y"], at=1.0)
     with pytest.raises(CosimError, match="not a communication point"):
         twmr.linearize(msd, ["msd.u"], ["msd.y"], at=1.005)
+
+
+def test_the_steady_point_is_found_and_linearised_there() -> None:
+    """--at steady: the mass-spring-damper under a constant force settles at x = F / k; the
+    point found is where its output stops moving, and the model there is the ZOH model."""
+    from twmr.linear_analysis import steady_time
+
+    scenario = twmr.load(MSD, ["experiment.stop=120", "f.value=2.0"])
+    t = steady_time(scenario, ["msd.y"])
+    # the slowest mode decays as exp(-c t / 2 m); the step's change falls below 1e-9 after
+    # about log(amplitude * w h / 1e-9) / (c / 2 m) s
+    envelope = 2.0 / K_SPRING * np.sqrt(K_SPRING / M) * H
+    assert t == pytest.approx(np.log(envelope / 1e-9) / (C_DAMP / (2 * M)), rel=0.1)
+    run = twmr.simulate(twmr.load(MSD, ["experiment.stop=120", "f.value=2.0"]), None)
+    y = np.asarray(run["msd.y"])[np.asarray(run["time"]) >= t - 1e-9]
+    assert np.abs(y - 2.0 / K_SPRING).max() < 1e-7
+    model = twmr.linearize(scenario, ["msd.u"], ["msd.y"], at="steady", horizon=60)
+    assert model.at == pytest.approx(t)
+    assert np.sort_complex(model.poles()) == pytest.approx(
+        np.sort_complex(analytic_msd().poles()), abs=1e-9)
+
+
+def test_a_run_that_does_not_settle_is_refused_naming_the_output() -> None:
+    with pytest.raises(CosimError, match=r"does not settle by its stop \(5 s\): msd.y still "
+                                         r"changes .* Fix: a later experiment.stop"):
+        twmr.linearize(twmr.load(MSD), ["msd.u"], ["msd.y"], at="steady")
+    with pytest.raises(CosimError, match=r"at = 'soon' is no point"):
+        twmr.linearize(twmr.load(MSD), ["msd.u"], ["msd.y"], at="soon")
