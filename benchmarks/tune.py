@@ -4,10 +4,13 @@ the same scenario.
 
 The scenario is `scenarios/paper_trajectory1_asmc.yaml` (30 s, step 1 ms). The tune searches
 `ctrl.eta=log:0.01:10` and `ctrl.phi=0.05:1` for `mse_x + mse_y` (tracking) over `--realisations`
-draws of `slip.phase=uniform:0:5`, `--trials` trials; the sweep runs trials x realisations draws
-of `slip.phase=uniform:0:5` (the same cost per run: one scenario, one phase each). Each call
-goes into a fresh temporary folder; its wall time includes the scenario check and, with 2
-workers, the cluster's start-up and close. A first untimed 1-run sweep warms the numba cache.
+draws of `slip.phase=uniform:0:5`, `--trials` trials. The sweep runs the same runs: a run's cost
+depends on the controller's parameters (on eta most), so it sweeps the tune's own trial points,
+`ctrl.eta` and `ctrl.phi` as `values:` of the trials' (each value `--realisations` times, paired at
+random), with `slip.phase=uniform:0:5`. The tune is seeded, so every call proposes the same trials;
+an untimed first tune per worker count gives them (and warms the numba cache). Each call goes into a
+fresh temporary folder; its wall time includes the scenario check and, with 2 workers, the cluster's
+start-up and close.
 Figures, medians over `--rounds` rounds (tune and sweep alternate in each, their order swapped
 from one round to the next): `tune_runs_per_min_W`, `sweep_runs_per_min_W`, `ratio_W` = tune /
 sweep (target >= 0.9), and `ratio_W_spread`, the lowest and highest ratio of the rounds. The
@@ -49,18 +52,25 @@ def main() -> None:
     figures: dict[str, object] = {"runs": runs, "rounds": args.rounds}
     times: dict[tuple[str, int], list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        twmr.sweep(SCENARIO, [PHASE], samples=1, workers=1, out=Path(tmp) / "warm")
+        def tune(workers: int, out: str):  # type: ignore[no-untyped-def]
+            return twmr.tune(
+                SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
+                vary=[PHASE], realisations=args.realisations, trials=args.trials,
+                metrics=["tracking"], workers=workers, report=False, out=Path(tmp) / out)
+
+        points = {}
+        for workers in (1, 2):
+            trials = tune(workers, f"warm{workers}").trials
+            points[workers] = [PHASE, *(
+                f"{name}=values:" + ",".join(repr(float(t[name])) for t in trials)
+                for name in ("ctrl.eta", "ctrl.phi"))]
         for r in range(args.rounds):
             for workers in (1, 2):
                 calls = {
-                    "tune": lambda w=workers, r=r: twmr.tune(
-                        SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
-                        vary=[PHASE], realisations=args.realisations, trials=args.trials,
-                        metrics=["tracking"], workers=w, report=False,
-                        out=Path(tmp) / f"tune{w}_{r}"),
+                    "tune": lambda w=workers, r=r: tune(w, f"tune{w}_{r}"),
                     "sweep": lambda w=workers, r=r: twmr.sweep(
-                        SCENARIO, [PHASE], samples=runs, seed=1, workers=w, metrics=["tracking"],
-                        out=Path(tmp) / f"sweep{w}_{r}")}
+                        SCENARIO, points[w], samples=runs, seed=1, workers=w,
+                        metrics=["tracking"], out=Path(tmp) / f"sweep{w}_{r}")}
                 for name in (("tune", "sweep") if r % 2 == 0 else ("sweep", "tune")):
                     times.setdefault((name, workers), []).append(timed(calls[name]))
     for workers in (1, 2):

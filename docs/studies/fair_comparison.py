@@ -11,7 +11,8 @@ existing folder is resumed).
 
 Definitions, fixed before any tune ran (docs/studies/fair_comparison.md explains them):
 - three tunes, each `TRIALS` Optuna TPE trials x `REALISATIONS` training realisations (seed 2),
-  batches of 2 on 2 Dask workers, the same objective and constraint, the same validation
+  batches of 2 on 2 Dask workers in lockstep, the same objective and constraint, the same
+  validation
   (`VALIDATION` realisations drawn apart with seed 3; the 5 best trials by training objective run
   there and the best is chosen there):
   * SMC: scenarios/paper_trajectory1_smc.yaml over its seven parameters (SHARED);
@@ -89,11 +90,13 @@ def tune(name: str, scenario: Path, params: dict[str, str], start: dict[str, obj
         + " ".join(f"--vary '{k}={v}'" for k, v in TUNE_VARY.items())
         + " --start '" + ",".join(f"{k}={v}" for k, v in start.items()) + "'"
         + f" --realisations {realisations} --trials {trials} --seed 2"
-        + f" --validation {VALIDATION} --validate-top {TOP} --workers 2 --batch 2 --out {out}")
+        + f" --validation {VALIDATION} --validate-top {TOP} --workers 2 --batch 2 --lockstep"
+        + f" --out {out}")
     outcome = twmr.tune(scenario, params, OBJECTIVE, vary=TUNE_VARY, realisations=realisations,
                         trials=trials, seed=2, aggregate="mean", constraints=[LOST],
                         baseline=YARDSTICK, start=[start], overrides=overrides,
-                        validation=VALIDATION, validate_top=TOP, workers=2, batch=2, out=out)
+                        validation=VALIDATION, validate_top=TOP, workers=2, batch=2,
+                        lockstep=True, out=out)
     if outcome.best is not None:
         return dict(outcome.best)
     rows = pd.read_parquet(out / "trials.parquet")

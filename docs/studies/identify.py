@@ -104,7 +104,7 @@ def retune(folder: Path, fitted: dict[str, float], measured: Path, tol: Any
     values = [f"{k}={v!r}" for k, v in fitted.items()]
     outcome = twmr.tune(folder / "fitted.yaml", RETUNE, "mse_x + mse_y", trials=30, seed=3,
                         metrics=["tracking"], start=[SHIPPED], overrides=values,
-                        out=folder / "retune", report=False)
+                        lockstep=True, out=folder / "retune", report=False)
     best = {k: float(outcome.best[k]) for k in RETUNE}
     gains = [f"{k}={v!r}" for k, v in best.items()]
     after = twmr.simulate(twmr.load(folder / "bench.yaml", [

@@ -88,11 +88,12 @@ def tune(trials: int, realisations: int) -> pd.Series:
         + " ".join(f"--vary '{k}={v}'" for k, v in TUNE_VARY.items())
         + "".join(" --start '" + ",".join(f"{k}={v}" for k, v in p.items()) + "'"
                   for p in START)
-        + f" --realisations {realisations} --trials {trials} --seed 2 --workers 2 --out {out}")
+        + f" --realisations {realisations} --trials {trials} --seed 2 --workers 2 --lockstep"
+        + f" --out {out}")
     outcome = twmr.tune(SC / "paper_trajectory1_asmc.yaml", PARAMS, OBJECTIVE, vary=TUNE_VARY,
                         realisations=realisations, trials=trials, seed=2, aggregate="mean",
                         constraints=[LOST], baseline=SC / "paper_trajectory1_smc.yaml",
-                        start=START, workers=2, out=out)
+                        start=START, workers=2, lockstep=True, out=out)
     if outcome.best is None:
         raise SystemExit(f"no feasible trial in {out}")
     return pd.Series(outcome.best)

@@ -403,25 +403,25 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
          seed: int = 0, aggregate: str = "mean", constraints: Sequence[str] = (),
          metrics: Sequence[str] = (), overrides: Sequence[str] = (),
          method: str = "random", out: str | Path | None = None, workers: int | None = 1,
-         scheduler: str | None = None, batch: int | None = None,
+         scheduler: str | None = None, batch: int | None = None, lockstep: bool = False,
          baseline: str | Path | None = None, start: Sequence[dict[str, Any]] = (),
          validation: int = 0, validate_top: int = 5, test: int = 0,
          report: bool = True, progress: bool = False) -> Any:
     """Tune `params` ({NAME: SPEC} or ['NAME=SPEC', ...]; SPEC LO:HI, log:LO:HI, int:LO:HI or
     values:A,B,C) of `scenario` to minimise `aggregate` (mean, median, max, qP) of the metric
-    expression `objective` over `realisations` runs drawn once from `vary` and `seed` (the same
-    for every trial), subject to `constraints` ('EXPR<=BOUND' in every realisation), in
-    `trials` Optuna TPE trials in all (a folder holding fewer continues), asked `batch` at a time
-    (default: the workers). `workers` 1 runs in this process; more on local Dask workers on
-    127.0.0.1. `baseline`: a scenario run once over the same realisations, its figures named
-    `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
-    param) tried first, in order, before the sampler proposes. `validation`: realisations
-    drawn apart (never optimised on) on which the `validate_top` best trials by training
-    objective run, the best chosen there; `test`: further ones the chosen trial runs on
-    (reported only); the trials' rows then carry `validation_objective`, `gap` and
-    `test_objective`. Writes `out` (default
-    tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet, best.yaml,
-    report/. Returns a `twmr.tuning.TuneOutcome`."""
+    expression `objective` over `realisations` runs drawn once from `vary` and `seed` (the same for
+    every trial), subject to `constraints` ('EXPR<=BOUND' in every realisation), in `trials` Optuna
+    TPE trials in all (a folder holding fewer continues), asked `batch` at a time (default: the
+    workers), the next batch asked while one runs (`lockstep`: only once the one before is told, as
+    tunes did before; slower on a cluster). `workers` 1 runs in this process; more on local Dask
+    workers on 127.0.0.1. `baseline`: a scenario run once over the same realisations, its figures
+    named `base_<figure>` in `objective` and `constraints`. `start`: points ({NAME: value} of every
+    param) tried first, in order, before the sampler proposes. `validation`: realisations drawn
+    apart (never optimised on) on which the `validate_top` best trials by training objective run,
+    the best chosen there; `test`: further ones the chosen trial runs on (reported only); the
+    trials' rows then carry `validation_objective`, `gap` and `test_objective`. Writes `out`
+    (default tunes/<scenario name>): trials.parquet, realisations.parquet, baseline.parquet,
+    best.yaml, report/. Returns a `twmr.tuning.TuneOutcome`."""
     from twmr.sweeps import parse_vary
     from twmr.tuning import Expression, TuneSpec, parse_constraint, parse_param
     from twmr.tuning import tune as run_tune
@@ -444,7 +444,7 @@ def tune(scenario: str | Path, params: dict[str, str] | Sequence[str], objective
     folder = Path(out) if out is not None else Path("tunes") / (Path(str(scenario)).stem or
                                                                   "scenario")
     outcome = run_tune(spec, folder, workers=workers, scheduler=scheduler, batch=batch,
-                       progress=progress)
+                       lockstep=lockstep, progress=progress)
     if report and outcome.trials:
         tune_report(outcome.folder)
     return outcome

@@ -596,6 +596,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
                        aggregate=args.aggregate, constraints=args.constraint, metrics=metrics,
                        overrides=args.set, method=args.method, out=args.out,
                        workers=args.workers, scheduler=args.scheduler, batch=args.batch,
+                       lockstep=args.lockstep,
                        baseline=args.baseline, start=[_start_point(t) for t in args.start],
                        validation=args.validation, validate_top=args.validate_top,
                        test=args.test,
@@ -890,6 +891,9 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                             help="an existing Dask cluster you trust (it runs code here)")
     tu.add_argument("--batch", type=int, metavar="B",
                     help="trials asked and run together (default: the workers)")
+    tu.add_argument("--lockstep", action="store_true",
+                    help="ask a batch only once the one before is told (as tunes did before "
+                         "the next batch was asked while one runs; slower on a cluster)")
     tu.add_argument("--start", action="append", default=[], metavar="NAME=VALUE,...",
                     help="a point tried first (every --param once); repeatable, in order")
     tu.add_argument("--validation", type=int, default=0, metavar="N",

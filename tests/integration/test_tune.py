@@ -8,6 +8,7 @@ not from our code.
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -117,6 +118,30 @@ def test_dask_workers_give_the_same_trials(tmp_path):
         [t["objective"] for t in here.trials], rel=1e-12)
     walls = pd.read_parquet(tmp_path / "one" / "trials.parquet")["wall_time_s"].to_numpy()
     assert walls[0] == walls[1] and walls[2] == walls[3]  # trials 0, 1 ran as one batch, 2, 3
+
+
+def test_lockstep_proposes_as_a_plain_ask_tell_loop(tmp_path):
+    """Lockstep, batch 1: each trial is asked once the one before is told, so the proposals are
+    those of Optuna's own ask/tell loop with the same seeded sampler told the same values; the
+    default (the next trial asked while one runs) differs from it past the random start-up."""
+    import optuna
+
+    lock = tune(tmp_path, 14, out=tmp_path / "lock", lockstep=True)
+    ahead = tune(tmp_path, 14, out=tmp_path / "ahead")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    with warnings.catch_warnings():  # constant_liar is "experimental"
+        warnings.simplefilter("ignore")
+        sampler = optuna.samplers.TPESampler(seed=0, constant_liar=True)
+    study = optuna.create_study(sampler=sampler)
+    dist = {"ctrl.k": optuna.distributions.FloatDistribution(0.3, 30.0, log=True)}
+    for row in lock.trials:
+        trial = study.ask(dist)
+        assert trial.params["ctrl.k"] == row["ctrl.k"]
+        study.tell(trial, row["objective"])
+    plain = [t.params["ctrl.k"] for t in study.trials]
+    ahead_k = [t["ctrl.k"] for t in ahead.trials]
+    assert ahead_k[:10] == plain[:10]  # the random start-up asks without the told values
+    assert ahead_k[10:] != plain[10:]
 
 
 def test_start_points_are_tried_first(tmp_path):

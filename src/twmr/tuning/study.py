@@ -1,10 +1,12 @@
 """`tune`: an Optuna study (TPE, seeded) over a scenario's parameters, each trial the scenario run
 over the same N realisations (common random numbers: drawn once from `seed` as a sweep draws its
-runs), its objective an aggregate of a metric expression over them. Trials are asked in batches
-of B (Optuna ask/tell; the pending trials of a batch are told to the sampler as constant liars)
-and the B x N runs of a batch go to the workers at once; the proposals depend on the seed and B,
-not on the number of workers. A baseline scenario, run once over the same realisations, gives
-its figures to the expressions as `base_<figure>`.
+runs), its objective an aggregate of a metric expression over them. Trials are asked in batches of B
+(Optuna ask/tell; the pending trials of a batch are told to the sampler as constant liars) and the B
+x N runs of a batch go to the workers at once; the next batch is asked while one runs (two in
+flight, at fixed points: after the batch before the one running is told), or, lockstep, once the
+batch before it is told. The proposals depend on the seed, B and lockstep, not on the number of
+workers nor on when runs end. A baseline scenario, run once over the same realisations, gives its
+figures to the expressions as `base_<figure>`.
 
 Folder `DIR` (locked while the tune runs, as a sweep's folder):
 - `tune.json`: what the study is (scenario hash, params, objective, realisations...); a second
@@ -216,13 +218,15 @@ class TuneOutcome:
 
 
 def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
-         scheduler: str | None = None, batch: int | None = None, progress: bool = False
+         scheduler: str | None = None, batch: int | None = None, lockstep: bool = False,
+         progress: bool = False
          ) -> TuneOutcome:
     """Run the study `spec` into folder `out` (see the module's docstring): `workers` 1 runs in
     this process; more (or None: one per core) on a local Dask cluster on 127.0.0.1, or the
     trusted cluster at `scheduler`. `batch`: trials asked and run together (default: the number
     of workers; give it to reproduce a study on another cluster); the next batch is asked (and
-    on a cluster queued) while one runs, at fixed points of the study."""
+    on a cluster queued) while one runs, at fixed points of the study, or, `lockstep`, only once
+    every trial before it is told (the proposals of the tunes before pipelining)."""
     from twmr.api import load
 
     spec.check()
@@ -273,6 +277,9 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
         for point in spec.start[len(outcome.trials):]:
             study.enqueue_trial(point)
         dists = {p.name: p.distribution() for p in spec.params}
+        # a worker's runs of the study, so its built system takes the loop compiled for it as
+        # soon as they repay it (as a sweep's workers do)
+        share = -(-left * len(table) // (_workers_of(client) if client is not None else 1))
 
         def record(trial: Any, row: dict[str, Any], runs: list[dict[str, Any]]) -> None:
             nonlocal bar
@@ -303,18 +310,18 @@ def tune(spec: TuneSpec, out: str | Path, *, workers: int | None = 1,
             nonlocal left
             asked = [study.ask(dists) for _ in range(min(batch, left))]
             left -= len(asked)
-            tasks = _tasks(spec, scenario, content, bases, table, asked)
+            tasks = _tasks(spec, scenario, content, bases, table, asked, share)
             return asked, _launch(tasks, client, f"trial{asked[0].number}"), time.perf_counter()
 
         flight = launch() if left > 0 else None
         while flight is not None:
-            following = launch() if left > 0 else None
+            following = launch() if left > 0 and not lockstep else None
             asked, launched, t0 = flight
             every = _land(launched, client, f"trial{asked[0].number}")
             for trial, (row, runs) in zip(asked, _rows(
                     spec, table, asked, every, base, time.perf_counter() - t0), strict=True):
                 record(trial, row, runs)
-            flight = following
+            flight = launch() if lockstep and left > 0 else following
         if spec.validation:
             if journal is None:
                 journal = open_journal(folder / JOURNAL)
@@ -550,15 +557,16 @@ def _evaluate(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any]
 
 
 def _tasks(spec: TuneSpec, scenario: Any, content: str, bases: dict[str, Any],
-           table: list[dict[str, Any]], trials: list[Any]) -> list[RunTask]:
-    """The runs of `trials`: each one's parameters over every realisation."""
+           table: list[dict[str, Any]], trials: list[Any], share: int = 0) -> list[RunTask]:
+    """The runs of `trials`: each one's parameters over every realisation; `share`: the runs
+    of the study a worker is expected to make (`RunTask.share`)."""
     tasks: list[RunTask] = []
     for trial in trials:
         params = {p.name: trial.params[p.name] for p in spec.params}
         fixed = [*spec.fixed, *(f"{k}={json.dumps(v)}" for k, v in params.items())]
         tasks += [RunTask(run_id(values, fixed), i, values,
                           [*fixed, *overrides_of(values, spec.vary, bases)], scenario.source,
-                          content, str(scenario.base_dir), list(spec.metrics))
+                          content, str(scenario.base_dir), list(spec.metrics), share=share)
                   for i, values in enumerate(table)]
     return tasks
 
