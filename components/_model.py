@@ -149,18 +149,17 @@ def rk4(n: int, hs: float, t0: float, x: float, y: float, th: float, wR: float, 
 
 
 @kernel_function
-def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float, yT: float,
-                 vxT: float, vyT: float, dR: float, dL: float,
-                 m11: float, m12: float, m_G: float, r: float, b: float,
-                 lam: float, vth: float, k: float, L: float, eps: float, phi: float
-                 ) -> tuple[float, float, float, float, float, float]:
-    """The sliding-mode law of eqs (9)-(32): (tau_R, tau_L, s_1, s_2, e_p1, e_p2).
+def look_ahead_model(x: float, y: float, th: float, wR: float, wL: float, xT: float,
+                     yT: float, vxT: float, vyT: float, m11: float, m12: float, m_G: float,
+                     r: float, b: float, L: float, eps: float) -> tuple:
+    """The error model of the look-ahead point that the tracking laws share (eqs 9-23):
+    (e_p1, e_p2, x1 (2), x1' (2), Z = kappa M^-1 (z11, z12, z21, z22), E (E11, E12, E21, E22)),
+    so that x1'' = Z tau + E x1' + (terms a law treats as disturbance).
 
     x1 is the error of a look-ahead point L [m] on the body axis (x1 = e_p - [L, 0]); kappa uses
     e_p of M (it is the same matrix for that point); |e_p1| in kappa is kept >= eps [m] with its
     sign. x1' is estimated without the unmeasured slip: kappa nu + R(theta) p_T' (eq. 15 with the
-    slip terms of xi_1 dropped). d_hat = (dR, dL) is the adaptive term (0 for plain SMC);
-    phi > 0 replaces sgn(s) by sat(s / phi)."""
+    slip terms of xi_1 dropped)."""
     c, s_ = math.cos(th), math.sin(th)
     ex, ey = xT - x, yT - y
     e1 = c * ex + s_ * ey  # eq. (9)
@@ -177,8 +176,6 @@ def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float,
     x11, x12 = e1 - L, e2
     d11 = k11 * wR + k12 * wL + c * vxT + s_ * vyT
     d12 = k21 * wR + k22 * wL - s_ * vxT + c * vyT
-    x21, x22 = d11 + lam * x11, d12 + lam * x12  # x2 = x1' + lambda x1
-    s1, s2 = vth * x11 + x21, vth * x12 + x22  # eq. (25)
     # M^-1
     det_m = m11 * m11 - m12 * m12
     i11, i12 = m11 / det_m, -m12 / det_m
@@ -200,6 +197,33 @@ def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float,
     E12 = e1_11 * ki12 + e1_12 * ki22
     E21 = e1_21 * ki11 + e1_22 * ki21
     E22 = e1_21 * ki12 + e1_22 * ki22
+    return (e1, e2, x11, x12, d11, d12, z11, z12, z21, z22, E11, E12, E21, E22)
+
+
+@kernel_function
+def torque_for(v1: float, v2: float, z11: float, z12: float, z21: float, z22: float
+               ) -> tuple[float, float]:
+    """tau = -Z^-1 v (eq. 32), Z^-1 = M kappa^-1: the wheel torques that give x1'' = -v plus
+    the model's own terms."""
+    det_z = z11 * z22 - z12 * z21
+    tR = -(z22 * v1 - z12 * v2) / det_z
+    tL = -(-z21 * v1 + z11 * v2) / det_z
+    return tR, tL
+
+
+@kernel_function
+def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float, yT: float,
+                 vxT: float, vyT: float, dR: float, dL: float,
+                 m11: float, m12: float, m_G: float, r: float, b: float,
+                 lam: float, vth: float, k: float, L: float, eps: float, phi: float
+                 ) -> tuple[float, float, float, float, float, float]:
+    """The sliding-mode law of eqs (9)-(32): (tau_R, tau_L, s_1, s_2, e_p1, e_p2), on the error
+    model of the look-ahead point L (`look_ahead_model`, clamp eps); d_hat = (dR, dL) is the
+    adaptive term (0 for plain SMC); phi > 0 replaces sgn(s) by sat(s / phi)."""
+    (e1, e2, x11, x12, d11, d12, z11, z12, z21, z22, E11, E12, E21,
+     E22) = look_ahead_model(x, y, th, wR, wL, xT, yT, vxT, vyT, m11, m12, m_G, r, b, L, eps)
+    x21, x22 = d11 + lam * x11, d12 + lam * x12  # x2 = x1' + lambda x1
+    s1, s2 = vth * x11 + x21, vth * x12 + x22  # eq. (25)
     # (vartheta I + E)(x2 - lambda x1) + d_hat + k sgn(s)
     w1, w2 = x21 - lam * x11, x22 - lam * x12
     if phi > 0.0:
@@ -209,8 +233,5 @@ def tracking_law(x: float, y: float, th: float, wR: float, wL: float, xT: float,
         g2 = 1.0 if s2 > 0 else (-1.0 if s2 < 0 else 0.0)
     v1 = (vth + E11) * w1 + E12 * w2 + dR + k * g1
     v2 = E21 * w1 + (vth + E22) * w2 + dL + k * g2
-    # tau = -Z^-1 v (eq. 32), Z^-1 = M kappa^-1
-    det_z = z11 * z22 - z12 * z21
-    tR = -(z22 * v1 - z12 * v2) / det_z
-    tL = -(-z21 * v1 + z11 * v2) / det_z
+    tR, tL = torque_for(v1, v2, z11, z12, z21, z22)
     return tR, tL, s1, s2, e1, e2

@@ -1,6 +1,6 @@
-"""The fair comparison of the SMC and the ASMC: both tuned alike, judged on realisations neither
-was tuned on. Writes docs/studies/fair_comparison_numbers.md, the shipped scenarios
-scenarios/fair_trajectory1_{smc,asmc,asmc_tied}.yaml (with their provenance) and
+"""The fair comparison of the SMC, the ASMC and an LQR: all tuned alike, judged on realisations
+none was tuned on. Writes docs/studies/fair_comparison_numbers.md, the shipped scenarios
+scenarios/fair_trajectory1_{smc,asmc,asmc_tied,lqr}.yaml (with their provenance) and
 docs/figures/studies/fair_*.png; prints every command and its own wall time.
 
     .venv/bin/python docs/studies/fair_comparison.py            # 400 trials x 10 realisations
@@ -10,16 +10,18 @@ Folders go to $FC_OUT (default: twmr_fair_comparison in the system's temporary f
 existing folder is resumed).
 
 Definitions, fixed before any tune ran (docs/studies/fair_comparison.md explains them):
-- three tunes, each `TRIALS` Optuna TPE trials x `REALISATIONS` training realisations (seed 2),
+- four tunes, each `TRIALS` Optuna TPE trials x `REALISATIONS` training realisations (seed 2),
   batches of 2 on 2 Dask workers in lockstep, the same objective and constraint, the same
-  validation
-  (`VALIDATION` realisations drawn apart with seed 3; the 5 best trials by training objective run
-  there and the best is chosen there):
+  validation (`VALIDATION` realisations drawn apart with seed 3; the 5 best trials by training
+  objective run there and the best is chosen there):
   * SMC: scenarios/paper_trajectory1_smc.yaml over its seven parameters (SHARED);
   * ASMC: scenarios/paper_trajectory1_asmc.yaml over the same seven plus its three own (OWN);
   * ASMC tied: the ASMC with the seven set to the tuned SMC's, over its three own only (the
     adaptation alone);
-  each starts from the paper's Table II gains (PAPER);
+  * LQR: scenarios/paper_trajectory1_lqr.yaml (the `lqr` block: LQR/LQI on the linearised
+    error model of the same look-ahead point) over the three shared parameters it has
+    (LQR_SHARED) and its three weights (LQR_OWN), from LQR_START;
+  the sliding-mode laws start from the paper's Table II gains (PAPER);
 - objective, per run: the worst of the six ratios to a fixed yardstick, the SMC with the paper's
   Table II gains (scenarios/paper_trajectory1_smc.yaml as shipped) on the same realisation
   (settling times capped at the run's 30 s); the tune minimises its mean; constraint: no lost
@@ -60,9 +62,18 @@ OWN = {"ctrl.eta": "log:0.01:10", "ctrl.d_hat_limit": "values:0,5,10,20,40",
 PAPER = {"ctrl.lam": 13.0, "ctrl.vartheta": 20.0, "ctrl.k": 20.0, "ctrl.eps_singular": 0.5,
          "ctrl.phi": 0.2, "ctrl.lookahead": 0.05, "ctrl.drive": "backward"}
 PAPER_OWN = {"ctrl.eta": 0.1, "ctrl.d_hat_limit": 0, "ctrl.hold_saturated": True}
+#: the LQR: the shared parameters that are not the sliding-mode laws' own, and its weights
+LQR_SHARED = {k: SHARED[k] for k in ("ctrl.eps_singular", "ctrl.lookahead", "ctrl.drive")}
+LQR_OWN = {"ctrl.q_position": "log:10:1e8", "ctrl.q_velocity": "log:0.1:1e6",
+           "ctrl.q_integral": "values:0,1,100,10000,1000000"}
+#: its start: Table II's shared values and the block's defaults (weights picked by hand on
+#: the run without slip; there are no published ones)
+LQR_START = {**{k: PAPER[k] for k in LQR_SHARED}, "ctrl.q_position": 1e5,
+             "ctrl.q_velocity": 1e4, "ctrl.q_integral": 0}
 VALIDATION, TOP = 20, 5
 YARDSTICK = SC / "paper_trajectory1_smc.yaml"
 NAMES = {"smc": "SMC (tuned)", "asmc": "ASMC (tuned)", "tied": "ASMC (tied to the tuned SMC)",
+         "lqr": "LQR (tuned)",
          "paper": "SMC (Table II gains, the yardstick)",
          "smc_at_asmc": "SMC (at the tuned ASMC's seven)"}
 
@@ -164,7 +175,7 @@ def objective_lines(frames: dict[str, pd.DataFrame]) -> list[str]:
              "(below 1: better on all six). Lost: a peak error above 2 m or a failed run.", "",
              "| controller | mean | median | p90 | worst | below 1 in | lost |",
              "|---|---|---|---|---|---|---|"]
-    for key in ("smc", "asmc", "tied", "smc_at_asmc"):
+    for key in ("smc", "asmc", "tied", "lqr", "smc_at_asmc"):
         w = worst_ratio(frames[key], frames["paper"])
         lines.append(f"| {NAMES[key]} | {np.mean(w):.3g} | {np.median(w):.3g} | "
                      f"{np.quantile(w, 0.9):.3g} | {np.max(w):.3g} | {int((w < 1).sum())}/{len(w)}"
@@ -219,11 +230,14 @@ def main(trials: int = 400, realisations: int = 10, judge: int = 100) -> None:
     smc_set = {k: smc[k] for k in SHARED}
     tied = tune("tied", SC / "paper_trajectory1_asmc.yaml", OWN, PAPER_OWN, smc_set, trials,
                 realisations)
+    lqr = tune("lqr", SC / "paper_trajectory1_lqr.yaml", {**LQR_SHARED, **LQR_OWN}, LQR_START, {},
+               trials, realisations)
     t_tune = time.perf_counter() - t0
     chosen = {"smc": smc_set, "asmc": {k: asmc[k] for k in {**SHARED, **OWN}},
-              "tied": {**smc_set, **{k: tied[k] for k in OWN}}}
+              "tied": {**smc_set, **{k: tied[k] for k in OWN}},
+              "lqr": {k: lqr[k] for k in {**LQR_SHARED, **LQR_OWN}}}
     sources = {"smc": SC / "paper_trajectory1_smc.yaml", "asmc": SC / "paper_trajectory1_asmc.yaml",
-               "tied": SC / "paper_trajectory1_asmc.yaml"}
+               "tied": SC / "paper_trajectory1_asmc.yaml", "lqr": SC / "paper_trajectory1_lqr.yaml"}
     command = "docs/studies/fair_comparison.py" + ("" if (trials, realisations) == (400, 10) else
                                                     f" {trials} {realisations}")
     t1 = time.perf_counter()
@@ -234,7 +248,7 @@ def main(trials: int = 400, realisations: int = 10, judge: int = 100) -> None:
     results = {k: per_run(v) for k, v in folders.items()}
     frames = {k: v[0] for k, v in results.items()}
     t_judge = time.perf_counter() - t1
-    for key in ("smc", "asmc", "tied"):
+    for key in ("smc", "asmc", "tied", "lqr"):
         ship("asmc_tied" if key == "tied" else key, sources[key], chosen[key],
              f"# {NAMES[key]} of the fair comparison (docs/studies/fair_comparison.md), written by"
              f" `.venv/bin/python {command}`;\n# judged there on {judge} realisations no tune "
@@ -249,12 +263,15 @@ def main(trials: int = 400, realisations: int = 10, judge: int = 100) -> None:
     text += tune_lines("smc", smc, SHARED)
     text += tune_lines("asmc", asmc, {**SHARED, **OWN})
     text += tune_lines("tied", tied, OWN)
+    text += tune_lines("lqr", lqr, {**LQR_SHARED, **LQR_OWN})
     text += [f"## Judged on {judge} fresh realisations (seed 1)", ""]
     text += objective_lines(frames)
     text += pairing_lines(frames["asmc"], frames["smc"], NAMES["asmc"], NAMES["smc"])
     text += pairing_lines(frames["tied"], frames["smc"], NAMES["tied"], NAMES["smc"])
     text += pairing_lines(frames["asmc"], frames["smc_at_asmc"], NAMES["asmc"],
                           NAMES["smc_at_asmc"])
+    text += pairing_lines(frames["asmc"], frames["lqr"], NAMES["asmc"], NAMES["lqr"])
+    text += pairing_lines(frames["lqr"], frames["smc"], NAMES["lqr"], NAMES["smc"])
     wall = time.perf_counter() - t0
     text += [f"Wall time of this call of the script, measured by it: {wall / 60:.1f} min (tunes "
              f"{t_tune / 60:.1f}, judging {t_judge / 60:.1f}), on {os.cpu_count()} cores; a "
@@ -270,6 +287,10 @@ def main(trials: int = 400, realisations: int = 10, judge: int = 100) -> None:
                 [("t", NAMES["tied"]), ("s", NAMES["smc"])],
                 f"Trajectory 1, the adaptation alone: {judge} fresh realisations",
                 FIGS / "fair_trajectory1_tied.png")
+    band_figure({"a": series["asmc"], "q": series["lqr"]},
+                [("a", NAMES["asmc"]), ("q", NAMES["lqr"])],
+                f"Trajectory 1, the ASMC and a linear-optimal law, both tuned: {judge} fresh "
+                f"realisations", FIGS / "fair_trajectory1_lqr.png")
     say("\n".join(text))
     say(f"wall time: {wall:.0f} s")
 

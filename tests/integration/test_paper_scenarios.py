@@ -105,10 +105,10 @@ def test_the_shipped_circle_never_loses_the_circle() -> None:
 
 
 def test_the_fair_pair_keeps_the_track_in_fresh_realisations() -> None:
-    """The tuned SMC and the tuned ASMC of docs/studies/fair_comparison.md on the first 10
-    realisations of docs/reproduction's sweep of trajectory 1 (which neither tune saw): neither
-    loses the track (a peak error above 2 m) in any."""
-    for kind in ("smc", "asmc"):
+    """The tuned SMC, ASMC and LQR of docs/studies/fair_comparison.md on the first 10
+    realisations of docs/reproduction's sweep of trajectory 1 (which no tune saw): none loses
+    the track (a peak error above 2 m) in any."""
+    for kind in ("smc", "asmc", "lqr"):
         for i, (figures, _) in enumerate(_first_ten(
                 "trajectory1_asmc.yaml", SCENARIOS / f"fair_trajectory1_{kind}.yaml",
                 ["tracking"])):

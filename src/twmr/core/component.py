@@ -325,12 +325,15 @@ class Component:
     # -- interface description ---------------------------------------------------------------
     @classmethod
     def declared(cls) -> dict[str, Variable]:
-        """The class's variables in declaration order, base classes first."""
+        """The class's variables in declaration order, base classes first; a subclass that sets
+        a base's variable to None has no such variable."""
         found: dict[str, Variable] = {}
         for klass in reversed(cls.__mro__):
             for key, value in vars(klass).items():
                 if isinstance(value, Variable):
                     found[key] = value
+                elif value is None and key in found:
+                    del found[key]
         return found
 
     @classmethod
