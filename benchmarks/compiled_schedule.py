@@ -4,7 +4,7 @@ scenario; "driver") against the loop generated and compiled for each scenario ("
 compiled path before the driver; `CompiledStep(..., use_driver=False)`), measured in this one
 run.
 
-The paper's trajectory-1 scenario (ASMC, 1 ms step, 16 columns recorded every 10 steps) cut to
+The paper's trajectory-1 scenario (ASMC, 1 ms step, 21 columns recorded every 10 steps) cut to
 3 s, 30 s (as written) and 300 s:
 
 (a) the master with the compiled algorithm (`compiled='on'`), driver and loop: `Execution` with a
@@ -15,7 +15,9 @@ The paper's trajectory-1 scenario (ASMC, 1 ms step, 16 columns recorded every 10
     functions called in the Gauss-Seidel order, the controller stepped by its `advance`, the rows
     written to a preallocated array every 10 steps, no NaN/Inf check), one call for the whole
     run; its rows must equal (a)'s exactly;
-(c) the master with the Python schedule (`compiled='off'`, 3 s and 30 s).
+(c) the master with the Python schedule (`compiled='off'`, 3 s and 30 s), against (d) the same
+    hand-written loop in plain Python (`hand_loop.py_func`: the kernels' Python forms, as the
+    Python schedule calls them; `python_over_python_hand`).
 Each is run `--repeats` times interleaved (300 s: 3 times); medians are compared.
 
 Compile time (`algorithm.compile_s`: kernels collected, the loop or driver found, generated,
@@ -126,6 +128,8 @@ def hand_loop(n_steps: int, h: float, dec: int, pt: tuple, pc: tuple, pm: tuple,
             buf[k, 10], buf[k, 11] = motor[0]
             buf[k, 12], buf[k, 13] = ctrl[1]
             buf[k, 14], buf[k, 15] = ctrl[3]
+            buf[k, 16], buf[k, 17], buf[k, 18] = slip[0]  # plant.slip_rate
+            buf[k, 19], buf[k, 20] = slip[2]  # plant.disturbance
             k += 1
         if n == n_steps:  # the final point: no step
             break
@@ -137,9 +141,10 @@ def hand_loop(n_steps: int, h: float, dec: int, pt: tuple, pc: tuple, pm: tuple,
     return k
 
 
-def hand_run(stop: float = 30.0) -> tuple[np.ndarray, float]:
+def hand_run(stop: float = 30.0, python: bool = False) -> tuple[np.ndarray, float]:
     """(rows, wall time [s]) of `hand_loop` over the scenario's initialized components, cut to
-    `stop` [s]."""
+    `stop` [s]; `python`: its plain-Python form (the kernels' Python forms, as the Python
+    schedule calls them)."""
     system = load(SCENARIO, [f"experiment.stop={stop}"])
     exp = system.experiment
     comps = system.components
@@ -152,13 +157,14 @@ def hand_run(stop: float = 30.0) -> tuple[np.ndarray, float]:
     def outputs(c):
         return tuple(tuple(float(v) for v in c.__dict__[p]) for p in c.outputs)
 
-    buf = np.empty((exp.n_steps // 10 + 1, 16))
+    buf = np.empty((exp.n_steps // 10 + 1, 21))
     args = (exp.n_steps, exp.step, 10, kern["ref"].params, kern["ctrl"].params,
             kern["motor"].params, kern["plant"].params, kern["slip"].params, outputs(ref),
             outputs(ctrl), kern["ctrl"].state, outputs(motor), kern["motor"].state,
             outputs(plant), outputs(slip), buf)
+    loop = hand_loop.py_func if python else hand_loop
     t0 = time.perf_counter()
-    k = hand_loop(*args)
+    k = loop(*args)
     wall = time.perf_counter() - t0
     return buf[:k], wall
 
@@ -274,13 +280,15 @@ def per_step(stop: float, repeats: int, python: bool) -> dict[str, float]:
     rows = {how: master_run("on", over, how)[0] for how in ("driver", "loop")}
     assert np.array_equal(rows["driver"], rows["loop"]), "driver != loop"
     identical = bool(np.array_equal(hand_rows, rows["driver"]))
-    walls: dict[str, list[float]] = {"driver": [], "loop": [], "hand": [], "python": []}
+    walls: dict[str, list[float]] = {"driver": [], "loop": [], "hand": [], "python": [],
+                                     "python_hand": []}
     for i in range(repeats):
         walls["hand"].append(hand_run(stop)[1])
         for how in ("driver", "loop"):
             walls[how].append(master_run("on", over, how)[1])
         if python and i < 3:
             walls["python"].append(master_run("off", over)[1])
+            walls["python_hand"].append(hand_run(stop, python=True)[1])
     steps = load(SCENARIO, list(over)).experiment.n_steps
     us = {k: statistics.median(v) / steps * 1e6 for k, v in walls.items() if v}
     out = {"steps": steps, **{f"{k}_us_per_step": round(v, 4) for k, v in us.items()},
@@ -290,6 +298,7 @@ def per_step(stop: float, repeats: int, python: bool) -> dict[str, float]:
            "hand_rows_identical": identical}
     if python:
         out["python_over_driver"] = round(us["python"] / us["driver"], 1)
+        out["python_over_python_hand"] = round(us["python"] / us["python_hand"], 2)
     print(f"{stop} s: {out}", flush=True)
     return out
 
