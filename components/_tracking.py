@@ -62,6 +62,21 @@ class TrackingState(NamedTuple):
 
 
 @kernel_function
+def limit_torque(lim: float, saturation: float, tR: float, tL: float
+                 ) -> tuple[float, float, float]:
+    """(tau_R, tau_L, saturated 0/1): the torque limit `lim` (0: none), by clipping each wheel
+    or (`saturation` SCALE) scaling both."""
+    saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
+    if saturated:
+        if saturation == SCALE:
+            f = lim / max(abs(tR), abs(tL))
+            tR, tL = tR * f, tL * f
+        else:
+            tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
+    return tR, tL, 1.0 if saturated else 0.0
+
+
+@kernel_function
 def limited_law(u: tuple, p: LawParams, dR: float, dL: float
                 ) -> tuple[float, float, float, float, float, float, float]:
     """(tau_R, tau_L, s_1, s_2, e_p1, e_p2, saturated 0/1) from u = (pose, wheel_speed,
@@ -71,15 +86,8 @@ def limited_law(u: tuple, p: LawParams, dR: float, dL: float
     tR, tL, s1, s2, e1, e2 = tracking_law(x, y, th, wR, wL, xT, yT, vxT, vyT, dR, dL, p.m11,
                                           p.m12, p.m_G, p.r, p.b, p.lam, p.vartheta, p.k, p.L,
                                           p.eps_singular, p.phi)
-    lim = p.torque_limit
-    saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
-    if saturated:
-        if p.saturation == SCALE:
-            f = lim / max(abs(tR), abs(tL))
-            tR, tL = tR * f, tL * f
-        else:
-            tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
-    return tR, tL, s1, s2, e1, e2, 1.0 if saturated else 0.0
+    tR, tL, saturated = limit_torque(p.torque_limit, p.saturation, tR, tL)
+    return tR, tL, s1, s2, e1, e2, saturated
 
 
 @kernel_function

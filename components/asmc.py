@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from twmr.components._tracking import LawParams, TrackingController, TrackingState, limited_law
-from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
+from twmr.components.ctwins import DRIVES, GAINS, INERTIA, LOOK_AHEAD, TRACKING
 from twmr.components.ctwins import C as TWINS
 from twmr.core import BOOLEAN, Output, Parameter
 from twmr.core.ctwin import Choice, CTwin
@@ -92,6 +92,7 @@ class AsmcController(TrackingController):
 
 # -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
 AsmcController.c_twin = CTwin(
-    TWINS / "tracking.c", headers=(INERTIA,), tunable=frozenset((*GAINS, "eta", "d_hat_limit")),
+    TWINS / "tracking.c", headers=(INERTIA, LOOK_AHEAD),
+    tunable=frozenset((*GAINS, "eta", "d_hat_limit")),
     choices={**TRACKING, "hold_saturated": Choice("HOLD_SATURATED", {True: 1, False: 0})},
     defines={**DRIVES, "ADAPTIVE": 1}, work=lambda comp: 4)

@@ -30,6 +30,7 @@ TRACKING = {"drive": Choice("DRIVE", {"auto": 0, "forward": 1, "backward": 2}),
 DRIVES = {"DRIVE_FORWARD": 1, "DRIVE_BACKWARD": 2}
 
 INERTIA, SLIP_PROFILE = C / "inertia.h", C / "slip_profile.h"
+LOOK_AHEAD = C / "look_ahead.h"  # the tracking laws' error model
 SAMPLED = C / "sampled.h"
 #: the blocks' one random generator (twmr.blocks.philox)
 PHILOX = Path(blocks.__file__).parent / "c" / "philox.h"

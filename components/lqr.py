@@ -1,27 +1,28 @@
 """An LQR (or LQI) tracking controller on the error model of the look-ahead point the sliding-mode
 laws use, for comparing a linear-optimal law with the ASMC on equal terms.
 
-Under the computed-torque part of eq. (32), tau = -Z^-1 v with v = E x1' + u_lqr, the error of
-the look-ahead point obeys x1'' = -u_lqr + (the terms every law here treats as disturbance: the
-target's acceleration, kappa' nu, the slip): two decoupled double integrators, the linearised
-error model. On it, with the state (z, x1, x1') per axis (z = the integral of x1, present when
-`q_integral` > 0), the cost integral of q_integral z^2 + q_position x1^2 + q_velocity x1'^2 +
-u^2 gives the gains u_lqr = k_i z + k_p x1 + k_d x1' (`lqr_gains`: the LQR of that model, by
-spectral factorisation; without the integral, in closed form k_p = sqrt(q_position), k_d =
-sqrt(2 k_p + q_velocity)). The error model, the look-ahead point, its clamp, the drive side and
-the torque limit are those of `_tracking` (shared with the SMC and the ASMC); the integral is
-held while the torque is limited (anti-windup), as the ASMC holds d_hat.
+Under the computed-torque part of eq. (32), tau = -Z^-1 v with v = E x1' + u_lqr, the error of the
+look-ahead point obeys x1'' = -u_lqr + (the terms every law here treats as disturbance: the target's
+acceleration, kappa' nu, the slip): two decoupled double integrators, the linearised error model. On
+it, with the state (z, x1, x1') per axis (z = the integral of x1, present when `q_integral` > 0),
+the cost integral of q_integral z^2 + q_position x1^2 + q_velocity x1'^2 + u^2 gives the gains u_lqr
+= k_i z + k_p x1 + k_d x1' (`lqr_gains`: the LQR of that model, by spectral factorisation; without
+the integral, in closed form k_p = sqrt(q_position), k_d = sqrt(2 k_p + q_velocity)). The C twin
+(c/lqr.c) computes them by the same operations. The error model, the look-ahead point, its clamp,
+the drive side and the torque limit are those of `_tracking` (shared with the SMC and the ASMC); the
+integral is held while the torque is limited (anti-windup), as the ASMC holds d_hat.
 """
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
 
-import numpy as np
-
 from twmr.components._model import look_ahead_model, torque_for
-from twmr.components._tracking import SATURATIONS, SCALE, LawParams, TrackingController
+from twmr.components._tracking import SATURATIONS, LawParams, TrackingController, limit_torque
+from twmr.components.ctwins import DRIVES, INERTIA, LOOK_AHEAD, TRACKING
+from twmr.components.ctwins import C as TWINS
 from twmr.core import Output, Parameter
+from twmr.core.ctwin import CTwin
 from twmr.core.kernel import Kernel, kernel_function
 
 
@@ -41,18 +42,28 @@ class LqrState(NamedTuple):
 def lqr_gains(q_integral: float, q_position: float, q_velocity: float
               ) -> tuple[float, float, float]:
     """(k_i, k_p, k_d) of u = k_i z + k_p x + k_d x' minimising the integral of q_integral z^2 +
-    q_position x^2 + q_velocity x'^2 + u^2 for x'' = -u, z' = x. By spectral factorisation:
-    the optimal closed loop's polynomial s^3 + k_d s^2 + k_p s + k_i has the stable roots of
-    -s^6 + q_velocity s^4 - q_position s^2 + q_integral (Kalman's return-difference identity for
-    the integrator chain), which holds for any weights >= 0, where a Riccati solver fails on
-    tiny ones; without the integral, in closed form."""
-    if q_integral == 0.0:
-        k_p = math.sqrt(q_position)
-        return 0.0, k_p, math.sqrt(2.0 * k_p + q_velocity)
-    roots = np.roots([-1.0, 0.0, q_velocity, 0.0, -q_position, 0.0, q_integral])
-    stable = sorted(roots, key=lambda z: z.real)[:3]
-    _, k_d, k_p, _ = np.real(np.poly(stable))
-    return math.sqrt(q_integral), float(k_p), float(k_d)  # k_i^2 = Delta(0)^2 = q_integral
+    q_position x^2 + q_velocity x'^2 + u^2 for x'' = -u, z' = x.
+
+    By spectral factorisation: the optimal closed loop's polynomial s^3 + a s^2 + b s + c
+    satisfies Delta(s) Delta(-s) = -s^6 + q_velocity s^4 - q_position s^2 + q_integral (the
+    return-difference identity for the integrator chain), i.e. c^2 = q_integral,
+    a^2 - 2 b = q_velocity, b^2 - 2 a c = q_position: c = sqrt(q_integral), b = (a^2 -
+    q_velocity) / 2 and a the root above sqrt(q_velocity) of (a^2 - q_velocity)^2 - 4 q_position -
+    8 c a, convex there, found by Newton's method from its right (the C twin does the same
+    operations). It holds for any weights >= 0, where a Riccati solver fails on tiny ones."""
+    c = math.sqrt(q_integral)
+    a = math.sqrt(q_velocity + 2.0 * math.sqrt(q_position))  # the root for c = 0
+    if c > 0.0:
+        a = max(a, 1.0)
+        while (a * a - q_velocity) * (a * a - q_velocity) - 4.0 * q_position - 8.0 * c * a <= 0.0:
+            a = 2.0 * a
+        for _ in range(200):
+            w = a * a - q_velocity
+            step = (w * w - 4.0 * q_position - 8.0 * c * a) / (4.0 * a * w - 8.0 * c)
+            if not a - step < a:
+                break
+            a = a - step
+    return c, 0.5 * (a * a - q_velocity), a
 
 
 @kernel_function
@@ -68,15 +79,7 @@ def lqr_evaluate(t: float, x: LqrState, y: tuple, u: tuple, p: LqrParams
     v1 = (p.k_d + E11) * d11 + E12 * d12 + p.k_p * x11 + p.k_i * i1
     v2 = E21 * d11 + (p.k_d + E22) * d12 + p.k_p * x12 + p.k_i * i2
     tR, tL = torque_for(v1, v2, z11, z12, z21, z22)
-    lim = q.torque_limit
-    saturated = lim > 0.0 and (abs(tR) > lim or abs(tL) > lim)
-    if saturated:
-        if q.saturation == SCALE:
-            f = lim / max(abs(tR), abs(tL))
-            tR, tL = tR * f, tL * f
-        else:
-            tR, tL = min(lim, max(-lim, tR)), min(lim, max(-lim, tL))
-    sat = 1.0 if saturated else 0.0
+    tR, tL, sat = limit_torque(q.torque_limit, q.saturation, tR, tL)
     x = x if sat == x.saturated else LqrState(sat)
     return x, ((tR, tL), (e1, e2), y[2])
 
@@ -139,3 +142,11 @@ class LqrController(TrackingController):
         k_i, k_p, k_d = self.gains()
         return Kernel(params=LqrParams(self.law_params(), k_i, k_p, k_d), state=LqrState(0.0),
                       evaluate=lqr_evaluate, step=lqr_step, advance=lqr_advance)
+
+
+# -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
+LqrController.c_twin = CTwin(
+    TWINS / "lqr.c", headers=(INERTIA, LOOK_AHEAD),
+    tunable=frozenset(("lookahead", "eps_singular", "torque_limit", "q_position", "q_velocity",
+                       "q_integral")),
+    choices=TRACKING, defines=DRIVES, work=lambda comp: 10)

@@ -9,7 +9,7 @@ clamp, the look-ahead) compares more than the adaptation.
 from __future__ import annotations
 
 from twmr.components._tracking import TrackingController
-from twmr.components.ctwins import DRIVES, GAINS, INERTIA, TRACKING
+from twmr.components.ctwins import DRIVES, GAINS, INERTIA, LOOK_AHEAD, TRACKING
 from twmr.components.ctwins import C as TWINS
 from twmr.core.ctwin import CTwin
 
@@ -21,5 +21,6 @@ class SmcController(TrackingController):
 
 
 # -- C twin (`twmr export KIND`: a standalone C FMU from c/) ---------------------------------------
-SmcController.c_twin = CTwin(TWINS / "tracking.c", headers=(INERTIA,), tunable=frozenset(GAINS),
-                             choices=TRACKING, defines=DRIVES, work=lambda comp: 4)
+SmcController.c_twin = CTwin(TWINS / "tracking.c", headers=(INERTIA, LOOK_AHEAD),
+                             tunable=frozenset(GAINS), choices=TRACKING, defines=DRIVES,
+                             work=lambda comp: 4)
