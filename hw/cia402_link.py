@@ -348,14 +348,16 @@ class Cia402Link(Link):
                 (False, "the EDS/DCF has no heartbeat consumer 0x1016 or abort option 0x6007")
                 for n in self.nodes}
 
-    def disable(self, emergency: bool = False) -> None:
+    def disable(self, emergency: bool = False) -> list[int]:
         """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis, the frames
-        still waiting to be sent discarded first where the interface can."""
+        still waiting to be sent discarded first where the interface can (sent once: no
+        confirmation is awaited)."""
         self.running = False
         discard_unsent(self.network.bus)
         word = c.DISABLE_VOLTAGE if emergency else c.SHUTDOWN
         with contextlib.suppress(LinkError):
             self._send({n: word for n in self.nodes}, {})
+        return []
 
     def close(self) -> None:
         """Stop the host's heartbeat and disconnect the network."""

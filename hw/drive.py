@@ -370,8 +370,16 @@ class CanMotorDrive(Component, BusMember):
         """Zero torque and drives disabled now, then the run stops."""
         self._tripped = True
         if self.link is not None:
-            self.link.disable(emergency=True)
+            self._unconfirmed(self.link.disable(emergency=True))
         raise HardwareError(self.name, self._t, fault.text())
+
+    def _unconfirmed(self, nodes: list[int]) -> None:
+        """Say which drives did not confirm the stop (their heartbeat still not IDLE)."""
+        if nodes:
+            log.error("%s: drive node(s) %s did not confirm the stop (sent again meanwhile): "
+                      "they may still be enabled. Fix: check them now (power, bus); a drive "
+                      "whose heartbeat period is long confirms late", self.name,
+                      ", ".join(map(str, nodes)))
 
     def report(self) -> dict[str, Any]:
         """CAN round trip p50/p99/max [us] (request -> answer), late answers, oldest feedback;
@@ -401,7 +409,7 @@ class CanMotorDrive(Component, BusMember):
         try:
             if link is not None:
                 self._rtt_ns = link.rtt_ns  # for report(), which comes after the stop
-                link.disable(emergency=self._tripped)
+                self._unconfirmed(link.disable(emergency=self._tripped))
                 link.close()
         finally:
             frames, self.log = getattr(self, "log", None), None

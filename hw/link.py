@@ -188,8 +188,9 @@ class Link(ABC):
         (or why not)."""
 
     @abstractmethod
-    def disable(self, emergency: bool = False) -> None:
-        """Zero torque, then disable every axis (the emergency form after a fault)."""
+    def disable(self, emergency: bool = False) -> list[int]:
+        """Zero torque, then disable every axis (the emergency form after a fault); the nodes
+        whose drives did not confirm it (empty where the protocol has no confirmation)."""
 
     @abstractmethod
     def close(self) -> None:

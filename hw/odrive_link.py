@@ -33,6 +33,9 @@ from twmr.hw.link import DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
 ENCODERS = ("cyclic", "polled")
+#: how long a stop waits for each axis's heartbeat to report IDLE [s] (five default heartbeat
+#: periods), and how often it sends the stop again meanwhile [s]
+CONFIRM_S, RESEND_S = 0.5, 0.1
 
 
 class OdriveLink(Link):
@@ -332,18 +335,33 @@ class OdriveLink(Link):
     def protection(self) -> dict[int, tuple[bool, str]]:
         return dict(self.watchdog)
 
-    def disable(self, emergency: bool = False) -> None:
+    def disable(self, emergency: bool = False, confirm: float = CONFIRM_S) -> list[int]:
         """Zero torque, then IDLE (or Estop when `emergency`) to every axis; errors ignored.
         Frames still waiting to be sent (a backlog behind a flood) are discarded first, where
-        the interface can: the stop goes out next."""
+        the interface can: the stop goes out next. Sent again every `RESEND_S` to each axis
+        whose heartbeat has not yet reported IDLE since, for up to `confirm` [s] (a frame lost
+        on the way, e.g. on a UDP bus, leaves no drive running); the nodes that did not
+        confirm."""
         self.running = False
         discard_unsent(self.bus)
-        for n in self.nodes:
-            for ident, data in (p.encode_torque(n, 0.0, self.gear),
-                                p.encode_estop(n) if emergency else
-                                p.encode_axis_state(n, p.AXIS_IDLE)):
-                with contextlib.suppress(LinkError):
-                    self._send(ident, data)
+        t0 = time.monotonic()
+        deadline = t0 + confirm
+        left = list(self.nodes)
+        while True:
+            for n in left:
+                for ident, data in (p.encode_torque(n, 0.0, self.gear),
+                                    p.encode_estop(n) if emergency else
+                                    p.encode_axis_state(n, p.AXIS_IDLE)):
+                    with contextlib.suppress(LinkError):
+                        self._send(ident, data)
+            resend = min(deadline, time.monotonic() + RESEND_S)
+            while left and time.monotonic() < resend:
+                time.sleep(0.005)
+                with self.lock:
+                    left = [n for n in left if not (self.beats[n] > t0 and
+                                                    self.states[n].axis_state == p.AXIS_IDLE)]
+            if not left or time.monotonic() >= deadline:
+                return left
 
     def close(self) -> None:
         """Stop the bus thread and shut the bus down."""

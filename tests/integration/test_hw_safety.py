@@ -310,3 +310,42 @@ def test_cia402_drives_consume_the_host_heartbeat_and_fault_when_it_stops() -> N
             assert axis.state == State.FAULT and axis.torque == 0.0
     finally:
         d.terminate()
+
+
+def test_a_lost_stop_frame_is_sent_again_until_the_heartbeat_reports_idle() -> None:
+    """The first IDLE request to node 0 is lost on the way (as a UDP bus may lose it): the stop
+    is sent again until the drive's heartbeat reports IDLE, and no axis is left running."""
+    ch = channel()
+    d = started(channel=ch)
+    Paced(d).run(10, torque=(2.0, 2.0))
+    link, emu = d.link, d.emulators[0]
+    send, lost = link._send, []
+
+    def lossy(ident: int, data: bytes) -> None:
+        if p.split_id(ident) == (0, p.SET_AXIS_STATE) and not lost:
+            lost.append(ident)
+            return
+        send(ident, data)
+
+    link._send = lossy
+    try:
+        assert link.disable() == []
+        # node 0's first IDLE never left: it is idle because the stop was sent again
+        assert lost and [a.state for a in emu.axes.values()] == [p.AXIS_IDLE, p.AXIS_IDLE]
+        assert [a.torque for a in emu.axes.values()] == [0.0, 0.0]
+    finally:
+        d.terminate()
+
+
+def test_drives_that_do_not_confirm_the_stop_are_named(caplog: pytest.LogCaptureFixture
+                                                        ) -> None:
+    ch = channel()
+    d = started(channel=ch)
+    Paced(d).run(10)
+    d.emulators[0].silent = True  # dead drives: no heartbeat confirms anything
+    t0 = time.monotonic()
+    assert d.link.disable(confirm=0.3) == [0, 1]
+    assert time.monotonic() - t0 >= 0.3  # it waited for them, and no longer than asked for
+    with caplog.at_level("ERROR"):
+        d.terminate()
+    assert "drive node(s) 0, 1 did not confirm the stop" in caplog.text

@@ -137,10 +137,12 @@ def vector_bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
     return bases
 
 
-def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = False
-            ) -> tuple[Any, Any]:
+def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = False,
+                pooled: bool = True) -> tuple[Any, Any]:
     """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
-    dashboard on 127.0.0.1 when `dashboard`), or the given scheduler."""
+    dashboard on 127.0.0.1 when `dashboard`), or the given scheduler, or (`pooled`) a client of
+    the open `twmr.Workers` pool that fits `workers` (`twmr.sweeps.pool`; cluster None: the
+    caller closes only its client)."""
     from twmr.core.extras import require
 
     require("dask.distributed", "a sweep on Dask")
@@ -164,6 +166,12 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
                                 or workers < 1):
         raise SweepError(f"--workers {workers!r}: give a whole number of at least 1 (or leave "
                          f"it out: one per core).")
+    if pooled and not dashboard:
+        from twmr.sweeps.pool import open_pool
+
+        client = open_pool(workers)
+        if client is not None:
+            return client, None
     unguarded = unguarded_call()
     if unguarded is not None:
         raise SweepError(f"{unguarded[0]} line {unguarded[1]} starts local worker processes at "
