@@ -9,7 +9,9 @@
 Both run 100,000 steps in this process, interleaved and repeated, and the ratio of the medians is
 reported. Then a 1-hour simulated run at 1 kHz with 10 recorded signals measures steps/second and
 resident memory sampled along the run from an observer's `rows()` callback (called about every
-0.1 s of wall time; it must stay flat: results stream to disk).
+0.1 s of wall time; it must stay flat: results stream to disk). The same hour through
+`twmr.simulate` into a folder without exports and with CSV, MAT and Parquet
+(`long_run_exports_ratio`: what the three exports add, everything included).
 
 Last line: one JSON object with the figures.
 """
@@ -24,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+import twmr
 from twmr.blocks import Gain, Integrator, Sine, Sum
 from twmr.master import Execution
 from twmr.observers.base import Observer, Outcome
@@ -98,6 +101,17 @@ def master_run(n_steps: int, h: float, record: str, sample=None) -> Outcome:
     return outcome
 
 
+def exported_run(n_steps: int, h: float, record: str, formats: tuple[str, ...]) -> float:
+    """Wall time [s] of `twmr.simulate` into a temporary folder with the exports `formats`
+    (written from result.arrows after the run, as `twmr run --format` does), everything
+    included."""
+    text = SCENARIO.replace("STOP", repr(n_steps * h)).replace("RECORD", record)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        twmr.simulate(twmr.load(text), Path(tmp) / "out", formats=formats)
+        return time.perf_counter() - t0
+
+
 def rss_mb() -> float:
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * 4096 / 2**20
@@ -139,6 +153,8 @@ def main() -> None:
     outcome = master_run(long_steps, h, ten, sample=sample)
     wall = time.perf_counter() - t0
     quarter = max(1, len(samples) // 4)
+    plain = exported_run(long_steps, h, ten, ())
+    exports = exported_run(long_steps, h, ten, ("csv", "mat", "parquet"))
     figures = {
         "steps": args.steps,
         "hand_loop_s": round(statistics.median(hand), 4),
@@ -160,6 +176,9 @@ def main() -> None:
         "realtime_factor": round(outcome.realtime_factor, 1),
         "long_run_engine_wall_s": round(outcome.wall_time, 2),
         "long_run_rss_samples": len(samples),
+        "long_run_simulate_s": round(plain, 2),
+        "long_run_simulate_csv_mat_parquet_s": round(exports, 2),
+        "long_run_exports_ratio": round(exports / plain, 2),
     }
     print(json.dumps(figures))
 

@@ -167,9 +167,7 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
         raise SweepError(f"--workers {workers!r}: give a whole number of at least 1 (or leave "
                          f"it out: one per core).")
     if pooled and not dashboard:
-        from twmr.sweeps.pool import open_pool
-
-        client = open_pool(workers)
+        client = _pool_client(workers)
         if client is not None:
             return client, None
     unguarded = unguarded_call()
@@ -199,6 +197,20 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
             with held_signals():
                 close_client(None, cluster, [])
         raise
+
+
+#: the open `twmr.Workers` pools (`twmr.sweeps.pool`), innermost last
+OPEN_POOLS: list[Any] = []
+
+
+def _pool_client(workers: int | None) -> Any:
+    """A new client of the innermost open pool when `workers` fits it (None or its size), else
+    None: the caller starts a cluster of its own."""
+    if not OPEN_POOLS or (workers is not None and workers != OPEN_POOLS[-1].n):
+        return None
+    from dask.distributed import Client
+
+    return Client(OPEN_POOLS[-1].cluster)
 
 
 SPAWN_ENVIRON = "distributed.nanny.pre-spawn-environ"

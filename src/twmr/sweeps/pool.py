@@ -14,8 +14,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-#: the open pools, innermost last
-_open: list[Workers] = []
+from twmr.sweeps.engine import OPEN_POOLS, close_client, dask_client
 
 
 class Workers:
@@ -29,17 +28,13 @@ class Workers:
         self.cluster: Any = None
 
     def __enter__(self) -> Workers:
-        from twmr.sweeps.engine import dask_client
-
         self.client, self.cluster = dask_client(self.n, None, self.dashboard, pooled=False)
         self.n = len(self.cluster.workers)
-        _open.append(self)
+        OPEN_POOLS.append(self)
         return self
 
     def __exit__(self, *exc: object) -> None:
-        from twmr.sweeps.engine import close_client
-
-        _open.remove(self)
+        OPEN_POOLS.remove(self)
         close_client(self.client, self.cluster, [])
         self.client = self.cluster = None
 
@@ -48,16 +43,3 @@ class Workers:
         """The worker processes' ids (for a check that calls shared them)."""
         info = self.client.run(os.getpid)
         return sorted(info.values())
-
-
-def open_pool(workers: int | None) -> Any:
-    """A new client of the innermost open pool when `workers` fits it (None or its size), else
-    None: the caller starts a cluster of its own."""
-    if not _open:
-        return None
-    pool = _open[-1]
-    if workers is not None and workers != pool.n:
-        return None
-    from dask.distributed import Client
-
-    return Client(pool.cluster)
