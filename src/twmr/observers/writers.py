@@ -114,17 +114,24 @@ def _replaced(path: Path, write: Any) -> list[Path]:
 
 
 class Csv(ResultFormat):
-    """One header row of column names, then one row per sample (17 significant digits); the
-    units in `units.json` beside it. Binary ports: `ticks.csv`, a column of hex per port
-    (empty where it did not tick)."""
+    """One header row of column names, then one row per sample (each number in the shortest
+    form that reads back to the same double: Arrow's CSV writer); the units in `units.json`
+    beside it. Binary ports: `ticks.csv`, a column of hex per port (empty where it did not
+    tick)."""
 
     suffix = ".csv"
     ticks_file = "ticks.csv"
 
     def write(self, path: Path, columns: list[str], units: list[str],
               values: np.ndarray) -> list[Path]:
-        header = ",".join(_csv_field(c) for c in columns)
-        np.savetxt(path, values, delimiter=",", header=header, comments="", fmt="%.17g")
+        import pyarrow as pa
+        import pyarrow.csv as pa_csv
+
+        table = pa.Table.from_arrays(_arrow_columns(values),
+                                     names=[f"c{j}" for j in range(len(columns))])
+        with open(path, "wb") as f:
+            f.write((",".join(_csv_field(c) for c in columns) + "\n").encode())
+            pa_csv.write_csv(table, f, pa_csv.WriteOptions(include_header=False))
         unit_file = path.parent / UNITS_FILE
         unit_file.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
         return [unit_file]
@@ -153,6 +160,15 @@ class Csv(ResultFormat):
         except (OSError, ValueError):
             unit_of = {}
         return columns, [unit_of.get(c, "") for c in columns], values.reshape(-1, len(columns))
+
+
+def _arrow_columns(values: np.ndarray) -> list[Any]:
+    """Each column of `values` as an Arrow float64 array over its own contiguous copy."""
+    import pyarrow as pa
+
+    n = len(values)
+    return [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
+        np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(values.shape[1])]
 
 
 def _csv_field(name: str) -> str:
@@ -206,10 +222,8 @@ class Parquet(ResultFormat):
 
         fields = [pa.field(c, pa.float64(), metadata={"unit": u})
                   for c, u in zip(columns, units, strict=True)]
-        n = len(values)
-        arrays = [pa.Array.from_buffers(pa.float64(), n, [None, pa.py_buffer(
-            np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(len(columns))]
-        pq.write_table(pa.Table.from_arrays(arrays, schema=pa.schema(fields)), path)
+        pq.write_table(pa.Table.from_arrays(_arrow_columns(values), schema=pa.schema(fields)),
+                       path)
         return []
 
     def write_ticks(self, path: Path, ticks: TickTable) -> None:
