@@ -114,6 +114,11 @@ def cmd_run(args: argparse.Namespace) -> int:
              s["wall_time_s"], s["realtime_factor"], compiled, result.folder)
     if figures.get("algorithm.not_compiled"):
         log.debug("Python step loop: %s", figures["algorithm.not_compiled"])
+    elif figures.get("algorithm.compiled"):
+        form = "the driver (each kind of block compiled once)" if figures.get(
+            "algorithm.driver") else "the loop generated for this system"
+        log.debug("compiled step loop: %s; compiled because %s", form,
+                  figures.get("algorithm.why") or "asked")
     statistics = lines(s.get("statistics") or {})
     if statistics:
         log.debug("per block and algebraic loop:\n%s", "\n".join(statistics))

@@ -171,3 +171,17 @@ def test_a_compile_during_the_run_is_said_to_be_part_of_its_wall_time(tmp_path) 
     assert pacing["algorithm.compile_s"] <= summary["wall_time_s"]
     assert (f"{pacing['algorithm.compile_s']:.2f} s of it compiling the step loop (numba) after "
             f"{pacing['algorithm.compiled_at_step']} steps in Python") in line, line
+
+
+def test_run_v_says_which_step_loop_ran_and_why(tmp_path, capsys) -> None:
+    assert main(["run", str(FIXTURE), "--out", str(tmp_path / "on"), "-v",
+                 "--compiled", "on"]) == 0
+    err = capsys.readouterr().err
+    assert "compiled step loop: the driver (each kind of block compiled once); compiled " \
+           "because --compiled on" in err
+    assert main(["run", str(FIXTURE), "--out", str(tmp_path / "auto"), "-v"]) == 0
+    err = capsys.readouterr().err
+    assert "Python step loop: a short run (100 < 10000 steps)" in err or (
+        "compiled step loop" in err and "compiled because every kind compiled already" in err)
+    summary = json.loads((tmp_path / "on" / "summary.json").read_text())
+    assert summary["pacing"]["algorithm.why"] == "--compiled on"

@@ -105,6 +105,8 @@ class CompiledStep(Algorithm):
         self.compiled = False
         self._pending = False
         self.reason = ""
+        #: why the run was compiled (mode, kinds compiled already, a long run)
+        self.why = ""
         self.compile_seconds = float("nan")
         #: the step at which the loop was compiled during the run (0: before it, mode 'auto'
         #: compiles once a first chunk has run in Python when nothing is cached)
@@ -159,12 +161,19 @@ class CompiledStep(Algorithm):
         numba, which costs a short run more than its Python steps). A run that starts on the
         Python schedule starts it now (`FixedStep.start`)."""
         self._pending = False
-        long = compiled_pays(self._system.experiment.n_steps)
+        n = self._system.experiment.n_steps
+        long = compiled_pays(n)
         if self.mode == "on" or self._system.paced:
+            self.why = "--compiled on" if self.mode == "on" else \
+                "a paced run (compiled before its clock starts)"
             self._compile()
         elif (ready := self._ready(long)) is not None:
+            self.why = "every kind compiled already (held by this process, or in numba's " \
+                       f"cache for a run of {n} >= {AUTO_MIN_STEPS} steps)"
             self._compile(ready)
         elif long:
+            self.why = f"a run of {n} >= {AUTO_MIN_STEPS} steps, compiled after its first " \
+                       f"chunk in Python"
             self._pending = True
         else:
             self.reason = f"a short run ({self._system.experiment.n_steps} < " \
@@ -476,6 +485,7 @@ class CompiledStep(Algorithm):
             out["compile_s"] = self.compile_seconds
             out["compiled_at_step"] = self.compiled_in_run
             out["driver"] = self._driver is not None
+            out["why"] = self.why
             if self._driver is not None:
                 out["driver_compiled"] = self.driver_compiled
         elif self.reason:
