@@ -16,8 +16,11 @@ The paper's trajectory-1 scenario (ASMC, 1 ms step, 21 columns recorded every 10
     written to a preallocated array every 10 steps, no NaN/Inf check), one call for the whole
     run; its rows must equal (a)'s exactly;
 (c) the master with the Python schedule (`compiled='off'`, 3 s and 30 s), against (d) the same
-    hand-written loop in plain Python (`hand_loop.py_func`: the kernels' Python forms, as the
-    Python schedule calls them; `python_over_python_hand`).
+    hand-written loop in plain Python (`hand_loop.py_func`, every kernel function its `py_func`;
+    `python_over_python_hand`). In this process numba is loaded, so the Python schedule's forms
+    of the kernels call the kernel functions inside them compiled (`KernelFunction.python`),
+    which the plain hand loop does not: (c) is then below (d). In a process without numba, a
+    short run's schedule runs the same `py_func`s as (d).
 Each is run `--repeats` times interleaved (300 s: 3 times); medians are compared.
 
 Compile time (`algorithm.compile_s`: kernels collected, the loop or driver found, generated,
