@@ -32,7 +32,7 @@ from twmr.hw import c_nodes
 from twmr.hw import cia402 as c
 from twmr.hw.bus import FrameLog, describe, discard_unsent, frame_text, strict_canopen
 from twmr.hw.cia402 import State
-from twmr.hw.link import DriveSpec, Emulator, Link, Signals
+from twmr.hw.link import STOP_CONFIRM_S, STOP_RESEND_S, DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
 log = logging.getLogger("twmr.hw")
@@ -348,16 +348,27 @@ class Cia402Link(Link):
                 (False, "the EDS/DCF has no heartbeat consumer 0x1016 or abort option 0x6007")
                 for n in self.nodes}
 
-    def disable(self, emergency: bool = False) -> list[int]:
-        """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis, the frames
-        still waiting to be sent discarded first where the interface can (sent once: no
-        confirmation is awaited)."""
+    def disable(self, emergency: bool = False, confirm: float = STOP_CONFIRM_S) -> list[int]:
+        """Zero torque with DISABLE VOLTAGE (emergency) or SHUTDOWN to every axis, then SYNC,
+        the frames still waiting to be sent discarded first where the interface can; sent again
+        (every `STOP_RESEND_S` at most) until each axis's statusword, in a TPDO since, is out of
+        OPERATION ENABLED, for up to `confirm` [s]; the nodes that did not confirm."""
         self.running = False
         discard_unsent(self.network.bus)
         word = c.DISABLE_VOLTAGE if emergency else c.SHUTDOWN
-        with contextlib.suppress(LinkError):
-            self._send({n: word for n in self.nodes}, {})
-        return []
+        t0 = time.monotonic()
+        deadline = t0 + confirm
+        left = list(self.nodes)
+        while True:
+            with contextlib.suppress(LinkError):
+                self._send({n: word for n in self.nodes}, {})
+            self._replied.wait(max(0.0, min(STOP_RESEND_S, deadline - time.monotonic())))
+            with self.lock:
+                left = [n for n in left if not (
+                    self.values[n]["stamp"] > t0 and
+                    c.decode_statusword(self.values[n]["status"]) != State.OPERATION_ENABLED)]
+            if not left or time.monotonic() >= deadline:
+                return left
 
     def close(self) -> None:
         """Stop the host's heartbeat and disconnect the network."""

@@ -38,6 +38,11 @@ def option(default: Any, *, unit: str = "", description: str = "", min: float | 
                                             "min": min, "file": file})
 
 
+#: how long a stop waits for each drive to confirm it (its heartbeat or statusword) [s], and how
+#: often it sends the stop again meanwhile [s]
+STOP_CONFIRM_S, STOP_RESEND_S = 0.5, 0.1
+
+
 @dataclass(frozen=True)
 class NoOptions:
     """A protocol without options of its own."""

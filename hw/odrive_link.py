@@ -29,13 +29,10 @@ import can
 from twmr.hw import c_nodes
 from twmr.hw import protocol as p
 from twmr.hw.bus import FrameGuard, FrameLog, describe, discard_unsent, frame_text
-from twmr.hw.link import DriveSpec, Emulator, Link, Signals
+from twmr.hw.link import STOP_CONFIRM_S, STOP_RESEND_S, DriveSpec, Emulator, Link, Signals
 from twmr.hw.safety import Fault, LinkError
 
 ENCODERS = ("cyclic", "polled")
-#: how long a stop waits for each axis's heartbeat to report IDLE [s] (five default heartbeat
-#: periods), and how often it sends the stop again meanwhile [s]
-CONFIRM_S, RESEND_S = 0.5, 0.1
 
 
 class OdriveLink(Link):
@@ -335,10 +332,10 @@ class OdriveLink(Link):
     def protection(self) -> dict[int, tuple[bool, str]]:
         return dict(self.watchdog)
 
-    def disable(self, emergency: bool = False, confirm: float = CONFIRM_S) -> list[int]:
+    def disable(self, emergency: bool = False, confirm: float = STOP_CONFIRM_S) -> list[int]:
         """Zero torque, then IDLE (or Estop when `emergency`) to every axis; errors ignored.
         Frames still waiting to be sent (a backlog behind a flood) are discarded first, where
-        the interface can: the stop goes out next. Sent again every `RESEND_S` to each axis
+        the interface can: the stop goes out next. Sent again every `STOP_RESEND_S` to each axis
         whose heartbeat has not yet reported IDLE since, for up to `confirm` [s] (a frame lost
         on the way, e.g. on a UDP bus, leaves no drive running); the nodes that did not
         confirm."""
@@ -354,7 +351,7 @@ class OdriveLink(Link):
                                     p.encode_axis_state(n, p.AXIS_IDLE)):
                     with contextlib.suppress(LinkError):
                         self._send(ident, data)
-            resend = min(deadline, time.monotonic() + RESEND_S)
+            resend = min(deadline, time.monotonic() + STOP_RESEND_S)
             while left and time.monotonic() < resend:
                 time.sleep(0.005)
                 with self.lock:

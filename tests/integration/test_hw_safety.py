@@ -18,6 +18,7 @@ import pytest
 
 from tests.hw_bench import WATCHDOG, H, Monitor, Paced, channel, eventually, started
 from twmr.core import HardwareError
+from twmr.hw import cia402 as c402
 from twmr.hw import protocol as p
 from twmr.hw.cia402 import State
 
@@ -349,3 +350,34 @@ def test_drives_that_do_not_confirm_the_stop_are_named(caplog: pytest.LogCapture
     with caplog.at_level("ERROR"):
         d.terminate()
     assert "drive node(s) 0, 1 did not confirm the stop" in caplog.text
+
+
+def test_a_cia402_stop_is_sent_again_until_every_statusword_leaves_operation() -> None:
+    """The first SHUTDOWN to node 1 is lost: the stop goes out again with SYNC until node 1's
+    statusword (TPDO1) is out of OPERATION ENABLED; dead drives are named after the wait."""
+    d = started("cia402")
+    Paced(d).run(10, torque=(2.0, 2.0))
+    link, emu = d.link, d.emulators[0]
+    pdo = link.rx[1][0]
+    transmit, lost = pdo.transmit, []
+
+    def lossy() -> None:
+        if not lost and link.rx[1][1].raw == c402.SHUTDOWN:
+            lost.append(True)
+            return
+        transmit()
+
+    pdo.transmit = lossy
+    try:
+        assert link.disable() == []
+        assert lost and [a.state for a in emu.axes.values()] == [State.READY, State.READY]
+        assert [a.torque for a in emu.axes.values()] == [0.0, 0.0]
+    finally:
+        d.terminate()
+    dead = started("cia402")
+    Paced(dead).run(10)
+    dead.emulators[0].close()  # no TPDO answers any more
+    try:
+        assert dead.link.disable(confirm=0.3) == [1, 2]
+    finally:
+        dead.terminate()
