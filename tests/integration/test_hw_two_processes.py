@@ -155,10 +155,12 @@ def test_a_lost_torque_frame_on_a_bus_to_another_process_trips_that_drive(cwd: P
     drive in another process is not protected by its own watchdog and keeps its last torque
     (the run's report says so), which is why the table matters."""
     name = bench(cwd, stop=3.0, through_bus=True)
-    # the emulator's endpoint table, so the host arms each drive's own watchdog (0.1 s)
+    # the emulator's endpoint table, so the host arms each drive's own watchdog: 0.5 s, so a
+    # host a loaded machine stalls for a tenth of a second does not trip it before the fault
     table = Path(p.__file__).resolve().parent / "data" / "odrive-endpoints-emulated.json"
     text = (cwd / name).read_text().replace(
-        "emulate: false,", f"emulate: false, endpoints: '{table}',").replace(
+        "emulate: false,", f"emulate: false, endpoints: '{table}', drive_watchdog: 0.5,"
+    ).replace(
         "parameters: {can_config: can.ini}",
         f"parameters: {{can_config: can.ini, fault_ids: "
         f"'{p.can_id(0, p.SET_INPUT_TORQUE):#x}', fault_start: 0.3}}")
