@@ -5,7 +5,7 @@ the same scenario.
 The scenario is `scenarios/paper_trajectory1_asmc.yaml` (30 s, step 1 ms). The tune searches
 `ctrl.eta=log:0.01:10` and `ctrl.phi=0.05:1` for `mse_x + mse_y` (tracking) over `--realisations`
 draws of `slip.phase=uniform:0:5`, `--trials` trials. The sweep runs the same runs: a run's cost
-depends on the controller's parameters (on eta most), so it sweeps the tune's own trial points,
+depends on the controller's parameters, so it sweeps the tune's own trial points,
 `ctrl.eta` and `ctrl.phi` as `values:` of the trials' (each value `--realisations` times, paired at
 random), with `slip.phase=uniform:0:5`. The tune is seeded, so every call proposes the same trials;
 an untimed first tune per worker count gives them (and warms the numba cache). Each call goes into a
@@ -17,7 +17,7 @@ sweep (target >= 0.9), and `ratio_W_spread`, the lowest and highest ratio of the
 tune asks its trials in batches of W (its default: the workers), so the runs of W trials are on
 the cluster at once.
 
-    python benchmarks/tune.py [--trials 10] [--realisations 4] [--rounds 3]
+    python benchmarks/tune.py [--trials 10] [--realisations 4] [--rounds 3] [--lockstep]
 
 Prints one JSON object.
 """
@@ -47,16 +47,20 @@ def main() -> None:
     p.add_argument("--trials", type=int, default=10)
     p.add_argument("--realisations", type=int, default=4)
     p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--lockstep", action="store_true",
+                   help="tune in lockstep (a batch asked once the one before is told)")
     args = p.parse_args()
     runs = args.trials * args.realisations
-    figures: dict[str, object] = {"runs": runs, "rounds": args.rounds}
+    figures: dict[str, object] = {"runs": runs, "rounds": args.rounds,
+                                  "lockstep": args.lockstep}
     times: dict[tuple[str, int], list[float]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         def tune(workers: int, out: str):  # type: ignore[no-untyped-def]
             return twmr.tune(
                 SCENARIO, ["ctrl.eta=log:0.01:10", "ctrl.phi=0.05:1"], "mse_x + mse_y",
                 vary=[PHASE], realisations=args.realisations, trials=args.trials,
-                metrics=["tracking"], workers=workers, report=False, out=Path(tmp) / out)
+                metrics=["tracking"], workers=workers, lockstep=args.lockstep, report=False,
+                out=Path(tmp) / out)
 
         points = {}
         for workers in (1, 2):

@@ -159,10 +159,14 @@ class TrackingController(Component):
     def law_params(self) -> LawParams:
         """The law's table (after `initialize`: the nominal M and the drive side)."""
         L = self.lookahead if self.direction == "forward" else -self.lookahead
+        lam, vartheta, k, phi = self.sliding_gains()
         return LawParams(float(self.m11), float(self.m12), float(self.m_G), float(self.r),
-                         float(self.b), float(self.lam), float(self.vartheta), float(self.k),
-                         float(L), float(self.eps_singular), float(self.phi),
-                         float(self.torque_limit), float(SATURATIONS[self.saturation]))
+                         float(self.b), lam, vartheta, k, float(L), float(self.eps_singular),
+                         phi, float(self.torque_limit), float(SATURATIONS[self.saturation]))
+
+    def sliding_gains(self) -> tuple[float, float, float, float]:
+        """(lambda, vartheta, k, phi) of the sliding-mode law."""
+        return float(self.lam), float(self.vartheta), float(self.k), float(self.phi)
 
     def kernel(self, h: float) -> Kernel:
         """The SMC's definition (no adaptation); the ASMC gives its own."""

@@ -18,7 +18,7 @@ import math
 from typing import NamedTuple
 
 from twmr.components._model import look_ahead_model, torque_for
-from twmr.components._tracking import SATURATIONS, LawParams, TrackingController, limit_torque
+from twmr.components._tracking import LawParams, TrackingController, limit_torque
 from twmr.components.ctwins import DRIVES, INERTIA, LOOK_AHEAD, TRACKING
 from twmr.components.ctwins import C as TWINS
 from twmr.core import Output, Parameter
@@ -122,16 +122,13 @@ class LqrController(TrackingController):
 
     def initialize(self) -> None:
         if float(self.q_position) <= 0.0:
-            raise ValueError("q_position must be above 0 (the error's weight); give e.g. 400")
+            raise ValueError("q_position must be above 0 (the error's weight); give e.g. 1e5")
         self.integral = (0.0, 0.0)
         super().initialize()
 
-    def law_params(self) -> LawParams:
-        """The shared table with the sliding-mode gains at 0 (unused by this law)."""
-        L = self.lookahead if self.direction == "forward" else -self.lookahead
-        return LawParams(float(self.m11), float(self.m12), float(self.m_G), float(self.r),
-                         float(self.b), 0.0, 0.0, 0.0, float(L), float(self.eps_singular), 0.0,
-                         float(self.torque_limit), float(SATURATIONS[self.saturation]))
+    def sliding_gains(self) -> tuple[float, float, float, float]:
+        """None: this law has no sliding-mode gains (0 in the shared table, unused)."""
+        return 0.0, 0.0, 0.0, 0.0
 
     def gains(self) -> tuple[float, float, float]:
         """(k_i, k_p, k_d) from the weights (`lqr_gains`)."""

@@ -193,7 +193,7 @@ def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,
     stop = float(system.experiment.stop)
     y, columns = _run(scenario.spec, None, start, h, stop, outputs)
     change = np.abs(np.diff(y, axis=0)) / np.maximum(1.0, np.abs(y).max(axis=0))
-    moving = np.max(change, axis=1) > tol if len(change) else np.zeros(0, bool)
+    moving = ~(np.max(change, axis=1) <= tol) if len(change) else np.zeros(0, bool)  # NaN moves
     settled = np.convolve(moving, np.ones(window), "valid") == 0 if len(moving) >= window \
         else np.zeros(0, bool)
     if not settled.any():
