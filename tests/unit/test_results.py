@@ -139,3 +139,23 @@ def test_every_export_reads_back_every_double_exactly(tmp_path, name) -> None:
     if name == "csv":
         read = pd.read_csv(path)["a.b[1]"].to_numpy()
         assert np.array_equal(read, values[:, 1], equal_nan=True)
+
+
+def test_exports_made_in_pieces_keep_row_order(tmp_path, monkeypatch) -> None:
+    """CSV text formatted 7 rows per task on several threads, MAT variables compressed each on
+    its own: pandas and scipy read back every row in order, and scipy lists every variable."""
+    from twmr.observers import writers
+
+    monkeypatch.setattr(writers, "CSV_ROWS", 7)
+    values = np.column_stack([np.arange(1000) * 1e-3,
+                              np.random.default_rng(3).standard_normal((1000, 4))])
+    columns = ["time", "p.y[1]", "p.y[2]", "q.y", "r,s"]
+    fmt = writers.result_formats(["csv", "mat"])
+    fmt["csv"].write(tmp_path / "r.csv", columns, ["s", "m", "m", "", ""], values)
+    assert np.array_equal(pd.read_csv(tmp_path / "r.csv").to_numpy(), values)
+    fmt["mat"].write(tmp_path / "r.mat", columns, ["s", "m", "m", "", ""], values)
+    listed = {name for name, _shape, _kind in scipy.io.whosmat(tmp_path / "r.mat")}
+    assert listed == {"time", "p_y_1", "p_y_2", "q_y", "r_s", "columns", "variables", "units"}
+    m = scipy.io.loadmat(tmp_path / "r.mat")
+    assert np.array_equal(np.column_stack([np.ravel(m[n]) for n in
+                                           ("time", "p_y_1", "p_y_2", "q_y", "r_s")]), values)

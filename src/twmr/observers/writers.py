@@ -12,7 +12,12 @@ import json
 import logging
 import os
 import re
-from collections.abc import Iterable
+import struct
+import zlib
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from io import BytesIO
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -24,6 +29,10 @@ from twmr.observers.ticks import TickTable
 from twmr.registry import FORMATS, plugin, plugins
 
 UNITS_FILE = "units.json"
+#: rows of a CSV export formatted per task (about 20 MB of text for 10 columns)
+CSV_ROWS = 100_000
+#: zlib level of the MAT export's variables (1: a few % larger than MATLAB's default, 2x faster)
+MAT_ZLIB_LEVEL = 1
 log = logging.getLogger("twmr.run")
 
 
@@ -129,9 +138,17 @@ class Csv(ResultFormat):
 
         table = pa.Table.from_arrays(_arrow_columns(values),
                                      names=[f"c{j}" for j in range(len(columns))])
+        options = pa_csv.WriteOptions(include_header=False)
+
+        def text(first: int) -> Any:
+            sink = pa.BufferOutputStream()
+            pa_csv.write_csv(table.slice(first, CSV_ROWS), sink, options)
+            return sink.getvalue()
+
         with open(path, "wb") as f:
             f.write((",".join(_csv_field(c) for c in columns) + "\n").encode())
-            pa_csv.write_csv(table, f, pa_csv.WriteOptions(include_header=False))
+            for chunk in in_threads(text, range(0, len(values), CSV_ROWS)):
+                f.write(chunk)
         unit_file = path.parent / UNITS_FILE
         unit_file.write_text(json.dumps(dict(zip(columns, units, strict=False)), indent=1) + "\n")
         return [unit_file]
@@ -171,6 +188,20 @@ def _arrow_columns(values: np.ndarray) -> list[Any]:
         np.ascontiguousarray(values[:, j], dtype="<f8"))]) for j in range(values.shape[1])]
 
 
+def in_threads(fn: Callable[[Any], Any], items: Iterable[Any]) -> Iterator[Any]:
+    """fn(item) for each item, in order, computed on one thread per core (for work that
+    releases the GIL: Arrow's writers, zlib), at most two per thread ahead of the reader."""
+    workers = os.cpu_count() or 1
+    with ThreadPoolExecutor(workers) as pool:
+        pending: deque[Any] = deque()
+        for item in items:
+            pending.append(pool.submit(fn, item))
+            if len(pending) >= 2 * workers:
+                yield pending.popleft().result()
+        while pending:
+            yield pending.popleft().result()
+
+
 def _csv_field(name: str) -> str:
     return f'"{name}"' if any(ch in name for ch in ',"\n') else name
 
@@ -180,6 +211,10 @@ def mat_name(column: str) -> str:
     name = re.sub(r"[^0-9A-Za-z_]", "_", column).strip("_")
     name = re.sub(r"_+", "_", name)
     return name if name[:1].isalpha() else f"x_{name}"
+
+
+_MAT_HEADER = 128  # bytes of a MAT 5 file's header
+_MI_COMPRESSED = 15  # the MAT 5 data type of a zlib-compressed element
 
 
 class Mat(ResultFormat):
@@ -196,7 +231,18 @@ class Mat(ResultFormat):
         content["columns"] = np.array(columns, dtype=object)
         content["variables"] = np.array([mat_name(n) for n in columns], dtype=object)
         content["units"] = np.array(units, dtype=object)
-        scipy.io.savemat(path, content, do_compression=True, long_field_names=True)
+
+        def element(name: str) -> bytes:  # the variable's miMATRIX element, compressed
+            raw = BytesIO()
+            scipy.io.savemat(raw, {name: content[name]}, do_compression=False,
+                             long_field_names=True)
+            return zlib.compress(raw.getbuffer()[_MAT_HEADER:], MAT_ZLIB_LEVEL)
+
+        with open(path, "wb") as f:
+            scipy.io.savemat(f, {})  # the 128-byte header
+            for packed in in_threads(element, content):
+                f.write(struct.pack("<II", _MI_COMPRESSED, len(packed)))
+                f.write(packed)
         return []
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
