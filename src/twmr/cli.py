@@ -296,8 +296,11 @@ def cmd_linearize(args: argparse.Namespace) -> int:
 
     scenario = api.load(Path(args.scenario), args.set)
     inputs, outputs = list(args.input), list(args.output)
+    lines = _trimmed(scenario, args)
+    if args.trim:
+        scenario = api.load(Path(args.scenario), args.set)
     if args.fmu:
-        return _linearize_fmu(scenario, args)
+        return _linearize_fmu(scenario, args, lines)
     if args.loop:
         source = source_of(scenario, args.loop)
         if not source or inputs or outputs:
@@ -310,8 +313,10 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else Path("linear") / Path(args.scenario).stem
     out.mkdir(parents=True, exist_ok=True)
     plain = model.plain()
+    if args.trim:
+        plain["trim"] = args.trim_point
     loop = loop_at(model) if args.loop else None
-    lines = [f"linear model at t = {model.at:g} s, step {model.dt:g} s: {model.order} states; "
+    lines += [f"linear model at t = {model.at:g} s, step {model.dt:g} s: {model.order} states; "
              f"fit error {model.fit_error:.2g}, nonlinearity {model.nonlinearity:.2g}",
              "discrete poles z: " + ", ".join(
                  f"{complex(z):.6g}" for z in np.sort_complex(model.poles()))]
@@ -344,6 +349,29 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     return 0
 
 
+def _trimmed(scenario: Any, args: argparse.Namespace) -> list[str]:
+    """`--trim`: the trim point solved for (its `--set` texts appended to args.set, the point at
+    the start); `--at` checked; the lines to print."""
+    from twmr.linear_trim import trim
+
+    if not args.trim:
+        if args.at is None:
+            raise CosimError("linearize needs a point. Fix: give --at T (a time of the run), "
+                             "--at steady (where the run settles) or --trim COMP.STATE (an "
+                             "equilibrium solved for).")
+        return []
+    if args.at is not None:
+        raise CosimError("--trim solves for the steady point at the start: give it without "
+                         "--at (set the start with --set experiment.start=T).")
+    point = trim(scenario, [n for t in args.trim for n in t.split(",") if n.strip()],
+                 outputs=[n for t in args.trim_output for n in t.split(",") if n.strip()])
+    args.set = [*args.set, *point.overrides]
+    args.at = float(scenario.system.experiment.start)
+    args.trim_point = point.plain()
+    return [f"trim point ({point.iterations} Newton iterations, {point.runs} one-step runs; "
+            f"largest change per step {point.change:.2g}): {', '.join(point.overrides)}"]
+
+
 def _time_or_steady(text: str) -> float | str:
     """--at: a time [s] or 'steady'."""
     if text == "steady":
@@ -355,7 +383,7 @@ def _time_or_steady(text: str) -> float | str:
             from None
 
 
-def _linearize_fmu(scenario: Any, args: argparse.Namespace) -> int:
+def _linearize_fmu(scenario: Any, args: argparse.Namespace, lines: list[str]) -> int:
     """`twmr linearize --fmu COMP`: the FMU's continuous model by its directional derivatives."""
     import json
 
@@ -369,8 +397,12 @@ def _linearize_fmu(scenario: Any, args: argparse.Namespace) -> int:
     model = linearize_fmu(scenario, args.fmu, at=args.at)
     out = Path(args.out) if args.out else Path("linear") / Path(args.scenario).stem
     out.mkdir(parents=True, exist_ok=True)
-    (out / "linear.json").write_text(json.dumps(model.plain(), indent=2))
+    plain = model.plain()
+    if args.trim:
+        plain["trim"] = args.trim_point
+    (out / "linear.json").write_text(json.dumps(plain, indent=2))
     np.set_printoptions(precision=6, suppress=True)
+    print("\n".join(lines))
     print(f"{args.fmu} at t = {model.at:g} s (continuous, by its directional derivatives): "
           f"states {', '.join(model.states)}; inputs {', '.join(model.inputs) or 'none'}; "
           f"outputs {', '.join(model.outputs) or 'none'}")
@@ -788,9 +820,15 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     help="a port whose response is measured (repeatable)")
     li.add_argument("--loop", metavar="COMP.PORT", help="break the loop at this input's wire: "
                     "its loop transfer and margins")
-    li.add_argument("--at", type=_time_or_steady, required=True, metavar="T|steady",
+    li.add_argument("--at", type=_time_or_steady, metavar="T|steady",
                     help="the point: a time of the run [s], or 'steady': the trim point the "
                     "run settles at with its inputs (set them with --set)")
+    li.add_argument("--trim", action="append", default=[], metavar="COMP.NAME",
+                    help="the point: the equilibrium at the start, stable or not, solved for "
+                    "these start values (states or parameters; repeatable or by commas)")
+    li.add_argument("--trim-output", action="append", default=[], metavar="COMP.PORT",
+                    help="outputs held still at the trim point (default: every real output "
+                    "of the scenario)")
     li.add_argument("--horizon", type=int, default=200, help="steps of impulse response "
                     "(default 200)")
     li.add_argument("--amplitude", type=float, default=1e-3, help="height of the pulse, in "

@@ -44,7 +44,7 @@ from twmr.scenario.graph import (
 )
 from twmr.scenario.kinds import KindError, code_failure
 from twmr.scenario.loaders import load_structure, option_problems, read_structure, schema
-from twmr.scenario.overrides import apply_overrides
+from twmr.scenario.overrides import OVERRIDE, SETTABLE, apply_overrides
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.system import Connection, Experiment, LoopSolver, RecordSpec, System
 
@@ -352,7 +352,7 @@ class _Builder:
                                              f"has no {what} '{key}'{suggest(str(key), names)}.",
                                              f"known: {', '.join(names) or '(none)'}."))
                 continue
-            if var.kind not in allowed:
+            if var.kind not in allowed and not (loc.file == OVERRIDE and var.kind in SETTABLE):
                 other = "initial" if section == "parameters" else "parameters"
                 self.problems.append(Problem(loc, f"'{name}.{key}' is a {var.kind}; it is not set "
                                              f"under '{section}:'.",
@@ -370,7 +370,8 @@ class _Builder:
         """Element `index` (1-based) of vector `key` set to the given value, the others kept."""
         var = comp.variables[key]
         where = f"'{name}.{key}[{index}]'"
-        if var.kind not in allowed:
+        if var.kind not in allowed and not (given.where.file == OVERRIDE and
+                                            var.kind in SETTABLE):
             self.problems.append(Problem(given.where, f"{where}: '{key}' is a {var.kind}; it "
                                          f"is not set under '{section}:'.",
                                          "set a parameter, a state or an input."))

@@ -27,6 +27,10 @@ from twmr.scenario.loaders import schema, schema_problems
 from twmr.scenario.structure import ComponentSpec, Given, ScenarioSpec
 from twmr.scenario.yamlread import FAST
 
+#: the file of an override's `Location`: a value named, not a section of the file
+OVERRIDE = "--set"
+#: what an override may set: a parameter, or the initial value of a state or an input
+SETTABLE = ("parameter", "state", "input")
 _FORM = "write component.parameter=value or experiment.stop=value."
 #: a decimal integer or a decimal fraction without exponent: YAML reads it as Python does
 _DECIMAL = re.compile(r"-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?")
@@ -65,7 +69,7 @@ def _parse(text: str, key: str, value: str, loc: Location, problems: list[Proble
 
 
 def _apply(spec: ScenarioSpec, text: str, problems: list[Problem]) -> ScenarioSpec:
-    loc = Location("--set", 0, text)
+    loc = Location(OVERRIDE, 0, text)
     key, sep, value = text.partition("=")
     if key.strip().startswith("events.") and "events" not in spec.components:
         ok, parsed = _parse(text, key.strip(), value, loc, problems) if sep else (False, None)

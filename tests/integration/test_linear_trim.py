@@ -1,0 +1,120 @@
+"""Trim points solved for (`twmr.linear_trim.trim`, `twmr linearize --trim`): an inverted
+pendulum built from blocks, theta'' = (g/l) sin(theta) - c theta' + f, is trimmed at its upright,
+unstable equilibrium theta* = -asin(f l / g) (which no run settles at) and linearised there: one
+pole outside the unit circle, both within 1 % of the analytic continuous poles (the
+co-simulation is the ODE's discretisation at h = 1 ms: O(h) apart); the Reference FMU
+VanDerPol, started off its unstable focus, is trimmed to the origin, where its directional
+derivatives give A = [[0, 1], [-1, mu]] (FMI 2.0; the FMI 3.0 build, trimmed alike, provides
+none). Bad input is refused naming the value or the output."""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conformance.corpus import corpus
+from twmr.core.errors import CosimError
+from twmr.linear_analysis import linearize, linearize_fmu
+from twmr.linear_trim import trim
+
+pytestmark = pytest.mark.timeout(300)
+
+G, C, F = 9.81, 0.5, 1.0
+PENDULUM = f"""
+components:
+  push: {{kind: constant, parameters: {{value: {F}}}}}
+  u: {{kind: gain, parameters: {{k: 1.0}}}}
+  w: {{kind: integrator, parameters: {{x0: 0.1}}}}
+  th: {{kind: integrator, parameters: {{x0: 0.3}}}}
+  s: {{kind: math, parameters: {{function: sin}}}}
+  g: {{kind: gain, parameters: {{k: {G}}}}}
+  c: {{kind: gain, parameters: {{k: {-C}}}}}
+  acc: {{kind: sum, parameters: {{signs: "+++"}}}}
+  spare: {{kind: constant, parameters: {{value: 2.0}}}}
+connections:
+  - push.y -> u.u
+  - th.y -> s.u
+  - s.y -> g.u
+  - w.y -> c.u
+  - g.y -> acc.u1
+  - c.y -> acc.u2
+  - u.y -> acc.u3
+  - acc.y -> w.u
+  - w.y -> th.u
+experiment: {{start: 0, stop: 1, step: 0.001}}
+"""
+THETA = -math.asin(F / G)
+
+
+def test_the_upright_pendulum_is_trimmed_and_linearised_there() -> None:
+    point = trim(PENDULUM, ["th.x0", "w.x0"])
+    assert point.values["th.x0"] == pytest.approx(THETA, abs=1e-9)
+    assert abs(point.values["w.x0"]) < 1e-9
+    assert point.change <= 1e-12 and point.iterations <= 10
+    model = linearize(PENDULUM, ["u.u"], ["th.y"], at=0.0, horizon=60, amplitude=1e-5,
+                      overrides=point.overrides)
+    assert model.order == 2 and model.fit_error < 1e-6
+    z = np.sort(np.linalg.eigvals(model.A).real)
+    assert z[1] > 1.0 > z[0] > 0.0  # one unstable pole: the upright equilibrium
+    analytic = np.sort(np.roots([1.0, C, -G * math.cos(THETA)]))
+    np.testing.assert_allclose(np.log(z) / 0.001, analytic, rtol=0.01)
+
+
+def test_more_unknowns_than_needed_give_one_point_of_the_family() -> None:
+    point = trim(PENDULUM, ["th.x0", "w.x0", "push.value"])
+    theta, f = point.values["th.x0"], point.values["push.value"]
+    assert G * math.sin(theta) + f == pytest.approx(0.0, abs=1e-9)  # an equilibrium
+    assert abs(point.values["w.x0"]) < 1e-9
+
+
+@pytest.mark.parametrize("name", ["VanDerPol_fmi2.fmu", "VanDerPol_fmi3.fmu"])
+def test_vanderpol_is_trimmed_to_its_unstable_focus(name: str) -> None:
+    path = corpus("reference-fmus", name)
+    scenario = {"components": {"vdp": {"kind": "fmu", "parameters": {
+        "path": str(path), "interface": "model_exchange"}}},
+        "experiment": {"stop": 1.0, "step": 0.01}}
+    point = trim(scenario, ["vdp.x0", "vdp.x1"], overrides=["vdp.x0=0.3", "vdp.x1=-0.2"])
+    assert abs(point.values["vdp.x0"]) < 1e-9 and abs(point.values["vdp.x1"]) < 1e-9
+    if "fmi3" in name:  # this FMI 3 build offers no directional derivatives
+        return
+    model = linearize_fmu(scenario, "vdp", at=0.0, overrides=point.overrides)
+    np.testing.assert_allclose(model.A, [[0.0, 1.0], [-1.0, 1.0]], atol=1e-8)
+    assert np.all(np.linalg.eigvals(model.A).real > 0)  # unstable: no run settles there
+
+
+def test_what_cannot_be_trimmed_is_refused() -> None:
+    with pytest.raises(CosimError, match=r"'th\.x00' names no value.*did you mean 'x0'"):
+        trim(PENDULUM, ["th.x00"])
+    with pytest.raises(CosimError, match=r"spare\.value moves none of the outputs checked "
+                                         r"\(th\.y\).*Fix:"):
+        trim(PENDULUM, ["spare.value"], outputs=["th.y"])
+    with pytest.raises(CosimError, match=r"no steady point reached in 3 Newton iterations: "
+                                         r"\w+\.y still changes by .*Fix:"):
+        trim(PENDULUM, ["push.value"], max_iter=3)
+    with pytest.raises(CosimError, match="at least one unknown"):
+        trim(PENDULUM, [])
+
+
+def test_the_command_trims_then_linearises(tmp_path: Path) -> None:
+    (tmp_path / "pend.yaml").write_text(PENDULUM)
+    command = [sys.executable, "-m", "twmr.cli", "linearize", "pend.yaml", "--input", "u.u",
+               "--output", "th.y", "--horizon", "60", "--amplitude", "1e-5", "--out", "lin"]
+    done = subprocess.run([*command, "--trim", "th.x0,w.x0"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=200)
+    assert done.returncode == 0, done.stderr
+    assert "trim point (" in done.stdout and "th.x0=-0.10211416" in done.stdout
+    saved = json.loads((tmp_path / "lin" / "linear.json").read_text())
+    assert saved["trim"]["values"]["th.x0"] == pytest.approx(THETA, abs=1e-9)
+    assert saved["order"] == 2 and saved["at"] == 0.0
+    both = subprocess.run([*command, "--trim", "th.x0", "--at", "0.5"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=200)
+    neither = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True,
+                             timeout=200)
+    assert both.returncode == 1 and "give it without --at" in both.stderr
+    assert neither.returncode == 1 and "--trim COMP.STATE" in neither.stderr
+    assert "Traceback" not in both.stderr + neither.stderr
