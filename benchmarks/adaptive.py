@@ -14,6 +14,10 @@ Three cases (`--case`, default all of them):
   step 1 us): the width of the two rows that bracket the bounce. Fixed steps of 1 ms and 0.1 ms
   show the bounce at the grid point after it; `fixed_steps_as_accurate` is stop / error, the
   steps of a fixed grid as fine as the adaptive run's error (computed, not run).
+- `fmpy`: the Reference FMU BouncingBall (FMI 2.0, model exchange, 3 s, a point every 10 ms)
+  against fmpy's `simulate_fmu` (CVODE at rtol 1e-6) in the same process, both from the file,
+  interleaved, medians of --rounds: the adaptive master with the FMU's largest rtol of 1e-6 ...
+  1e-9 whose first bounce lands at least as near sqrt(2 h / g) as fmpy's (`wall_ratio`).
 - `vdp`: the Van der Pol oscillator `tests/fmus/vdp2` in co-simulation (one RK4 step per
   doStep, mu = 1, 10 s, base step 0.1 ms) for rtol = atol = 1e-4 and 1e-6, against fmpy's
   CVODE at rtol 1e-10 (model exchange of the same FMU); fixed steps of 5 to 100 ms.
@@ -29,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import statistics
 import sys
 import tempfile
 import time
@@ -145,6 +150,52 @@ record: {{signals: [osc.x0, osc.x1]}}
     return row
 
 
+def fmpy_figures(rounds: int) -> list[dict[str, Any]]:
+    from fmpy import simulate_fmu
+
+    import twmr
+    from tests.conformance.corpus import corpus
+
+    path = corpus("reference-fmus", "BouncingBall_fmi2.fmu")
+
+    def theirs() -> tuple[float, float]:
+        t0 = time.perf_counter()
+        out = simulate_fmu(str(path), fmi_type="ModelExchange", stop_time=3.0,
+                           output_interval=0.01, relative_tolerance=1e-6)
+        wall = time.perf_counter() - t0
+        t = out["time"]
+        first = next(t[i] for i in range(1, len(t)) if t[i] == t[i - 1])  # the event's rows
+        return wall, abs(float(first) - T1)
+
+    def ours(rtol: float) -> tuple[float, float]:
+        text = f"""
+components:
+  ball: {{kind: fmu, parameters: {{path: {path}, interface: model_exchange, rtol: {rtol}}}}}
+experiment: {{start: 0.0, stop: 3.0, step: 0.01, algorithm: adaptive}}
+record: {{signals: [ball.h]}}
+"""
+        t0 = time.perf_counter()
+        result = twmr.simulate(twmr.load(text), None)
+        wall = time.perf_counter() - t0
+        t = np.asarray(result["time"])
+        return wall, float(np.min(np.abs(t - T1)))
+
+    theirs()
+    target = theirs()[1]
+    rtol = next((r for r in (1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9) if ours(r)[1] <= target),
+                1e-9)
+    walls: tuple[list[float], list[float]] = ([], [])
+    for _ in range(rounds):
+        walls[0].append(ours(rtol)[0])
+        walls[1].append(theirs()[0])
+    mine, fmpy = (statistics.median(w) for w in walls)
+    ratios = [a / b for a, b in zip(*walls, strict=True)]
+    return [{"fmpy_rtol": 1e-6, "fmpy_first_bounce_error_s": target, "fmpy_wall_s": fmpy,
+             "adaptive_rtol": rtol, "adaptive_first_bounce_error_s": ours(rtol)[1],
+             "adaptive_wall_s": mine, "wall_ratio": mine / fmpy,
+             "wall_ratio_min": min(ratios), "wall_ratio_max": max(ratios)}]
+
+
 def show(case: str, rows: list[dict[str, Any]]) -> None:
     for row in rows:
         print(case + ": " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
@@ -153,8 +204,9 @@ def show(case: str, rows: list[dict[str, Any]]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--case", nargs="+", choices=("loop", "ball", "vdp"),
-                        default=["loop", "ball", "vdp"])
+    parser.add_argument("--case", nargs="+", choices=("loop", "ball", "vdp", "fmpy"),
+                        default=["loop", "ball", "vdp", "fmpy"])
+    parser.add_argument("--rounds", type=int, default=9, help="fmpy: interleaved rounds")
     parser.add_argument("--rtol", type=float, nargs="+", default=[1e-2, 1e-3],
                         help="the loop's tolerances")
     parser.add_argument("--step", type=float, default=1e-3,
@@ -170,6 +222,8 @@ def main() -> None:
         if "vdp" in args.case:
             vdp = build_c_fmu("vdp2", Path(tmp))
             out["vdp"] = [vdp_figures(vdp, r) for r in (1e-4, 1e-6)]
+        if "fmpy" in args.case:
+            out["fmpy"] = fmpy_figures(args.rounds)
     for case, rows in out.items():
         show(case, rows)
     print(json.dumps(out))

@@ -184,6 +184,23 @@ def test_a_block_fed_by_the_fmu_shows_the_event_in_both_rows(fmus, tmp_path) -> 
                                rtol=1e-4)  # the FMU's CVODE at rtol 1e-8
 
 
+def test_a_model_exchange_fmu_alone_is_not_checked_by_step_doubling(fmus, tmp_path) -> None:
+    """Its CVODE keeps its error to its own rtol: alone (recorded only), its steps go unchecked
+    (one doStep each, no halves) and grow to max_step; wired to a gain, its output is coupling
+    and is checked again."""
+    me = ball(fmus["bounce3"], "model_exchange", ", rtol: 1.0e-8")
+    experiment = "stop: 0.6, step: 1.0e-3, algorithm: adaptive, rtol: 1.0e-6, atol: 1.0e-8, " \
+                 "max_step: 0.1"
+    r, _, alone = run(tmp_path / "alone", me, experiment, "ball.h, ball.bounces")
+    assert alone.watched == [] and all(math.isnan(a.err) for a in alone.history)
+    assert max(a.size for a in alone.history if a.accepted) == pytest.approx(0.1)
+    assert abs(r["time"][int(np.argmax(r["ball.bounces"] >= 1))] - T1) < 1e-6
+    wired = me + "\n  gain: {kind: gain, parameters: {k: 2.0}}\nconnections: [ball.v -> gain.u]"
+    _, _, coupled = run(tmp_path / "wired", wired, experiment, "ball.h, gain.y")
+    assert ("ball", "v") in coupled.watched and ("ball", "h") not in coupled.watched
+    assert any(not math.isnan(a.err) for a in coupled.history)
+
+
 class Crossing(Component):
     """x = t [s]; a state event when x reaches `at`, counted by the Integer output `n`. With
     `hold_events`, an event at the very end of a step waits for `event` (as a model-exchange

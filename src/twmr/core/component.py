@@ -525,6 +525,12 @@ class Component:
         `early_event`, `next_event` or a non-Real output that changes)."""
         return None
 
+    def controls_its_error(self) -> bool:
+        """Whether the outputs of `do_step` are integrated to a tolerance of its own (a
+        model-exchange FMU under CVODE), so a master that estimates errors by step doubling
+        watches them only where they feed another component (the coupling error)."""
+        return False
+
     def early_event(self) -> float | None:
         """The time [s] of an event the last `do_step` met inside its step that could not be
         known before it (an FMU's early return), or None; `algorithm: adaptive` retakes the

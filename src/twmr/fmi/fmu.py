@@ -504,6 +504,9 @@ class FmuComponent(Component):
                            f"bus operations; see its log or ask its vendor.",
                            self.log.tail()) from None
 
+    def controls_its_error(self) -> bool:
+        return self.me and self.solver == "cvode"
+
     def early_event(self) -> float | None:
         return self._events.early if self._events is not None else None
 

@@ -154,7 +154,9 @@ class Adaptive(Algorithm):
         outputs = [(n, p, v) for n in plan.order if n in stepping
                    for p, v in system.components[n].variables.items()
                    if v.kind in ("output", "state") and (n, p) in read]
-        self.watched = [(n, p) for n, p, v in outputs if v.type == "Real"]
+        fed = {(c.src, c.src_port) for c in system.connections}
+        self.watched = [(n, p) for n, p, v in outputs if v.type == "Real" and
+                        ((n, p) in fed or not system.components[n].controls_its_error())]
         self.discrete = [(n, p) for n, p, v in outputs if v.type != "Real"]
         self.source, self._owner, env = _generate(system, plan, self.watched, self.discrete)
         self.filename = f"<twmr adaptive {system.source} {id(self):x}>"
@@ -226,7 +228,7 @@ class Adaptive(Algorithm):
             err = math.nan
             # a change in a step that ends at a time event is that event's, at the end
             hunt = changed and k > self.k_min and at_event is None and k != to_event
-            checked = whole >= 2 * h if at_event is not None else k > 1
+            checked = bool(self.watched) and (whole >= 2 * h if at_event is not None else k > 1)
             if found is None and not hunt and checked:
                 big = self._values()
                 self._restore(saved)
