@@ -394,7 +394,7 @@ def _linearize_fmu(scenario: Any, args: argparse.Namespace, lines: list[str]) ->
     if args.input or args.output or args.loop or args.design:
         raise CosimError("--fmu linearises one FMU by its directional derivatives: give it "
                          "alone, without --input, --output, --loop or --design.")
-    model = linearize_fmu(scenario, args.fmu, at=args.at)
+    model = linearize_fmu(scenario, args.fmu, at=args.at, derivatives=args.derivatives)
     out = Path(args.out) if args.out else Path("linear") / Path(args.scenario).stem
     out.mkdir(parents=True, exist_ok=True)
     plain = model.plain()
@@ -840,6 +840,10 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     li.add_argument("--fmu", metavar="COMP", help="the continuous model of the "
                     "model-exchange FMU COMP at --at by its directional derivatives (every "
                     "state, its real inputs and outputs)")
+    li.add_argument("--derivatives", choices=("auto", "directional", "adjoint"),
+                    default="auto", help="--fmu: by directional derivatives (a column per "
+                    "state and input), adjoint ones (FMI 3.0: a row per rate and output), or "
+                    "auto: directional where the FMU gives them")
     li.add_argument("--design", choices=("lqg", "lqi", "place"), help="design an "
                     "output-feedback controller on the model (controller.yaml, design.json); "
                     "lqi: lqg with an integrator per output")

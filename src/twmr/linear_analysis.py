@@ -431,16 +431,27 @@ class FmuLinear:
                 "poles": [[float(z.real), float(z.imag)] for z in np.sort_complex(self.poles())]}
 
 
+#: how `linearize_fmu` asks an FMU for its Jacobian
+DERIVATIVES = ("auto", "directional", "adjoint")
+
+
 def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str,
-                  overrides: Sequence[str] = ()) -> FmuLinear:
+                  overrides: Sequence[str] = (), derivatives: str = "auto") -> FmuLinear:
     """The continuous linear model of the model-exchange FMU `component` at time `at` [s] of a
     run of `scenario` (run to `at` step by step, paused there; "steady": the point its outputs
-    settle at, `steady_time`), by its directional derivatives
-    (FMI 2 fmi2GetDirectionalDerivative, FMI 3 fmi3GetDirectionalDerivative): every state, the
-    FMU's real inputs and outputs. CosimError when the FMU gives none or is not model exchange."""
+    settle at, `steady_time`), by its directional derivatives, a column per state and input
+    (FMI 2 fmi2GetDirectionalDerivative, FMI 3 fmi3GetDirectionalDerivative), or its adjoint
+    ones, a row per rate and output (FMI 3 fmi3GetAdjointDerivative; `derivatives="adjoint"`,
+    or "auto" when it gives only those): every state, the FMU's real inputs and outputs.
+    CosimError when the FMU gives neither or is not model exchange."""
     from twmr.api import load
+    from twmr.fmi.description import derivatives_provided
     from twmr.fmi.fmu import FmuComponent
     from twmr.stepping import Stepping
+
+    if derivatives not in DERIVATIVES:
+        raise CosimError(f"derivatives = {derivatives!r} is none of {', '.join(DERIVATIVES)}. "
+                         f"Fix: give one of them.")
 
     loaded = load(scenario, list(overrides))
     comp = loaded.system.components.get(component)
@@ -458,13 +469,16 @@ def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str
         raise CosimError(f"at = {at!r} is no point. Fix: give a time of the run [s] or "
                          f"{STEADY!r} (the point the run settles at).")
     md = comp.md
-    iface = md.modelExchange
-    gives = iface is not None and (getattr(iface, "providesDirectionalDerivative", False) or
-                                   getattr(iface, "providesDirectionalDerivatives", False))
+    directional, adjoint = derivatives_provided(comp.source_path, "ModelExchange")
+    use = derivatives if derivatives != "auto" else "directional" if directional else "adjoint"
+    gives = directional if use == "directional" else adjoint
     if not (comp.me and gives):
+        what = "directional derivatives" if derivatives == "directional" else \
+            "adjoint derivatives" if derivatives == "adjoint" else \
+            "directional or adjoint derivatives"
         why = ("it runs as co-simulation: give it interface: model_exchange"
-               if iface is not None and gives else "its model exchange interface does not "
-               "provide directional derivatives")
+               if md.modelExchange is not None and gives else "its model exchange interface "
+               f"does not provide {what}")
         raise CosimError(f"--fmu {component}: '{comp.source_path.name}' cannot be linearised by "
                          f"its directional derivatives: {why}. Fix: linearise the scenario from "
                          f"its ports (--input/--output), which needs no derivatives.")
@@ -478,11 +492,15 @@ def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str
     with Stepping(loaded) as run:
         run.simulate_until(at)
         fmu = comp._fmu  # the run waits between two steps: the FMU is at `at`
-        columns = [np.asarray(fmu.getDirectionalDerivative(unknowns, [v.valueReference], [1.0]),
-                              dtype=float) for v in (*states, *inputs)]
+        knowns = [v.valueReference for v in (*states, *inputs)]
+        if use == "directional":
+            J = np.array([fmu.getDirectionalDerivative(unknowns, [k], [1.0]) for k in knowns],
+                         dtype=float).reshape(len(knowns), n + p).T
+        else:
+            J = np.array([fmu.getAdjointDerivative([u], knowns, [1.0], len(knowns))
+                          for u in unknowns], dtype=float).reshape(n + p, len(knowns))
         t = run.time
         run.stop()
-    J = np.column_stack(columns) if columns else np.zeros((n + p, 0))
     for i, out in enumerate(outputs):  # an output that is a state: its row is 1 there, by
         for j, state in enumerate(states):  # definition (some FMUs give rates only)
             if out.valueReference == state.valueReference:

@@ -150,25 +150,44 @@ def read_description(path: Path, instance: str = "fmu") -> Any:
     return md
 
 
+def description_xml(path: Path) -> bytes:
+    """The bytes of the modelDescription.xml of the FMU at `path` (a file or an unpacked
+    folder), for what fmpy does not read."""
+    import zipfile
+
+    if path.is_dir():
+        return (path / "modelDescription.xml").read_bytes()
+    with zipfile.ZipFile(path) as z:
+        return z.read("modelDescription.xml")
+
+
 def clock_timing(path: Path) -> dict[int, tuple[float, float]]:
     """Value reference -> (intervalDecimal, shiftDecimal) [s] of every Clock that gives an
     interval, from the FMU's modelDescription.xml (fmpy does not read them); shift 0 if none."""
-    import zipfile
-
     from lxml import etree
 
-    if path.is_dir():
-        raw = (path / "modelDescription.xml").read_bytes()
-    else:
-        with zipfile.ZipFile(path) as z:
-            raw = z.read("modelDescription.xml")
     timing = {}
-    for v in etree.fromstring(raw).iter("Clock"):
+    for v in etree.fromstring(description_xml(path)).iter("Clock"):
         interval = v.get("intervalDecimal")
         if interval is not None:
             timing[int(v.get("valueReference", "0"))] = (float(interval),
                                                          float(v.get("shiftDecimal") or 0.0))
     return timing
+
+
+def derivatives_provided(path: Path, interface: str) -> tuple[bool, bool]:
+    """(directional, adjoint): whether the FMU's `interface` element ('ModelExchange' or
+    'CoSimulation') provides directional derivatives (FMI 2.0 providesDirectionalDerivative,
+    FMI 3.0 providesDirectionalDerivatives, which fmpy does not read) and adjoint ones (FMI
+    3.0 providesAdjointDerivatives), from its modelDescription.xml."""
+    from lxml import etree
+
+    element = etree.fromstring(description_xml(path)).find(interface)
+    if element is None:
+        return False, False
+    directional = any(element.get(a) == "true" for a in ("providesDirectionalDerivative",
+                                                         "providesDirectionalDerivatives"))
+    return directional, element.get("providesAdjointDerivatives") == "true"
 
 
 def unit_definitions(md: Any) -> dict[str, Unit]:
