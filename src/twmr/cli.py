@@ -368,8 +368,15 @@ def _trimmed(scenario: Any, args: argparse.Namespace) -> list[str]:
     args.set = [*args.set, *point.overrides]
     args.at = float(scenario.system.experiment.start)
     args.trim_point = point.plain()
-    return [f"trim point ({point.iterations} Newton iterations, {point.runs} one-step runs; "
-            f"largest change per step {point.change:.2g}): {', '.join(point.overrides)}"]
+    lines = [f"trim point ({point.iterations} Newton iterations, {point.runs} one-step runs; "
+             f"largest change per step {point.change:.2g}): {', '.join(point.overrides)}"]
+    if point.step_matrix is not None:
+        import numpy as np
+
+        lines.append("poles z of the trimmed values' step map there (finite differences, "
+                     f"error {point.step_matrix_error:.1g}): " + ", ".join(
+                         f"{complex(z):.6g}" for z in np.sort_complex(point.poles())))
+    return lines
 
 
 def _time_or_steady(text: str) -> float | str:

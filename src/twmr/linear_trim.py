@@ -10,6 +10,9 @@ differences, each unknown's step 1e-6 max(1, |p_j|) (the cube root of the double
 rounding: truncation and rounding errors balanced), the Newton step by least squares (more
 outputs than unknowns; directions nothing moves are left alone), halved until |r| falls. The
 point is reached when every output changes by at most `tol` (relative to max(1, |y|)) per step.
+There the unknowns' one-step map is differenced too (`TrimPoint.step_matrix`: a linear model
+by finite differences through the start values, beside the impulse-response one
+`twmr.linearize` takes from the ports).
 
 A simulation run finds the steady state of a stable system (`--at steady`, Simulink's
 "simulation snapshot"); this finds the equilibria it cannot reach: the upright inverted pendulum,
@@ -46,12 +49,25 @@ class TrimPoint:
     change: float  # the largest relative change per step of an output there
     iterations: int
     runs: int  # one-step runs taken
+    #: the unknowns' one-step map there (discrete A, the unknowns as the state, in their order
+    #: element by element), by finite differences; None when the outputs do not show them all
+    step_matrix: np.ndarray | None
+    step_matrix_error: float  # its estimated relative error
+
+    def poles(self) -> np.ndarray:
+        """The discrete poles z of `step_matrix` (none without one)."""
+        return np.linalg.eigvals(self.step_matrix) if self.step_matrix is not None \
+            else np.zeros(0)
 
     def plain(self) -> dict[str, Any]:
+        matrix = self.step_matrix
         return {"values": {k: list(v) if isinstance(v, tuple) else v
                            for k, v in self.values.items()},
                 "set": self.overrides, "outputs": self.outputs, "change": self.change,
-                "iterations": self.iterations, "runs": self.runs}
+                "iterations": self.iterations, "runs": self.runs,
+                "step_matrix": matrix.tolist() if matrix is not None else None,
+                "step_matrix_error": self.step_matrix_error,
+                "poles": [[float(z.real), float(z.imag)] for z in np.sort_complex(self.poles())]}
 
 
 @dataclass
@@ -86,12 +102,17 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
     checked = list(outputs) or _outputs_of(system)
     runs = 0
 
-    def residual(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    def outputs_at(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """(the outputs at the start, after one step, their names) with the unknowns `x`."""
         nonlocal runs
         runs += 1
-        spec = _with_values(base.spec, parsed, x)
-        y, columns = _run(spec, None, start, h, start + h, checked)
-        return y[1] - y[0], np.maximum(1.0, np.abs(y[0])), columns
+        y, columns = _run(_with_values(base.spec, parsed, x), None, start, h, start + h,
+                          checked)
+        return y[0], y[1], columns
+
+    def residual(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        y0, y1, columns = outputs_at(x)
+        return y1 - y0, np.maximum(1.0, np.abs(y0)), columns
 
     r, scale, columns = residual(p)
     iterations = 0
@@ -108,18 +129,36 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
                              f"nothing says where {'it' if len(still) == 1 else 'they'} should "
                              f"be. Fix: solve for the start values of states these outputs "
                              f"show, or check outputs that show them (--trim-output).")
-        step = np.linalg.lstsq(jac, -r, rcond=None)[0]
+        newton = np.linalg.lstsq(jac, -r, rcond=None)[0]
         norm, alpha = float(np.max(np.abs(r) / scale)), 1.0
         while True:
-            trial = p + alpha * step
+            trial = p + alpha * newton
             r_new, scale_new, _ = residual(trial)
             if np.max(np.abs(r_new) / scale_new) < norm or alpha < 1e-6:
                 break
             alpha /= 2
         p, r, scale = trial, r_new, scale_new
     values = _grouped(parsed, p)
+    matrix, error = _step_matrix(lambda x: np.concatenate(outputs_at(x)[:2]), p, len(columns))
     return TrimPoint(values, _texts(values), columns, float(np.max(np.abs(r) / scale)),
-                     iterations, runs)
+                     iterations, runs, matrix, error)
+
+
+def _step_matrix(outputs: Callable[[np.ndarray], np.ndarray], p: np.ndarray, m: int
+                 ) -> tuple[np.ndarray | None, float]:
+    """The unknowns' one-step map's Jacobian A (x[k+1] = A x[k] near the point, the unknowns
+    taken as the state) from the outputs y0 = C x at the start and y1 = C A x after a step,
+    both differenced (A = C^+ dy1/dx), and its error estimate (the largest change of A between
+    the difference steps d and 2d, relative to max(1, |A|)); (None, nan) when the outputs do
+    not show every unknown (C loses rank)."""
+    fine = _jacobian(outputs, p)
+    c0 = fine[:m]
+    if np.linalg.matrix_rank(c0) < len(p):
+        return None, math.nan
+    coarse = _jacobian(outputs, p, 2.0)
+    a = np.linalg.lstsq(c0, fine[m:], rcond=None)[0]
+    a2 = np.linalg.lstsq(coarse[:m], coarse[m:], rcond=None)[0]
+    return a, float(np.max(np.abs(a - a2)) / max(1.0, float(np.max(np.abs(a)))))
 
 
 def _unknown(name: str, system: Any) -> _Unknown:
@@ -200,11 +239,13 @@ def _outputs_of(system: Any) -> list[str]:
     return found
 
 
-def _jacobian(f: Callable[[np.ndarray], np.ndarray], p: np.ndarray) -> np.ndarray:
-    """df/dp by central differences, the step of each element DIFF_STEP max(1, |p_j|)."""
+def _jacobian(f: Callable[[np.ndarray], np.ndarray], p: np.ndarray, factor: float = 1.0
+              ) -> np.ndarray:
+    """df/dp by central differences, the step of each element factor DIFF_STEP max(1,
+    |p_j|)."""
     columns = []
     for j in range(len(p)):
-        d = DIFF_STEP * max(1.0, abs(float(p[j])))
+        d = factor * DIFF_STEP * max(1.0, abs(float(p[j])))
         up, down = p.copy(), p.copy()
         up[j] += d
         down[j] -= d

@@ -63,6 +63,9 @@ def test_the_upright_pendulum_is_trimmed_and_linearised_there() -> None:
     assert z[1] > 1.0 > z[0] > 0.0  # one unstable pole: the upright equilibrium
     analytic = np.sort(np.roots([1.0, C, -G * math.cos(THETA)]))
     np.testing.assert_allclose(np.log(z) / 0.001, analytic, rtol=0.01)
+    # the same poles by finite differences through the start values (the states set)
+    assert point.step_matrix is not None and point.step_matrix_error < 1e-6
+    np.testing.assert_allclose(np.sort(point.poles().real), z, rtol=1e-7)
 
 
 def test_more_unknowns_than_needed_give_one_point_of_the_family() -> None:
@@ -70,6 +73,25 @@ def test_more_unknowns_than_needed_give_one_point_of_the_family() -> None:
     theta, f = point.values["th.x0"], point.values["push.value"]
     assert G * math.sin(theta) + f == pytest.approx(0.0, abs=1e-9)  # an equilibrium
     assert abs(point.values["w.x0"]) < 1e-9
+
+
+def test_the_step_map_by_finite_differences_is_rk4s_of_the_jacobian() -> None:
+    """VanDerPol under RK4 (one substep per step of h): its step map near the origin is RK4's
+    polynomial of A h, A = [[0, 1], [-1, mu]] (the FMU's own directional derivatives), which
+    the finite differences through the start values give to 1e-8."""
+    path = corpus("reference-fmus", "VanDerPol_fmi2.fmu")
+    h = 0.01
+    scenario = {"components": {"vdp": {"kind": "fmu", "parameters": {
+        "path": str(path), "interface": "model_exchange", "solver": "rk4",
+        "solver_step": h}}}, "experiment": {"stop": 1.0, "step": h}}
+    point = trim(scenario, ["vdp.x0", "vdp.x1"], overrides=["vdp.x0=0.3", "vdp.x1=-0.2"])
+    jac = linearize_fmu(scenario, "vdp", at=0.0, overrides=point.overrides).A
+    np.testing.assert_allclose(jac, [[0.0, 1.0], [-1.0, 1.0]], atol=1e-8)
+    ah = jac * h
+    rk4 = np.eye(2) + ah + ah @ ah / 2 + ah @ ah @ ah / 6 + ah @ ah @ ah @ ah / 24
+    assert point.step_matrix is not None
+    np.testing.assert_allclose(point.step_matrix, rk4, atol=1e-8)
+    assert point.step_matrix_error < 1e-6
 
 
 @pytest.mark.parametrize("name", ["VanDerPol_fmi2.fmu", "VanDerPol_fmi3.fmu"])
