@@ -67,6 +67,37 @@ def test_a_mass_spring_damper_gives_its_zoh_model() -> None:
     assert dc == pytest.approx(1 / K_SPRING, rel=1e-6)
 
 
+def test_a_dc_motor_exported_as_a_c_fmu_gives_its_analytic_model(tmp_path: Path) -> None:
+    """A DC motor, L di/dt = V - R i - k w, J dw/dt = k i - b w, as a `state_space` block
+    exported by twmr as a standalone C FMU (co-simulation) and run through fmpy: linearised at
+    its ports, the ZOH model of python-control's c2d (poles 1e-9, impulse response 1e-10) and,
+    converted back, the analytic continuous poles and the static gain k / (R b + k^2)."""
+    from twmr.fmi.cexport import export_c_fmu
+
+    r_ohm, l_h, k_t, j_kgm2, b_nms = 1.0, 0.5, 0.01, 0.01, 0.1
+    a = [[-r_ohm / l_h, -k_t / l_h], [k_t / j_kgm2, -b_nms / j_kgm2]]
+    fmu = export_c_fmu("state_space", tmp_path / "motor.fmu",
+                       {"A": a, "B": [1 / l_h, 0.0], "C": [0.0, 1.0]})
+    scenario = f"""components:
+  v: {{kind: constant, parameters: {{value: 1.0}}}}
+  motor: {{kind: fmu, parameters: {{path: {fmu}}}}}
+connections: [v.y -> motor.u]
+experiment: {{stop: 2.0, step: {H}}}
+"""
+    model = twmr.linearize(twmr.load(scenario), ["motor.u"], ["motor.y"], at=0.5, horizon=80)
+    ref = control.c2d(control.ss(a, [[1 / l_h], [0.0]], [[0.0, 1.0]], [[0.0]]), H, "zoh")
+    assert model.order == 2 and model.fit_error < 1e-8
+    assert np.sort_complex(model.poles()) == pytest.approx(np.sort_complex(ref.poles()),
+                                                           abs=1e-9)
+    np.testing.assert_allclose(markov_of(model.ss(), 80)[:, 0, 0],
+                               markov_of(ref, 80)[:, 0, 0], atol=1e-10)
+    ca, cb, cc, cd = model.continuous()
+    assert np.sort_complex(np.linalg.eigvals(ca)) == pytest.approx(
+        np.sort_complex(np.linalg.eigvals(np.array(a))), rel=1e-6)
+    gain = (cc @ np.linalg.solve(-ca, cb) + cd)[0, 0]
+    assert gain == pytest.approx(k_t / (r_ohm * b_nms + k_t ** 2), rel=1e-6)
+
+
 def test_a_unit_delay_has_its_pole_at_zero_and_no_continuous_twin() -> None:
     scenario = twmr.load("""components:
   f: {kind: constant}
