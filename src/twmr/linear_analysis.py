@@ -146,6 +146,7 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
         raise CosimError(f"horizon {horizon} is too short. Fix: give at least 4 steps.")
     base = load(scenario, list(overrides))
     system = base.system
+    replayable(system, "linearize")
     h = float(system.experiment.step)
     start = float(system.experiment.start)
     if at == STEADY:
@@ -205,6 +206,21 @@ def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,
             f"above {tol:g}. Fix: a later experiment.stop (--set experiment.stop=...), inputs "
             f"held at values the system has a steady point for (--set), or a time --at T.")
     return start + int(np.argmax(settled)) * h
+
+
+def replayable(system: Any, what: str) -> None:
+    """CosimError naming the components of `system` that a `what` (which runs the scenario
+    again and again from its start, as fast as it can) must not run: hardware in the loop, or
+    anything paced to the wall clock."""
+    hardware = [n for n, c in system.components.items() if c.needs_realtime]
+    if hardware or system.paced:
+        who = (f"component{'s' if len(hardware) > 1 else ''} "
+               f"{', '.join(repr(n) for n in hardware)} "
+               f"{'are' if len(hardware) > 1 else 'is'} hardware in the loop"
+               if hardware else "the experiment runs paced to the wall clock (realtime)")
+        raise CosimError(f"{what} runs the scenario many times from its start, as fast as it "
+                         f"can, but {who}. Fix: {what} the simulated twin (the drives replaced "
+                         f"by their model, e.g. kind: motor_driver; realtime: false).")
 
 
 def era(markov: np.ndarray, order: int | None = None, tol: float = TOL

@@ -86,7 +86,7 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
     than `tol` relative. CosimError when an unknown moves none of them or Newton's
     method does not get there."""
     from twmr.api import load
-    from twmr.linear_analysis import _run
+    from twmr.linear_analysis import _run, replayable
 
     if not unknowns:
         raise CosimError("trim needs at least one unknown. Fix: name the start values it "
@@ -95,6 +95,7 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
         raise CosimError(f"tol {tol} is not above 0. Fix: give a small positive number.")
     base = load(scenario, list(overrides))
     system = base.system
+    replayable(system, "trim")
     h, start = float(system.experiment.step), float(system.experiment.start)
     parsed = [_unknown(u, system) for u in unknowns]
     p = np.concatenate([np.atleast_1d(np.asarray(_value(u.name, system), float))

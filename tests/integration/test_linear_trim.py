@@ -138,3 +138,16 @@ def test_the_command_trims_then_linearises(tmp_path: Path) -> None:
     assert both.returncode == 1 and "give it without --at" in both.stderr
     assert neither.returncode == 1 and "--trim COMP.STATE" in neither.stderr
     assert "Traceback" not in both.stderr + neither.stderr
+
+
+def test_hardware_and_wall_clock_runs_are_not_replayed() -> None:
+    """linearize and trim run a scenario many times from its start: a drive on a CAN bus (here
+    the emulated bench of the paper's robot) or a run paced to the wall clock is refused,
+    naming it, before anything runs."""
+    bench = Path(__file__).resolve().parents[2] / "scenarios" / "bench_odrive_trajectory1.yaml"
+    with pytest.raises(CosimError, match=r"component 'motor' is hardware in the loop.*Fix:"):
+        linearize(bench, ["plant.torque[1]"], ["plant.pose"], at=1.0)
+    with pytest.raises(CosimError, match=r"trim runs the scenario many times.*hardware"):
+        trim(bench, ["plant.pose"])
+    with pytest.raises(CosimError, match=r"paced to the wall clock.*realtime: false"):
+        trim(PENDULUM, ["th.x0"], overrides=["experiment.realtime=true"])
