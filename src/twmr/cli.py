@@ -320,6 +320,7 @@ def cmd_linearize(args: argparse.Namespace) -> int:
              f"fit error {model.fit_error:.2g}, nonlinearity {model.nonlinearity:.2g}",
              "discrete poles z: " + ", ".join(
                  f"{complex(z):.6g}" for z in np.sort_complex(model.poles()))]
+    lines += _analysis_lines(plain)
     if loop is not None:
         import control
 
@@ -347,6 +348,25 @@ def cmd_linearize(args: argparse.Namespace) -> int:
     print("\n".join(lines))
     print(f"{written} in {out}/")
     return 0
+
+
+def _analysis_lines(plain: dict[str, Any]) -> list[str]:
+    """Zeros, controllability and observability, and (one input, one output) the step
+    response's figures of a linear model's `plain()`."""
+    zeros = ", ".join(f"{complex(re, im):.6g}" for re, im in plain["zeros"]) or "none"
+    c, o = plain["controllability"], plain["observability"]
+    lines = [f"zeros z: {zeros}",
+             f"controllable: rank {c['rank']} of {c['of']} (condition {c['condition']:.3g}); "
+             f"observable: rank {o['rank']} of {o['of']} (condition {o['condition']:.3g})"]
+    step = plain.get("step")
+    if step is None:
+        lines.append("step response: none (the model is not stable)")
+    elif len(step) == 1 and len(step[0]) == 1:
+        s = step[0][0]
+        lines.append(f"step response: rise {s['RiseTime']:.4g} s, settling (2 %) "
+                     f"{s['SettlingTime']:.4g} s, overshoot {s['Overshoot']:.3g} %, final "
+                     f"value {s['SteadyStateValue']:.6g}")
+    return lines
 
 
 def _trimmed(scenario: Any, args: argparse.Namespace) -> list[str]:

@@ -71,6 +71,32 @@ class LinearModel:
         """Discrete poles z (eigenvalues of A), and their continuous equivalents log(z) / dt."""
         return np.linalg.eigvals(self.A)
 
+    def analysis(self) -> dict[str, Any]:
+        """Transmission zeros z; the ranks of the controllability and observability matrices
+        and their conditions (largest / smallest singular value: how near the model is to
+        losing a state); for a stable model python-control's `step_info` of each output to a
+        unit step at each input ([output][input]; times in s, overshoot in %)."""
+        import warnings
+
+        import control
+
+        sys = self.ss()
+        out: dict[str, Any] = {"zeros": [[float(z.real), float(z.imag)]
+                                         for z in np.sort_complex(sys.zeros())]}
+        for name, matrix in (("controllability", control.ctrb(self.A, self.B)),
+                             ("observability", control.obsv(self.A, self.C))):
+            sv = np.linalg.svd(matrix, compute_uv=False)
+            out[name] = {"rank": int(np.linalg.matrix_rank(matrix)), "of": self.order,
+                         "condition": float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf}
+        if np.all(np.abs(self.poles()) < 1.0):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a pair that does not respond
+                info = control.step_info(sys)
+            rows = [[info]] if isinstance(info, dict) else info
+            out["step"] = [[{k: float(v) for k, v in pair.items()} for pair in row]
+                           for row in rows]
+        return out
+
     def continuous(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(A, B, C, D) of the continuous system whose zero-order-hold discretisation this is
         (`continuous_twin`)."""
@@ -84,7 +110,8 @@ class LinearModel:
                 "outputs": self.outputs, "order": self.order,
                 "singular_values": self.singular_values.tolist(), "fit_error": self.fit_error,
                 "nonlinearity": self.nonlinearity,
-                "poles": [[float(p.real), float(p.imag)] for p in self.poles()]}
+                "poles": [[float(p.real), float(p.imag)] for p in self.poles()],
+                **self.analysis()}
 
     def block_yaml(self, name: str = "lin") -> str:
         """A `state_space` component (continuous, discretised back exactly by the block) that

@@ -67,6 +67,24 @@ def test_a_mass_spring_damper_gives_its_zoh_model() -> None:
     assert dc == pytest.approx(1 / K_SPRING, rel=1e-6)
 
 
+def test_zeros_ranks_and_step_figures_are_python_controls_of_the_exact_model() -> None:
+    """The mass-spring-damper measured at its ports: the ZOH model's sampling zero, full
+    controllability and observability, and the step response's rise, settling and overshoot
+    as python-control computes them on c2d of the same matrices."""
+    model = twmr.linearize(twmr.load(MSD), ["msd.u"], ["msd.y"], at=1.0, horizon=60)
+    ref = analytic_msd()
+    found = model.analysis()
+    zeros = [complex(re, im) for re, im in found["zeros"]]
+    assert zeros == pytest.approx(list(np.sort_complex(ref.zeros())), abs=1e-6)
+    assert zeros[0].real < -0.9  # the sampling zero of a ZOH second-order system, near -1
+    assert found["controllability"]["rank"] == found["observability"]["rank"] == 2
+    step, expected = found["step"][0][0], control.step_info(ref)
+    for key in ("RiseTime", "SettlingTime", "PeakTime"):
+        assert step[key] == pytest.approx(expected[key], abs=H)
+    for key in ("Overshoot", "SteadyStateValue", "Peak"):
+        assert step[key] == pytest.approx(expected[key], rel=1e-6)
+
+
 def test_a_dc_motor_exported_as_a_c_fmu_gives_its_analytic_model(tmp_path: Path) -> None:
     """A DC motor, L di/dt = V - R i - k w, J dw/dt = k i - b w, as a `state_space` block
     exported by twmr as a standalone C FMU (co-simulation) and run through fmpy: linearised at
