@@ -1,5 +1,5 @@
-"""`twmr` command line: run | check | sweep | sweep-report | tune | fit | linearize | components |
-plot | verify | inspect | export, plus the subcommands installed packages register
+"""`twmr` command line: run | check | sweep | sweep-report | tune | fit | linearize | analyze |
+components | plot | verify | inspect | export, plus the subcommands installed packages register
 (`twmr.commands` entry points: compare, emulate-drive, replay).
 
 Errors a user can cause (`CosimError`) print as one paragraph, without a traceback (`--debug`
@@ -347,6 +347,41 @@ def cmd_linearize(args: argparse.Namespace) -> int:
         written += ", design.json, controller.yaml"
     print("\n".join(lines))
     print(f"{written} in {out}/")
+    return 0
+
+
+def cmd_analyze(args: argparse.Namespace) -> int:
+    """`twmr analyze FOLDER`: a saved linear model's poles, zeros, ranks, step response and
+    (a loop) margins, with its Bode, step and Nyquist figures."""
+    import numpy as np
+
+    from twmr.linear_analysis import bode_figure, loop_at, nyquist_figure, read_model, step_figure
+
+    model, loop_input = read_model(args.folder)
+    out = Path(args.out) if args.out else Path(args.folder)
+    out.mkdir(parents=True, exist_ok=True)
+    plain = model.plain()
+    lines = [f"{model.order} states at step {model.dt:g} s, around t = {model.at:g} s: inputs "
+             f"{', '.join(model.inputs)}; outputs {', '.join(model.outputs)}",
+             "discrete poles z: " + ", ".join(f"{complex(z):.6g}"
+                                            for z in np.sort_complex(model.poles())),
+             *_analysis_lines(plain)]
+    loop = loop_at(model) if loop_input else None
+    written = ["bode.png"]
+    bode_figure(model, out / "bode", loop)
+    if loop is not None:
+        import control
+
+        gm, pm, wcg, wcp = control.margin(loop)
+        lines.append(f"loop at {loop_input}: gain margin {gm:.6g} ({20 * np.log10(gm):.4g} dB) "
+                     f"at {wcg:.6g} rad/s, phase margin {pm:.6g} deg at {wcp:.6g} rad/s")
+        nyquist_figure(loop, model.dt, out / "nyquist", f"loop at {loop_input}")
+        written.append("nyquist.png")
+    if "step" in plain:
+        step_figure(model, out / "step")
+        written.append("step.png")
+    print("\n".join(lines))
+    print(f"{', '.join(written)} in {out}/")
     return 0
 
 
@@ -890,6 +925,13 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     li.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     li.add_argument("--out", help="folder of the model and plots (default linear/<scenario>)")
     li.set_defaults(fn=cmd_linearize)
+    an = sub.add_parser("analyze", parents=[common],
+                        help="a linear model twmr linearize saved: poles, zeros, ranks, step "
+                        "response, margins of its loop; Bode, step and Nyquist figures")
+    an.add_argument("folder", help="the folder twmr linearize --out wrote (linear.json, "
+                    "linear.npz)")
+    an.add_argument("--out", help="folder of the figures (default: the model's folder)")
+    an.set_defaults(fn=cmd_analyze)
     ve = sub.add_parser("verify", parents=[common],
                         help="check a run against a reference within tolerance tubes (exit 1 "
                         "when a signal leaves its tube)")

@@ -419,6 +419,52 @@ def bode_figure(model: LinearModel, path: str | Path, loop: Any = None) -> list[
     return save(fig, path)
 
 
+def read_model(folder: str | Path) -> tuple[LinearModel, str]:
+    """The model `twmr linearize` wrote into `folder` (linear.json, linear.npz) and the input
+    its loop was broken at ('' when none). CosimError naming what is missing."""
+    import json
+
+    where = Path(folder)
+    try:
+        plain = json.loads((where / "linear.json").read_text())
+        with np.load(where / "linear.npz") as saved:
+            markov = np.asarray(saved["markov"], dtype=float)
+        model = LinearModel(*(np.asarray(plain[k], dtype=float).reshape(
+            np.shape(plain[k]) or (0, 0)) for k in ("A", "B", "C", "D")),
+            float(plain["dt"]), float(plain["at"]), list(plain["inputs"]),
+            list(plain["outputs"]), np.asarray(plain["singular_values"], dtype=float),
+            float(plain["fit_error"]), float(plain["nonlinearity"]), markov)
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise CosimError(f"'{where}' holds no model twmr linearize wrote ({err}). Fix: give "
+                         f"the folder of `twmr linearize ... --out FOLDER` (linear.json and "
+                         f"linear.npz; --fmu models are continuous and not read here).") from None
+    return model, model.inputs[0] if "loop" in plain else ""
+
+
+def step_figure(model: LinearModel, path: str | Path) -> list[Path]:
+    """The response of each output to a unit step at each input (python-control's
+    `step_response` of the discrete model, held between samples), one panel per input."""
+    import control
+
+    from twmr.plots import line_style, pyplot, save
+
+    plt = pyplot()
+    fig, axes = plt.subplots(len(model.inputs), 1, figsize=(8, 2.2 + 2.2 * len(model.inputs)),
+                             squeeze=False)
+    response = control.step_response(model.ss())
+    t = np.asarray(response.time)
+    y = np.asarray(response.outputs).reshape(len(model.outputs), len(model.inputs), len(t))
+    for j, (ax, name) in enumerate(zip(axes[:, 0], model.inputs, strict=True)):
+        for k, out in enumerate(model.outputs):
+            ax.step(t, y[k, j], where="post", label=out, **line_style(k))
+        ax.set_title(f"a unit step at {name} (deviations from the point at t = {model.at:g} s)",
+                     fontsize=9, loc="left")
+        ax.set_ylabel("response")
+        ax.legend(fontsize=8, frameon=False)
+    axes[-1, 0].set_xlabel("time after the step [s]")
+    return save(fig, path)
+
+
 def nyquist_figure(loop: Any, dt: float, path: str | Path, title: str = "") -> tuple[
         list[Path], np.ndarray]:
     """The Nyquist plot of the discrete loop transfer `loop` (negative feedback convention: the

@@ -206,6 +206,20 @@ def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -
     back = twmr.load("components:\n" + "\n".join("  " + line for line in block) +
                      "\nopen: [lin.u]\nexperiment: {stop: 0.1, step: 0.01}\n")
     assert back.system.components["lin"].kind == "state_space"
+    again = subprocess.run([str(Path(sys.executable).parent / "twmr"), "analyze",
+                            str(tmp_path / "lin"), "--out", str(tmp_path / "figures")],
+                           capture_output=True, text=True, timeout=200)
+    assert again.returncode == 0, again.stderr
+    margins = [line for line in done.stdout.splitlines() if "gain margin" in line]
+    assert margins and margins[0].split(":", 1)[1] in again.stdout  # the same loop's margins
+    assert "controllable: rank" in again.stdout and "zeros z:" in again.stdout
+    for name in ("bode.png", "nyquist.png", "step.png"):
+        assert (tmp_path / "figures" / name).stat().st_size > 1000, name
+    missing = subprocess.run([str(Path(sys.executable).parent / "twmr"), "analyze",
+                              str(tmp_path / "nowhere")], capture_output=True, text=True,
+                             timeout=200)
+    assert missing.returncode == 1 and "holds no model twmr linearize wrote" in missing.stderr
+    assert "Traceback" not in missing.stderr
     msd = twmr.load(MSD)
     with pytest.raises(CosimError, match="names no port"):
         twmr.linearize(msd, ["msd.v"], ["msd.y"], at=1.0)
