@@ -429,9 +429,10 @@ def read_model(folder: str | Path) -> tuple[LinearModel, str]:
         plain = json.loads((where / "linear.json").read_text())
         with np.load(where / "linear.npz") as saved:
             markov = np.asarray(saved["markov"], dtype=float)
-        model = LinearModel(*(np.asarray(plain[k], dtype=float).reshape(
-            np.shape(plain[k]) or (0, 0)) for k in ("A", "B", "C", "D")),
-            float(plain["dt"]), float(plain["at"]), list(plain["inputs"]),
+        a, b, c, d = (np.asarray(plain[k], dtype=float).reshape(np.shape(plain[k]) or (0, 0))
+                      for k in ("A", "B", "C", "D"))
+        model = LinearModel(
+            a, b, c, d, float(plain["dt"]), float(plain["at"]), list(plain["inputs"]),
             list(plain["outputs"]), np.asarray(plain["singular_values"], dtype=float),
             float(plain["fit_error"]), float(plain["nonlinearity"]), markov)
     except (OSError, ValueError, KeyError, TypeError) as err:
