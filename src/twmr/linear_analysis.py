@@ -34,6 +34,9 @@ from twmr.core.errors import CosimError, Location
 
 #: default relative Hankel singular value below which a state is dropped
 TOL = 1e-7
+#: the nonlinearity figure above which a point is refused as a kink (+amplitude and
+#: -amplitude answered more than 3 to 1)
+KINK = 0.5
 #: `at` of the trim point (`steady_time`), and the relative change per step it allows
 STEADY = "steady"
 STEADY_TOL = 1e-9
@@ -203,10 +206,27 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
                          axis=-1)
     spread = np.abs(markov).max() * 2 * amplitude
     nonlinearity = float(np.abs(curvature).max() / spread) if spread > 0 else 0.0
+    if nonlinearity > KINK:
+        _kinked(markov, curvature, amplitude, inputs, columns, t_at)
     A, B, C, D, sv = era(markov, order, tol)
     fit_error = _fit_error(markov, A, B, C, D)
     return LinearModel(A, B, C, D, h, t_at, list(inputs), columns, sv, fit_error,
                        nonlinearity, markov)
+
+
+def _kinked(markov: np.ndarray, curvature: np.ndarray, amplitude: float,
+            inputs: Sequence[str], columns: Sequence[str], at: float) -> None:
+    """CosimError naming the input and output whose responses to +amplitude and -amplitude
+    differ most, relative to the response (a kink: no derivative at this point)."""
+    per = np.abs(curvature).max(axis=0) / np.maximum(np.abs(markov).max(axis=0) * 2 * amplitude,
+                                                     1e-300)
+    k, j = np.unravel_index(int(np.argmax(per)), per.shape)
+    raise CosimError(f"{columns[k]} responds to pulses of +{amplitude:g} and -{amplitude:g} "
+                     f"at {inputs[j]} (t = {at:g} s) unequally: y+ + y- - 2 y0 reaches "
+                     f"{per[k, j]:.2g} of y+ - y- (0 where the system has a derivative; refused "
+                     f"above {KINK:g}): the system has a kink at this point (a saturation's edge, a dead zone, a "
+                     f"switch). Fix: linearise at another time (--at), or with a smaller "
+                     f"--amplitude if the kink is further than it from the point.")
 
 
 def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,

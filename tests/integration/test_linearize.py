@@ -220,6 +220,19 @@ def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -
                              timeout=200)
     assert missing.returncode == 1 and "holds no model twmr linearize wrote" in missing.stderr
     assert "Traceback" not in missing.stderr
+    kink = """components:
+  c: {kind: constant, parameters: {value: 1.0}}
+  g: {kind: gain, parameters: {k: 1.0}}
+  sat: {kind: saturation, parameters: {upper: 1.0, lower: -1.0}}
+  f: {kind: first_order, parameters: {K: 1.0, T: 0.1}}
+connections: [c.y -> g.u, g.y -> sat.u, sat.y -> f.u]
+experiment: {stop: 2, step: 0.01}
+"""
+    with pytest.raises(CosimError, match=r"f\.y responds to pulses of \+0\.001 and -0\.001 at "
+                                         r"g\.u \(t = 1 s\) unequally: .* reaches 1 of .*kink"):
+        twmr.linearize(twmr.load(kink), ["g.u"], ["f.y"], at=1.0)  # on the saturation's edge
+    inside = twmr.linearize(twmr.load(kink, ["c.value=0.5"]), ["g.u"], ["f.y"], at=1.0)
+    assert inside.order == 1 and inside.nonlinearity < 1e-9
     msd = twmr.load(MSD)
     with pytest.raises(CosimError, match="names no port"):
         twmr.linearize(msd, ["msd.v"], ["msd.y"], at=1.0)
