@@ -223,10 +223,11 @@ def _kinked(markov: np.ndarray, curvature: np.ndarray, amplitude: float,
     k, j = np.unravel_index(int(np.argmax(per)), per.shape)
     raise CosimError(f"{columns[k]} responds to pulses of +{amplitude:g} and -{amplitude:g} "
                      f"at {inputs[j]} (t = {at:g} s) unequally: y+ + y- - 2 y0 reaches "
-                     f"{per[k, j]:.2g} of y+ - y- (0 where the system has a derivative; refused "
-                     f"above {KINK:g}): the system has a kink at this point (a saturation's edge, a dead zone, a "
-                     f"switch). Fix: linearise at another time (--at), or with a smaller "
-                     f"--amplitude if the kink is further than it from the point.")
+                     f"{per[k, j]:.2g} of y+ - y- (0 where the system has a derivative; "
+                     f"refused above {KINK:g}): the system has a kink at this point (a "
+                     f"saturation's edge, a dead zone, a switch). Fix: linearise at another "
+                     f"time (--at), or with a smaller --amplitude if the kink is further than "
+                     f"it from the point.")
 
 
 def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,
