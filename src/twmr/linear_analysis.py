@@ -220,7 +220,7 @@ def _kinked(markov: np.ndarray, curvature: np.ndarray, amplitude: float,
     differ most, relative to the response (a kink: no derivative at this point)."""
     per = np.abs(curvature).max(axis=0) / np.maximum(np.abs(markov).max(axis=0) * 2 * amplitude,
                                                      1e-300)
-    k, j = np.unravel_index(int(np.argmax(per)), per.shape)
+    k, j = (int(i) for i in np.unravel_index(int(np.argmax(per)), per.shape))
     raise CosimError(f"{columns[k]} responds to pulses of +{amplitude:g} and -{amplitude:g} "
                      f"at {inputs[j]} (t = {at:g} s) unequally: y+ + y- - 2 y0 reaches "
                      f"{per[k, j]:.2g} of y+ - y- (0 where the system has a derivative; "
