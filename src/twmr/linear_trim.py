@@ -21,6 +21,7 @@ the unstable focus of the Van der Pol oscillator (Simulink's `findop` with the s
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -30,6 +31,8 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError
+
+log = logging.getLogger(__name__)
 
 #: largest relative change per step of every checked output at a trim point
 TRIM_TOL = 1e-12
@@ -100,7 +103,7 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
     parsed = [_unknown(u, system) for u in unknowns]
     p = np.concatenate([np.atleast_1d(np.asarray(_value(u.name, system), float))
                         for u in parsed])
-    checked = list(outputs) or _outputs_of(system)
+    checked = [_output(o, system) for o in outputs] or _outputs_of(system)
     runs = 0
 
     def outputs_at(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -139,6 +142,8 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
                 break
             alpha /= 2
         p, r, scale = trial, r_new, scale_new
+        log.info("trim: iteration %d, largest change per step %.3g (relative), %d one-step "
+                 "runs", iterations, float(np.max(np.abs(r) / scale)), runs)
     values = _grouped(parsed, p)
     matrix, error = _step_matrix(lambda x: np.concatenate(outputs_at(x)[:2]), p, len(columns))
     return TrimPoint(values, _texts(values), columns, float(np.max(np.abs(r) / scale)),
@@ -227,6 +232,26 @@ def _with_values(spec: Any, parsed: list[_Unknown], p: np.ndarray) -> Any:
     from twmr.scenario.overrides import apply_overrides
 
     return apply_overrides(spec, _texts(_grouped(parsed, p)))
+
+
+def _output(name: str, system: Any) -> str:
+    """`name` checked: a real output or state of a component (or one element of one)."""
+    from twmr.registry import suggest
+    from twmr.scenario.graph import element_of
+
+    try:
+        comp, port, _ = element_of(name, system.components)
+    except ValueError as err:
+        raise CosimError(f"trim: {err}. Fix: give COMP.PORT or COMP.PORT[i].") from None
+    c = system.components.get(comp)
+    v = c.variables.get(port) if c is not None else None
+    if v is None or v.kind not in ("output", "state") or v.type != "Real":
+        where = list(system.components) if c is None else \
+            [n for n, x in c.variables.items() if x.kind in ("output", "state")]
+        raise CosimError(f"trim: '{name}' names no real output of the scenario"
+                         f"{suggest(comp if c is None else port, where)}. Fix: give COMP.PORT "
+                         f"of an output (--trim-output).")
+    return name
 
 
 def _outputs_of(system: Any) -> list[str]:

@@ -116,6 +116,8 @@ def test_what_cannot_be_trimmed_is_refused() -> None:
     with pytest.raises(CosimError, match=r"no steady point reached in 3 Newton iterations: "
                                          r"\w+\.y still changes by .*Fix:"):
         trim(PENDULUM, ["push.value"], max_iter=3)
+    with pytest.raises(CosimError, match=r"'th\.yy' names no real output.*did you mean 'y'"):
+        trim(PENDULUM, ["th.x0"], outputs=["th.yy"])
     with pytest.raises(CosimError, match="at least one unknown"):
         trim(PENDULUM, [])
 
