@@ -53,3 +53,24 @@ def test_a_class_with_its_own_declared_is_asked() -> None:
     assert found["x"] is OwnDeclared.declared()["x"]
     assert found["made"].kind == "parameter" and found["fed"].kind == "input"
     assert found["y"] is None
+
+
+def test_an_fmus_state_is_set_by_an_override_and_its_output_is_refused() -> None:
+    """An FMU's variables are known only once it is read, so an override of its state goes
+    under 'parameters' and is taken as the state's start value; an output is refused in one
+    paragraph naming it (the Reference FMUs VanDerPol and Feedthrough)."""
+    import twmr
+    from tests.conformance.corpus import corpus
+    from twmr.core import ScenarioError
+
+    vdp = {"components": {"vdp": {"kind": "fmu", "parameters": {
+        "path": str(corpus("reference-fmus", "VanDerPol_fmi2.fmu"))}}},
+        "experiment": {"stop": 0.01, "step": 0.01}}
+    run = twmr.simulate(twmr.load(vdp, ["vdp.x0=0.25", "vdp.x1=-0.5"]))
+    assert run["vdp.x0"][0] == 0.25 and run["vdp.x1"][0] == -0.5
+    feed = {"components": {"ft": {"kind": "fmu", "parameters": {
+        "path": str(corpus("reference-fmus", "Feedthrough_fmi2.fmu"))}}},
+        "experiment": {"stop": 0.01, "step": 0.01}}
+    with pytest.raises(ScenarioError, match=r"'ft\.Float64_continuous_output' is an output: "
+                                            r"the component computes it; nothing sets it\..*Fix"):
+        twmr.load(feed, ["ft.Float64_continuous_output=3"])

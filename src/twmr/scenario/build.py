@@ -352,6 +352,14 @@ class _Builder:
                                              f"has no {what} '{key}'{suggest(str(key), names)}.",
                                              f"known: {', '.join(names) or '(none)'}."))
                 continue
+            if var.kind not in SETTABLE:
+                names = [n for n, v in comp.variables.items() if v.kind in allowed]
+                self.problems.append(Problem(loc, f"'{name}.{key}' is an {var.kind}: the "
+                                             f"component computes it; nothing sets it.",
+                                             f"set a parameter, or the start value of a state "
+                                             f"or an input (here: {', '.join(names[:8])}"
+                                             f"{', ...' if len(names) > 8 else ''})."))
+                continue
             if var.kind not in allowed and not (loc.file == OVERRIDE and var.kind in SETTABLE):
                 other = "initial" if section == "parameters" else "parameters"
                 self.problems.append(Problem(loc, f"'{name}.{key}' is a {var.kind}; it is not set "
