@@ -456,11 +456,27 @@ def read_model(folder: str | Path) -> tuple[LinearModel, str]:
             a, b, c, d, float(plain["dt"]), float(plain["at"]), list(plain["inputs"]),
             list(plain["outputs"]), np.asarray(plain["singular_values"], dtype=float),
             float(plain["fit_error"]), float(plain["nonlinearity"]), markov)
+        _check_shapes(model)
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise CosimError(f"'{where}' holds no model twmr linearize wrote ({err}). Fix: give "
                          f"the folder of `twmr linearize ... --out FOLDER` (linear.json and "
                          f"linear.npz; --fmu models are continuous and not read here).") from None
     return model, model.inputs[0] if "loop" in plain else ""
+
+
+def _check_shapes(model: LinearModel) -> None:
+    """ValueError saying which matrix does not fit the others, the ports or the step."""
+    n, m, p = model.A.shape[0], len(model.inputs), len(model.outputs)
+    for name, matrix, shape in (("A", model.A, (n, n)), ("B", model.B, (n, m)),
+                                ("C", model.C, (p, n)), ("D", model.D, (p, m))):
+        if matrix.shape != shape or not np.all(np.isfinite(matrix)):
+            raise ValueError(f"{name} is {matrix.shape[0]} x {matrix.shape[1]} (or not "
+                             f"finite) where {shape[0]} x {shape[1]} finite numbers belong")
+    if not (math.isfinite(model.dt) and model.dt > 0):
+        raise ValueError(f"dt = {model.dt} is no step")
+    if model.markov.ndim != 3 or model.markov.shape[1:] != (p, m):
+        raise ValueError(f"the impulse response in linear.npz is {model.markov.shape}, not "
+                         f"(steps, {p}, {m})")
 
 
 def step_figure(model: LinearModel, path: str | Path) -> list[Path]:

@@ -5,6 +5,7 @@ its pole at 0, a loop broken at a wire the margins python-control gives for k G(
 input refused."""
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -220,6 +221,13 @@ def test_the_command_writes_the_model_and_bad_input_is_refused(tmp_path: Path) -
                              timeout=200)
     assert missing.returncode == 1 and "holds no model twmr linearize wrote" in missing.stderr
     assert "Traceback" not in missing.stderr
+    saved = json.loads((tmp_path / "lin" / "linear.json").read_text())
+    saved["B"] = [[1.0, 2.0]] * len(saved["A"])  # two inputs' columns for one input
+    (tmp_path / "lin" / "linear.json").write_text(json.dumps(saved))
+    bent = subprocess.run([str(Path(sys.executable).parent / "twmr"), "analyze",
+                           str(tmp_path / "lin")], capture_output=True, text=True, timeout=200)
+    assert bent.returncode == 1 and "B is" in bent.stderr and "x 1 finite numbers" in bent.stderr
+    assert "Traceback" not in bent.stderr
     kink = """components:
   c: {kind: constant, parameters: {value: 1.0}}
   g: {kind: gain, parameters: {k: 1.0}}
