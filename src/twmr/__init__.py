@@ -2,7 +2,8 @@
 
 `twmr.load`, `twmr.simulate` (how a run goes: `twmr.Options`), `twmr.build`, `twmr.read_result`,
 `twmr.sweep`, `twmr.tune` (see `twmr.api`), `twmr.Workers` (local workers kept across them),
-`twmr.Stepping` (a run step by step), and all a
+`twmr.Stepping` (a run step by step), `twmr.fit`, `twmr.linearize` and `twmr.trim` (its
+equilibria), and all a
 block of your own needs: `Component`, `Input`, `Output`, `Parameter`, `State`, `Kernel` and
 `CosimError` (`docs/components.md`).
 Imported on first use, so `import twmr` stays light.
@@ -19,7 +20,8 @@ _FROM = {**dict.fromkeys(("Result", "Scenario", "build", "load", "read_result", 
          **dict.fromkeys(("Component", "Input", "Output", "Parameter", "State", "CosimError"),
                          "twmr.core"),
          "Kernel": "twmr.core.kernel", "Options": "twmr.core.run", "fit": "twmr.fitting",
-         "linearize": "twmr.linear_analysis", "Stepping": "twmr.stepping",
+         "linearize": "twmr.linear_analysis", "trim": "twmr.linear_trim",
+         "Stepping": "twmr.stepping",
          "Workers": "twmr.sweeps.pool"}
 __all__ = sorted([*_FROM, "__version__"])
 
