@@ -193,10 +193,10 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
     t_at = start + k0 * h
     stop = t_at + horizon * h
     plus, minus = [], []
-    y0, columns = _run(base.spec, None, t_at, h, stop, outputs)
+    y0, columns = outputs_run(base.spec, None, t_at, h, stop, outputs)
     for j in range(len(inputs)):
-        yp, _ = _run(base.spec, (inputs[j], amplitude), t_at, h, stop, outputs)
-        ym, _ = _run(base.spec, (inputs[j], -amplitude), t_at, h, stop, outputs)
+        yp, _ = outputs_run(base.spec, (inputs[j], amplitude), t_at, h, stop, outputs)
+        ym, _ = outputs_run(base.spec, (inputs[j], -amplitude), t_at, h, stop, outputs)
         plus.append(yp)
         minus.append(ym)
     # rows from `at` on: Markov parameters M[k] (p x m) = response at at + k h per unit pulse
@@ -240,7 +240,7 @@ def steady_time(scenario: Any, outputs: Sequence[str], *, window: int = 50,
     system = scenario.system
     h, start = float(system.experiment.step), float(system.experiment.start)
     stop = float(system.experiment.stop)
-    y, columns = _run(scenario.spec, None, start, h, stop, outputs)
+    y, columns = outputs_run(scenario.spec, None, start, h, stop, outputs)
     change = np.abs(np.diff(y, axis=0)) / np.maximum(1.0, np.abs(y).max(axis=0))
     moving = ~(np.max(change, axis=1) <= tol) if len(change) else np.zeros(0, bool)  # NaN moves
     settled = np.convolve(moving, np.ones(window), "valid") == 0 if len(moving) >= window \
@@ -337,7 +337,7 @@ def _scalar_input(port: str, system: Any) -> None:
                          f"at a time. Fix: give {port}[1] (to {port}[{width}]).")
 
 
-def _run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
+def outputs_run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
          outputs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
     """The outputs' rows from `at` to `stop` (one per step) of a run of `spec` with a pulse of
     (port, height) over [at, at + h) (None: a pulse of 0, the same blocks)."""

@@ -89,7 +89,7 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
     than `tol` relative. CosimError when an unknown moves none of them or Newton's
     method does not get there."""
     from twmr.api import load
-    from twmr.linear_analysis import _run, replayable
+    from twmr.linear_analysis import outputs_run, replayable
 
     if not unknowns:
         raise CosimError("trim needs at least one unknown. Fix: name the start values it "
@@ -110,7 +110,7 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
         """(the outputs at the start, after one step, their names) with the unknowns `x`."""
         nonlocal runs
         runs += 1
-        y, columns = _run(_with_values(base.spec, parsed, x), None, start, h, start + h,
+        y, columns = outputs_run(_with_values(base.spec, parsed, x), None, start, h, start + h,
                           checked)
         return y[0], y[1], columns
 
@@ -183,7 +183,7 @@ def _unknown(name: str, system: Any) -> _Unknown:
                          f"{suggest(comp if c is None else var, where)}. Fix: give "
                          f"COMP.NAME of a state's start value or a parameter.")
     v = c.variables[var]
-    if v.kind not in ("state", "parameter", "input", "output") or v.type != "Real":
+    if v.kind not in ("state", "parameter", "input") or v.type != "Real":
         raise CosimError(f"trim: '{name}' is a {v.type} {v.kind}, not a real value a run "
                          f"starts from. Fix: name a real state or parameter.")
     value = c.get(var)

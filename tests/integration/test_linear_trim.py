@@ -118,6 +118,9 @@ def test_what_cannot_be_trimmed_is_refused() -> None:
         trim(PENDULUM, ["push.value"], max_iter=3)
     with pytest.raises(CosimError, match=r"'th\.yy' names no real output.*did you mean 'y'"):
         trim(PENDULUM, ["th.x0"], outputs=["th.yy"])
+    with pytest.raises(CosimError, match=r"'th\.y' is a Real output, not a real value a run "
+                                         r"starts from"):
+        trim(PENDULUM, ["th.y"])
     with pytest.raises(CosimError, match="at least one unknown"):
         trim(PENDULUM, [])
 
