@@ -337,8 +337,8 @@ def _scalar_input(port: str, system: Any) -> None:
                          f"at a time. Fix: give {port}[1] (to {port}[{width}]).")
 
 
-def outputs_run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
-         outputs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+def outputs_run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float,
+                stop: float, outputs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
     """The outputs' rows from `at` to `stop` (one per step) of a run of `spec` with a pulse of
     (port, height) over [at, at + h) (None: a pulse of 0, the same blocks)."""
     from twmr.api import load, simulate
