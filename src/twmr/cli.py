@@ -899,8 +899,8 @@ def parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                     "singular values)")
     li.add_argument("--tol", type=float, default=1e-7, help="relative Hankel singular value "
                     "below which a state is dropped")
-    li.add_argument("--fmu", metavar="COMP", help="the continuous model of the "
-                    "model-exchange FMU COMP at --at by its directional derivatives (every "
+    li.add_argument("--fmu", metavar="COMP", help="the continuous model of the FMU COMP "
+                    "(model exchange or co-simulation) at --at by its own derivatives (every "
                     "state, its real inputs and outputs)")
     li.add_argument("--derivatives", choices=("auto", "directional", "adjoint"),
                     default="auto", help="--fmu: by directional derivatives (a column per "

@@ -536,8 +536,8 @@ def nyquist_figure(loop: Any, dt: float, path: str | Path, title: str = "") -> t
 
 @dataclass
 class FmuLinear:
-    """x' = A x + B u, y = C x + D u of a model-exchange FMU at time `at` [s] of a run, from its
-    directional derivatives (continuous time; states, inputs and outputs by name)."""
+    """x' = A x + B u, y = C x + D u of an FMU at time `at` [s] of a run, from its own
+    derivatives (continuous time; states, inputs and outputs by name)."""
 
     A: np.ndarray
     B: np.ndarray
@@ -564,13 +564,14 @@ DERIVATIVES = ("auto", "directional", "adjoint")
 
 def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str,
                   overrides: Sequence[str] = (), derivatives: str = "auto") -> FmuLinear:
-    """The continuous linear model of the model-exchange FMU `component` at time `at` [s] of a
+    """The continuous linear model of the FMU `component` (model exchange, or co-simulation at
+    a communication point: the Jacobian of the equations it integrates) at time `at` [s] of a
     run of `scenario` (run to `at` step by step, paused there; "steady": the point its outputs
     settle at, `steady_time`), by its directional derivatives, a column per state and input
     (FMI 2 fmi2GetDirectionalDerivative, FMI 3 fmi3GetDirectionalDerivative), or its adjoint
     ones, a row per rate and output (FMI 3 fmi3GetAdjointDerivative; `derivatives="adjoint"`,
     or "auto" when it gives only those): every state, the FMU's real inputs and outputs.
-    CosimError when the FMU gives neither or is not model exchange."""
+    CosimError when the FMU gives neither."""
     from twmr.api import load
     from twmr.fmi.description import derivatives_provided
     from twmr.fmi.fmu import FmuComponent
@@ -596,19 +597,18 @@ def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str
         raise CosimError(f"at = {at!r} is no point. Fix: give a time of the run [s] or "
                          f"{STEADY!r} (the point the run settles at).")
     md = comp.md
-    directional, adjoint = derivatives_provided(comp.source_path, "ModelExchange")
+    interface = "ModelExchange" if comp.me else "CoSimulation"
+    directional, adjoint = derivatives_provided(comp.source_path, interface)
     use = derivatives if derivatives != "auto" else "directional" if directional else "adjoint"
-    gives = directional if use == "directional" else adjoint
-    if not (comp.me and gives):
+    if not (directional if use == "directional" else adjoint):
         what = "directional derivatives" if derivatives == "directional" else \
             "adjoint derivatives" if derivatives == "adjoint" else \
             "directional or adjoint derivatives"
-        why = ("it runs as co-simulation: give it interface: model_exchange"
-               if md.modelExchange is not None and gives else "its model exchange interface "
-               f"does not provide {what}")
+        how = "model exchange" if comp.me else "co-simulation"
         raise CosimError(f"--fmu {component}: '{comp.source_path.name}' cannot be linearised by "
-                         f"its directional derivatives: {why}. Fix: linearise the scenario from "
-                         f"its ports (--input/--output), which needs no derivatives.")
+                         f"its derivatives: its {how} interface does not provide {what}. Fix: "
+                         f"linearise the scenario from its ports (--input/--output), which needs "
+                         f"no derivatives.")
     real = ("Real", "Float64", "Float32")
     rates = [d.variable for d in md.derivatives]  # der(x), the unknowns of A and B
     states = [r.derivative for r in rates]  # x, the knowns of A and C

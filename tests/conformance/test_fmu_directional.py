@@ -2,8 +2,9 @@
 the Reference FMU VanDerPol (FMI 2.0, model exchange, which provides them) at t = 1.5 s of a
 run gives A = [[0, 1], [-2 mu x0 x1 - 1, mu (1 - x0^2)]] at the state the run reached there,
 and C the identity (its outputs are its states); the FMI 3.0 builds of VanDerPol and Roberts
-give theirs by directional and by adjoint derivatives alike; an FMU run as co-simulation, or one
-without the derivatives asked for, is refused with the reason and the fix."""
+give theirs by directional and by adjoint derivatives alike, and VanDerPol run as co-simulation
+the Jacobian of what it integrates; an FMU without the derivatives asked for is refused with the
+reason and the fix."""
 from __future__ import annotations
 
 import json
@@ -53,6 +54,19 @@ def test_fmi3_vanderpol_gives_it_by_directional_and_by_adjoint_derivatives(deriv
     np.testing.assert_array_equal(model.C, np.eye(2))
 
 
+@pytest.mark.parametrize("name", ["VanDerPol_fmi2.fmu", "VanDerPol_fmi3.fmu"])
+def test_a_co_simulation_fmu_gives_the_jacobian_of_what_it_integrates(name) -> None:
+    """Run as co-simulation (its own solver), VanDerPol still provides directional derivatives
+    (FMI 2.0 and 3.0 allow them between steps): at t = 0.5 s its Jacobian at the state it
+    reached is the analytic one, to 1e-12."""
+    path = corpus("reference-fmus", name)
+    model = linearize_fmu(scenario(path, "co_simulation"), "vdp", at=0.5)
+    run = twmr.simulate(twmr.load(scenario(path, "co_simulation"), ["experiment.stop=0.5"]))
+    x0, x1 = float(run["vdp.x0"][-1]), float(run["vdp.x1"][-1])
+    np.testing.assert_allclose(model.A, [[0.0, 1.0], [-2 * x0 * x1 - 1, 1 - x0 ** 2]],
+                               rtol=1e-12, atol=1e-12)
+
+
 def test_roberts_directional_and_adjoint_derivatives_agree() -> None:
     """The stiff Robertson kinetics (FMI 3.0): the Jacobian by columns (directional) and by rows
     (adjoint) is the same matrix, with the rates' entries -0.04 and 0.04 of y1."""
@@ -66,11 +80,12 @@ def test_roberts_directional_and_adjoint_derivatives_agree() -> None:
 
 
 def test_what_cannot_be_linearised_so_is_refused(tmp_path: Path) -> None:
-    with pytest.raises(CosimError, match=r"runs as co-simulation: give it interface: "
-                                         r"model_exchange.*Fix:"):
-        linearize_fmu(scenario(corpus("reference-fmus", "VanDerPol_fmi2.fmu"),
+    with pytest.raises(CosimError, match=r"its co-simulation interface does not provide "
+                                         r"directional or adjoint derivatives.*Fix:"):
+        linearize_fmu(scenario(corpus("reference-fmus", "Dahlquist_fmi2.fmu"),
                                "co_simulation"), "vdp", at=1.0)
-    with pytest.raises(CosimError, match="does not provide directional or adjoint derivatives"):
+    with pytest.raises(CosimError, match="its model exchange interface does not provide "
+                                         "directional or adjoint derivatives"):
         linearize_fmu(scenario(corpus("reference-fmus", "Dahlquist_fmi2.fmu")), "vdp", at=1.0)
     with pytest.raises(CosimError, match="does not provide adjoint derivatives"):
         linearize_fmu(scenario(corpus("reference-fmus", "VanDerPol_fmi2.fmu")), "vdp", at=1.0,
