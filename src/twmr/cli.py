@@ -464,8 +464,9 @@ def _linearize_fmu(scenario: Any, args: argparse.Namespace, lines: list[str]) ->
         plain["trim"] = args.trim_point
     (out / "linear.json").write_text(json.dumps(plain, indent=2))
     np.set_printoptions(precision=6, suppress=True)
-    print("\n".join(lines))
-    print(f"{args.fmu} at t = {model.at:g} s (continuous, by its directional derivatives): "
+    if lines:
+        print("\n".join(lines))
+    print(f"{args.fmu} at t = {model.at:g} s (continuous, by its {model.derivatives} derivatives): "
           f"states {', '.join(model.states)}; inputs {', '.join(model.inputs) or 'none'}; "
           f"outputs {', '.join(model.outputs) or 'none'}")
     print("A =\n" + str(model.A))

@@ -547,6 +547,7 @@ class FmuLinear:
     states: list[str]
     inputs: list[str]
     outputs: list[str]
+    derivatives: str  # 'directional' or 'adjoint': what the FMU was asked
 
     def poles(self) -> np.ndarray:
         return np.linalg.eigvals(self.A) if self.A.size else np.zeros(0)
@@ -555,6 +556,7 @@ class FmuLinear:
         return {"A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(),
                 "D": self.D.tolist(), "at": self.at, "states": self.states,
                 "inputs": self.inputs, "outputs": self.outputs, "continuous": True,
+                "derivatives": self.derivatives,
                 "poles": [[float(z.real), float(z.imag)] for z in np.sort_complex(self.poles())]}
 
 
@@ -634,4 +636,4 @@ def linearize_fmu(scenario: str | Path | Any, component: str, *, at: float | str
                 J[n + i, :] = 0.0
                 J[n + i, j] = 1.0
     return FmuLinear(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:], t, [v.name for v in states],
-                     [v.name for v in inputs], [v.name for v in outputs])
+                     [v.name for v in inputs], [v.name for v in outputs], use)
