@@ -14,10 +14,11 @@ Three cases (`--case`, default all of them):
   step 1 us): the width of the two rows that bracket the bounce. Fixed steps of 1 ms and 0.1 ms
   show the bounce at the grid point after it; `fixed_steps_as_accurate` is stop / error, the
   steps of a fixed grid as fine as the adaptive run's error (computed, not run).
-- `fmpy`: the Reference FMU BouncingBall (FMI 2.0, model exchange, 3 s, a point every 10 ms)
-  against fmpy's `simulate_fmu` (CVODE at rtol 1e-6) in the same process, both from the file,
-  interleaved, medians of --rounds: the adaptive master with the FMU's largest rtol of 1e-6 ...
-  1e-9 whose first bounce lands at least as near sqrt(2 h / g) as fmpy's (`wall_ratio`).
+- `fmpy`: the Reference FMUs BouncingBall (3 s) and VanDerPol (10 s), FMI 2.0 model exchange,
+  a point every 10 ms, against fmpy's `simulate_fmu` (CVODE at rtol 1e-6) in the same process,
+  both from the file, interleaved, medians of --rounds: the adaptive master with the FMU's
+  largest rtol of 1e-6 ... 1e-9 that is at least as accurate (the first bounce's time against
+  sqrt(2 h / g); x0 against fmpy's CVODE at rtol 1e-12) (`wall_ratio`).
 - `vdp`: the Van der Pol oscillator `tests/fmus/vdp2` in co-simulation (one RK4 step per
   doStep, mu = 1, 10 s, base step 0.1 ms) for rtol = atol = 1e-4 and 1e-6, against fmpy's
   CVODE at rtol 1e-10 (model exchange of the same FMU); fixed steps of 5 to 100 ms.
@@ -151,49 +152,81 @@ record: {{signals: [osc.x0, osc.x1]}}
 
 
 def fmpy_figures(rounds: int) -> list[dict[str, Any]]:
+    """BouncingBall (error: the first bounce's time) and VanDerPol (error: the largest
+    deviation of x0 at the recorded points from fmpy's CVODE at rtol 1e-12), each against fmpy's
+    `simulate_fmu` at rtol 1e-6 (3 s and 10 s, a point every 10 ms)."""
     from fmpy import simulate_fmu
 
     import twmr
     from tests.conformance.corpus import corpus
 
-    path = corpus("reference-fmus", "BouncingBall_fmi2.fmu")
+    rows = []
+    for name, stop, signal in (("BouncingBall_fmi2.fmu", 3.0, "h"),
+                               ("VanDerPol_fmi2.fmu", 10.0, "x0")):
+        path = corpus("reference-fmus", name)
 
-    def theirs() -> tuple[float, float]:
-        t0 = time.perf_counter()
-        out = simulate_fmu(str(path), fmi_type="ModelExchange", stop_time=3.0,
-                           output_interval=0.01, relative_tolerance=1e-6)
-        wall = time.perf_counter() - t0
-        t = out["time"]
-        first = next(t[i] for i in range(1, len(t)) if t[i] == t[i - 1])  # the event's rows
-        return wall, abs(float(first) - T1)
+        def fmpy_run(rtol: float, path: Path = path, stop: float = stop) -> Any:
+            return simulate_fmu(str(path), fmi_type="ModelExchange", stop_time=stop,
+                                output_interval=0.01, relative_tolerance=rtol)
 
-    def ours(rtol: float) -> tuple[float, float]:
-        text = f"""
+        exact = fmpy_run(1e-12)
+
+        def error(t: np.ndarray, y: np.ndarray, signal: str = signal, exact: Any = exact
+                  ) -> float:
+            if signal == "h":  # the first bounce: fmpy's two rows at the event, ours one
+                return float(np.min(np.abs(t - T1)))
+            return float(np.max(np.abs(np.interp(t, exact["time"], exact[signal]) - y)))
+
+        def theirs(fmpy_run: Any = fmpy_run, signal: str = signal
+                   ) -> tuple[float, float, int]:
+            t0 = time.perf_counter()
+            out = fmpy_run(1e-6)
+            wall = time.perf_counter() - t0
+            t = out["time"]
+            if signal == "h":
+                t = np.array([t[i] for i in range(1, len(t)) if t[i] == t[i - 1]][:1])
+            return wall, error(t, out[signal][:len(t)]), len(out)
+
+        def ours(rtol: float, path: Path = path, stop: float = stop, signal: str = signal,
+                 algorithm: str = ", algorithm: adaptive") -> tuple[float, float, int]:
+            text = f"""
 components:
-  ball: {{kind: fmu, parameters: {{path: {path}, interface: model_exchange, rtol: {rtol}}}}}
-experiment: {{start: 0.0, stop: 3.0, step: 0.01, algorithm: adaptive}}
-record: {{signals: [ball.h]}}
+  m: {{kind: fmu, parameters: {{path: {path}, interface: model_exchange, rtol: {rtol}}}}}
+experiment: {{start: 0.0, stop: {stop}, step: 0.01{algorithm}}}
+record: {{signals: [m.{signal}]}}
 """
-        t0 = time.perf_counter()
-        result = twmr.simulate(twmr.load(text), None)
-        wall = time.perf_counter() - t0
-        t = np.asarray(result["time"])
-        return wall, float(np.min(np.abs(t - T1)))
+            t0 = time.perf_counter()
+            result = twmr.simulate(twmr.load(text), None)
+            wall = time.perf_counter() - t0
+            return (wall, error(np.asarray(result["time"]), np.asarray(result[f"m.{signal}"])),
+                    len(result))
 
-    theirs()
-    target = theirs()[1]
-    rtol = next((r for r in (1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9) if ours(r)[1] <= target),
-                1e-9)
-    walls: tuple[list[float], list[float]] = ([], [])
-    for _ in range(rounds):
-        walls[0].append(ours(rtol)[0])
-        walls[1].append(theirs()[0])
-    mine, fmpy = (statistics.median(w) for w in walls)
-    ratios = [a / b for a, b in zip(*walls, strict=True)]
-    return [{"fmpy_rtol": 1e-6, "fmpy_first_bounce_error_s": target, "fmpy_wall_s": fmpy,
-             "adaptive_rtol": rtol, "adaptive_first_bounce_error_s": ours(rtol)[1],
-             "adaptive_wall_s": mine, "wall_ratio": mine / fmpy,
-             "wall_ratio_min": min(ratios), "wall_ratio_max": max(ratios)}]
+        theirs()
+        target = theirs()[1]
+        rtol = next((r for r in (1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9)
+                     if ours(r)[1] <= target), 1e-9)
+        walls: tuple[list[float], list[float], list[float]] = ([], [], [])
+        for _ in range(rounds):
+            walls[0].append(ours(rtol)[0])
+            walls[1].append(theirs()[0])
+            if signal != "h":  # fixed steps show a bounce only at the grid point after it
+                walls[2].append(ours(1e-6, algorithm="")[0])
+        mine, fmpy = (statistics.median(w) for w in walls[:2])
+        ratios = [a / b for a, b in zip(walls[0], walls[1], strict=True)]
+        mine_last, theirs_last = ours(rtol), theirs()
+        rows.append({"fmu": name, "error": "first bounce time [s]" if signal == "h" else
+                     "max |x0 - reference| at the rows", "fmpy_rtol": 1e-6,
+                     "fmpy_error": target, "fmpy_rows": theirs_last[2], "fmpy_wall_s": fmpy,
+                     "adaptive_rtol": rtol, "adaptive_error": mine_last[1],
+                     "adaptive_rows": mine_last[2], "adaptive_wall_s": mine,
+                     "wall_ratio": mine / fmpy, "wall_ratio_min": min(ratios),
+                     "wall_ratio_max": max(ratios)})
+        if walls[2]:  # the fixed-step master at the same rtol, a row every 10 ms as fmpy
+            fixed = ours(1e-6, algorithm="")
+            rows[-1].update(fixed_error=fixed[1], fixed_rows=fixed[2],
+                            fixed_wall_s=statistics.median(walls[2]),
+                            fixed_wall_ratio=statistics.median(walls[2]) / fmpy)
+    return rows
 
 
 def show(case: str, rows: list[dict[str, Any]]) -> None:
