@@ -543,6 +543,8 @@ def load(kinds: Sequence[KindSpec], folder: Callable[[], Any]
     if not all(fn.overloads for fn in loops):  # (`signatures` hashes every type)
         for fn, sig in zip(loops, driver_loop.signatures(), strict=True):
             if not fn.signatures:
+                cache = fn._cache
+                cache.load_overload = schedule_cache.quick_loader(cache)
                 fn.compile(sig)
                 fresh += 1
     return {k.key: _LOADED[k.key] for k in kinds}, fresh

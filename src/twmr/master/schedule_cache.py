@@ -139,6 +139,31 @@ def _ensure_text(path: Path, source: str) -> None:
     os.replace(tmp, path)
 
 
+def quick_loader(cache: Any) -> Any:
+    """numba's load of a cached overload without refreshing the target context first: the
+    refresh imports every typing and lowering registry numba has (about 0.35 s on a first
+    load), which machine code read back does not need, but for the symbols it links to that
+    those imports register: the runtime's (NRT_*, `rtsys.initialize`) and the hash secrets
+    (`numba.cpython.hashing`; numba's own C helpers come with the context, parallel code
+    brings its own initialiser). A miss compiles, and numba's compiler refreshes the context
+    itself (`CompilerBase`). numba's own `load_overload` where the cache has no such parts."""
+    inner = getattr(cache, "_load_overload", None)
+    guard = getattr(cache, "_guard_against_spurious_io_errors", None)
+    if inner is None or guard is None:
+        return cache.load_overload
+
+    def load(sig: Any, target_context: Any) -> Any:
+        import numba.cpython.hashing  # noqa: F401 - its import gives the hash secrets' symbols
+        from numba.core.runtime import rtsys
+
+        rtsys.initialize(target_context)  # the runtime's symbols (NRT_*) the code links to
+        with guard():
+            return inner(sig, target_context)
+        return None  # the guard swallowed a spurious I/O error: compiled anew
+
+    return load
+
+
 class _VerifiedCache:
     """numba's cache files of one generated module, checked against the manifest before numba
     reads them and recorded in it after numba writes them."""
@@ -152,7 +177,7 @@ class _VerifiedCache:
 
     def wrap(self, cache: Any) -> None:
         """Make `cache` (a dispatcher's numba cache) load and save through here."""
-        load, save = cache.load_overload, cache.save_overload
+        load, save = quick_loader(cache), cache.save_overload
 
         def load_overload(sig: Any, target_context: Any) -> Any:
             with self._locked(fcntl.LOCK_SH):  # no process saves or purges while it is read
