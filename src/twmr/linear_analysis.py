@@ -193,10 +193,10 @@ def linearize(scenario: str | Path | Any, inputs: Sequence[str], outputs: Sequen
     t_at = start + k0 * h
     stop = t_at + horizon * h
     plus, minus = [], []
-    y0, columns = outputs_run(base.spec, None, t_at, h, stop, outputs)
+    y0, columns = _pulsed(base.spec, None, t_at, h, stop, outputs)
     for j in range(len(inputs)):
-        yp, _ = outputs_run(base.spec, (inputs[j], amplitude), t_at, h, stop, outputs)
-        ym, _ = outputs_run(base.spec, (inputs[j], -amplitude), t_at, h, stop, outputs)
+        yp, _ = _pulsed(base.spec, (inputs[j], amplitude), t_at, h, stop, outputs)
+        ym, _ = _pulsed(base.spec, (inputs[j], -amplitude), t_at, h, stop, outputs)
         plus.append(yp)
         minus.append(ym)
     # rows from `at` on: Markov parameters M[k] (p x m) = response at at + k h per unit pulse
@@ -335,6 +335,20 @@ def _scalar_input(port: str, system: Any) -> None:
     if not element and width != 1:
         raise CosimError(f"'{port}' has {width} elements: an input is perturbed one element "
                          f"at a time. Fix: give {port}[1] (to {port}[{width}]).")
+
+
+def _pulsed(spec: Any, pulse: tuple[str, float] | None, at: float, h: float, stop: float,
+            outputs: Sequence[str]) -> tuple[np.ndarray, list[str]]:
+    """`outputs_run`, a failure of the run said to be that of linearising (which run, and
+    where the point and the horizon take it)."""
+    try:
+        return outputs_run(spec, pulse, at, h, stop, outputs)
+    except CosimError as err:
+        which = f"with a pulse of {pulse[1]:+g} at {pulse[0]}" if pulse else "without a pulse"
+        raise CosimError(f"linearize: the run {which} at t = {at:g} s, on to {stop:g} s "
+                         f"(the horizon), failed: {str(err).partition(' Fix: ')[0]} Fix: "
+                         f"linearise at a point the scenario runs through, with a shorter "
+                         f"--horizon or a smaller --amplitude.") from None
 
 
 def outputs_run(spec: Any, pulse: tuple[str, float] | None, at: float, h: float,

@@ -107,11 +107,19 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
     runs = 0
 
     def outputs_at(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """(the outputs at the start, after one step, their names) with the unknowns `x`."""
+        """(the outputs at the start, after one step, their names) with the unknowns `x`;
+        CosimError naming the values when that run fails."""
         nonlocal runs
         runs += 1
-        y, columns = outputs_run(_with_values(base.spec, parsed, x), None, start, h, start + h,
-                          checked)
+        try:
+            y, columns = outputs_run(_with_values(base.spec, parsed, x), None, start, h,
+                                     start + h, checked)
+        except CosimError as err:
+            values = ", ".join(_texts(_grouped(parsed, x)))
+            raise CosimError(f"trim: the one-step run with {values} failed: "
+                             f"{str(err).partition(' Fix: ')[0]} Fix: start where the "
+                             f"scenario runs (--set the unknowns), or bound what the values "
+                             f"may reach.") from None
         return y[0], y[1], columns
 
     def residual(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -137,8 +145,16 @@ def trim(scenario: str | Path | Any, unknowns: Sequence[str], *,
         norm, alpha = float(np.max(np.abs(r) / scale)), 1.0
         while True:
             trial = p + alpha * newton
-            r_new, scale_new, _ = residual(trial)
-            if np.max(np.abs(r_new) / scale_new) < norm or alpha < 1e-6:
+            try:
+                r_new, scale_new, _ = residual(trial)
+            except CosimError:
+                if alpha < 1e-6:
+                    raise
+                alpha /= 2  # a step the scenario cannot run at: a shorter one
+                continue
+            # measured in the present point's scale: a merit that moves with the point
+            # can call a better point worse
+            if np.max(np.abs(r_new) / scale) < norm or alpha < 1e-6:
                 break
             alpha /= 2
         p, r, scale = trial, r_new, scale_new

@@ -107,6 +107,33 @@ def test_vanderpol_is_trimmed_to_its_unstable_focus(name: str) -> None:
     assert np.all(np.linalg.eigvals(model.A).real > 0)  # unstable: no run settles there
 
 
+SQRT = """components:
+  x: {kind: integrator, parameters: {x0: 16.0}}
+  s: {kind: math, parameters: {function: sqrt}}
+  g: {kind: gain, parameters: {k: -1.0}}
+  c: {kind: constant, parameters: {value: 1.5}}
+  sum: {kind: sum, parameters: {signs: "++"}}
+connections: [x.y -> s.u, s.y -> g.u, g.y -> sum.u1, c.y -> sum.u2, sum.y -> x.u]
+experiment: {stop: 1, step: 0.01}
+"""
+
+
+def test_a_newton_step_the_scenario_cannot_run_at_is_shortened() -> None:
+    """x' = 1.5 - sqrt(x) from x = 16: the first Newton step lands at x = -4, where sqrt gives
+    NaN and the run stops; the step is halved until it runs, and x* = 2.25 is reached. Started
+    at x = -1, where nothing runs, the trim is refused naming the value; linearised at x = 0
+    without a source, a pulse's run stops (sqrt of a negative), said as such."""
+    point = trim(SQRT, ["x.x0"])
+    assert point.values["x.x0"] == pytest.approx(2.25, abs=1e-9)
+    with pytest.raises(CosimError, match=r"trim: the one-step run with x\.x0=-1\.0 failed: "
+                                         r"component 's' .* 'y' is nan.*Fix: start where"):
+        trim(SQRT, ["x.x0"], overrides=["x.x0=-1"])
+    with pytest.raises(CosimError, match=r"linearize: the run with a pulse of [+-]0\.001 "
+                                         r"at sum\.u2 at t = 0 s, on to 2 s \(the horizon\), "
+                                         r"failed: .*nan"):
+        linearize(SQRT, ["sum.u2"], ["x.y"], at=0.0, overrides=["x.x0=0", "c.value=0"])
+
+
 def test_what_cannot_be_trimmed_is_refused() -> None:
     with pytest.raises(CosimError, match=r"'th\.x00' names no value.*did you mean 'x0'"):
         trim(PENDULUM, ["th.x00"])
