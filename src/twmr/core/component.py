@@ -509,6 +509,9 @@ class Component:
     #: set by a master that locates state events (`twmr.master.adaptive`) before `setup`: a
     #: state event found at the very end of a `do_step` waits for `event`
     hold_events = False
+    #: set by that master before a `do_step` it will take again to end at a state event met
+    #: inside it: the step may end there, the event unhandled (`state_event` says when)
+    stop_at_events = False
 
     def state_event(self) -> float | None:
         """After `do_step`: the time [s] of the first state event it met inside its step, one
@@ -530,6 +533,13 @@ class Component:
         model-exchange FMU under CVODE), so a master that estimates errors by step doubling
         watches them only where they feed another component (the coupling error)."""
         return False
+
+    def repeats_steps(self) -> bool:
+        """Whether the last `do_step`, taken again from the state saved just before it, ends as
+        it did (False: a model-exchange FMU whose solver went on with the history it had at the
+        save; taken again, it restarts there, and a state event may move within the tolerance).
+        A master that steps to a located event retakes such a step first."""
+        return True
 
     def early_event(self) -> float | None:
         """The time [s] of an event the last `do_step` met inside its step that could not be

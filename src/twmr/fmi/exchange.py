@@ -18,7 +18,11 @@ its events, as the FMI standard's importer algorithm does it.
   the last `advance`. CVODE starts every integration with the same first step (`INIT_STEP`,
   not chosen from the end time), so integrations from one restart to different end times take the
   same internal steps and find a crossing at the same time: a step retried up to a located event
-  finds it again at its end.
+  finds it again at its end. With `stop_inside` set, a state event before the end time ends
+  `advance` there, unhandled.
+- **Saves**: CVODE goes on with its history across a `save` (a restart costs it many small
+  first-order steps) and restarts at a `restore`; `continued` says that the integration since
+  the last save did not start from a restart there.
 """
 from __future__ import annotations
 
@@ -64,9 +68,15 @@ class Integrator:
         self.next_event: float | None = None
         self.events = 0
         self.hold = False
+        #: a state event met before the end time ends `advance` there, unhandled
+        self.stop_inside = False
         self.held = False
         self.state_event: float | None = None
         self._solver: Any = None
+        #: the time of the solver's last restart while it has not integrated since (else None)
+        self._fresh_at: float | None = None
+        #: the integration since the last `save` went on from the solver's history at the save
+        self.continued = False
         # fmpy reads FMI 3.0's needsCompletedIntegratorStep and FMI 2.0's
         # completedIntegratorStepNotNeeded into this one flag
         self.completed_needed = bool(md.modelExchange.needsCompletedIntegratorStep)
@@ -115,6 +125,7 @@ class Integrator:
 
     def _restart(self, t: float) -> None:
         """CVODE starts afresh at t (RK4 keeps no history)."""
+        self._fresh_at = t
         if self.solver_name != "cvode":
             return
         if self._solver is None:
@@ -144,10 +155,9 @@ class Integrator:
 
     def save(self) -> tuple[float, float | None, int]:
         """What restoring the FMU's state needs from here: the time [s], the next time event and
-        the count of events so far. The solver restarts here, as `restore` does, so the
-        continuation after a save and after a restore of it start from the FMU's state alone
-        and agree bit for bit."""
-        self._restart(self.t)
+        the count of events so far. The solver goes on with its history (`continued`, unless it
+        restarted here and has not moved since); a restore restarts it."""
+        self.continued = self.solver_name == "cvode" and self._fresh_at != self.t
         return self.t, self.next_event, self.events
 
     def restore(self, saved: tuple[float, float | None, int]) -> None:
@@ -156,6 +166,7 @@ class Integrator:
         self.t, self.next_event, self.events = saved
         self.held, self.state_event = False, None
         self._restart(self.t)
+        self.continued = False
 
     def handle_held(self) -> bool:
         """The state event held at the end of the last `advance`, handled now; False: none."""
@@ -188,6 +199,8 @@ class Integrator:
         guard = 0
         self.state_event = None
         self.handle_held()  # not handled by the master: before going on
+        if not _close(self.t, t_end):
+            self._fresh_at = None
         while not _close(self.t, t_end) and self.t < t_end:
             guard += 1
             if guard > 1_000_000:
@@ -216,6 +229,8 @@ class Integrator:
             time_event = time_event and _close(t_reached, target)
             if state_event and self.state_event is None:
                 self.state_event = t_reached
+                if self.stop_inside and t_reached < t_end:
+                    return  # the master takes the step again to end here
             if state_event and self.hold and t_reached == t_end and not (time_event or
                                                                          step_event):
                 self.held = True

@@ -507,6 +507,9 @@ class FmuComponent(Component):
     def controls_its_error(self) -> bool:
         return self.me and self.solver == "cvode"
 
+    def repeats_steps(self) -> bool:
+        return self._integrator is None or not self._integrator.continued
+
     def early_event(self) -> float | None:
         return self._events.early if self._events is not None else None
 
@@ -684,6 +687,7 @@ class FmuComponent(Component):
             terminate = False
             if self.me:
                 assert self._integrator is not None
+                self._integrator.stop_inside = self.stop_at_events
                 self._integrator.advance(t + h)
             elif self._events is not None:
                 self._events.step(t, h)
@@ -801,8 +805,8 @@ class FmuComponent(Component):
     def get_state(self) -> Any:
         """(the FMU's state: serialised bytes, or a token while the FMU holds it; the ports,
         time and step flag; for model exchange the integrator's time, next event time and last
-        inputs): plain values that pickle. For model exchange the solver restarts at a save as
-        at a restore, so a step re-run after a restore repeats the first one bit for bit."""
+        inputs): plain values that pickle. For model exchange the solver goes on after a save
+        with its history and restarts at a restore (`repeats_steps`)."""
         if not self.can_get_and_set_state:
             raise self.no_state("save")
         if self._states is None:

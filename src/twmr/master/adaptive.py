@@ -35,7 +35,11 @@ time column is uneven; the result store and the writers take any time column.
 Events located in time: every component is asked to hold a state event found at the very end of
 a step (`Component.hold_events`). When an attempt meets one inside the step
 (`Component.state_event()`, e.g. a model-exchange FMU's located zero crossing at t_e), every
-state is restored and the step retried to end at t_e exactly, off the grid. After it is
+state is restored and the step retried to end at t_e exactly, off the grid; the attempts that
+will be retried so let a component stop at the event (`Component.stop_at_events`), and a
+component whose step does not repeat from the saved state (`Component.repeats_steps`: a
+model-exchange FMU whose solver went on with its history) has the step taken again first, so
+that the retry finds the crossing where the retaken step found it. After it is
 accepted, a row is recorded just before the event, the event is handled (`Component.event`) and
 the next step records the row just after it at the same time, then ends on the grid again. A
 non-Real output that the run reads and that changes inside a step (a co-simulation FMU's event
@@ -209,10 +213,14 @@ class Adaptive(Algorithm):
             k = min(k, max(self.k_min, (self.bracket - m) // 2))
         at_event: float | None = None  # the step ends at this state event instead
         relocated = 0
+        retaken = False
         while True:
             t_end = at_event if at_event is not None else self._grid(m + k)
             whole = k * h if on_grid and at_event is None else t_end - t
             saved = [c.get_state() for c in self.comps]
+            stop = relocated < MAX_RELOCATE  # an event inside: the step is taken again
+            for comp in self.comps:
+                comp.stop_at_events = stop
             pending: list[Any] = []
             point(t)
             record(t, pending)
@@ -224,6 +232,11 @@ class Adaptive(Algorithm):
                 k = early
                 continue
             found = self._state_event(t, t_end)
+            if found is not None and not retaken and \
+                    not all(c.repeats_steps() for c in self.comps):
+                self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
+                retaken = True  # from the saved states alone, as the steps to the event will be
+                continue
             changed = self._fns["discrete"]() != before
             err = math.nan
             # a change in a step that ends at a time event is that event's, at the end
@@ -242,10 +255,11 @@ class Adaptive(Algorithm):
                 point(t)
                 step(t, first)
                 found = self._state_event(t, mid)
-                point(mid)
-                step(mid, t_end - mid)
-                found = found if found is not None else self._state_event(mid, t_end)
-                err = self._error(big, self._values())
+                if found is None or not stop:
+                    point(mid)
+                    step(mid, t_end - mid)
+                    found = found if found is not None else self._state_event(mid, t_end)
+                    err = self._error(big, self._values())
             if found is not None and relocated < MAX_RELOCATE:
                 relocated += 1
                 self._undo(saved, Attempt(m, k, math.nan, False, t, whole))
