@@ -510,8 +510,9 @@ class Component:
     #: state event found at the very end of a `do_step` waits for `event`
     hold_events = False
     #: set by that master before a `do_step` it will take again to end at a state event met
-    #: inside it: the step may end there, the event unhandled (`state_event` says when)
-    stop_at_events = False
+    #: inside it, to a tolerance [s]: a state event more than this after the step's start and
+    #: before its end may end the step there, unhandled (`state_event` says when); None: never
+    stop_at_events: float | None = None
 
     def state_event(self) -> float | None:
         """After `do_step`: the time [s] of the first state event it met inside its step, one

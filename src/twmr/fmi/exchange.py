@@ -18,8 +18,8 @@ its events, as the FMI standard's importer algorithm does it.
   the last `advance`. CVODE starts every integration with the same first step (`INIT_STEP`,
   not chosen from the end time), so integrations from one restart to different end times take the
   same internal steps and find a crossing at the same time: a step retried up to a located event
-  finds it again at its end. With `stop_inside` set, a state event before the end time ends
-  `advance` there, unhandled.
+  finds it again at its end. With `stop_inside` set, a state event inside the integration (to
+  that tolerance from its ends) ends `advance` there, unhandled.
 - **Saves**: CVODE goes on with its history across a `save` (a restart costs it many small
   first-order steps) and restarts at a `restore`; `continued` says that the integration since
   the last save did not start from a restart there.
@@ -68,8 +68,9 @@ class Integrator:
         self.next_event: float | None = None
         self.events = 0
         self.hold = False
-        #: a state event met before the end time ends `advance` there, unhandled
-        self.stop_inside = False
+        #: a tolerance [s]: a state event met more than this after the start of `advance` and
+        #: before its end time ends it there, unhandled; None: never
+        self.stop_inside: float | None = None
         self.held = False
         self.state_event: float | None = None
         self._solver: Any = None
@@ -197,6 +198,7 @@ class Integrator:
         """Integrate from the current time to t_end [s], handling every event on the way."""
         f = self.fmu
         guard = 0
+        t_start = self.t
         self.state_event = None
         self.handle_held()  # not handled by the master: before going on
         if not _close(self.t, t_end):
@@ -229,7 +231,8 @@ class Integrator:
             time_event = time_event and _close(t_reached, target)
             if state_event and self.state_event is None:
                 self.state_event = t_reached
-                if self.stop_inside and t_reached < t_end:
+                tol = self.stop_inside
+                if tol is not None and t_start + tol < t_reached < t_end - tol:
                     return  # the master takes the step again to end here
             if state_event and self.hold and t_reached == t_end and not (time_event or
                                                                          step_event):

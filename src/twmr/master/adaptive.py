@@ -220,7 +220,7 @@ class Adaptive(Algorithm):
             saved = [c.get_state() for c in self.comps]
             stop = relocated < MAX_RELOCATE  # an event inside: the step is taken again
             for comp in self.comps:
-                comp.stop_at_events = stop
+                comp.stop_at_events = EVENT_TOL * h if stop else None
             pending: list[Any] = []
             point(t)
             record(t, pending)
@@ -316,14 +316,12 @@ class Adaptive(Algorithm):
             comp.release_state(state)
 
     def _state_event(self, t: float, t_end: float) -> float | None:
-        """The earliest state event a component met in the steps from t to t_end [s], when it
-        lies before t_end and not at t (within `EVENT_TOL` base steps of it); None: none."""
-        events = [e for c in self.comps if (e := c.state_event()) is not None]
-        if not events:
-            return None
-        first = min(events)
+        """The earliest state event the components met in the steps from t to t_end [s] that lies
+        inside them (more than `EVENT_TOL` base steps from either end); None: none."""
         tol = EVENT_TOL * self.h
-        return first if t + tol < first < t_end - tol else None
+        inside = [e for c in self.comps if (e := c.state_event()) is not None and
+                  t + tol < e < t_end - tol]
+        return min(inside, default=None)
 
     def _held_at(self, t_end: float) -> float | None:
         """t_end [s] when a component met a state event at the very end of the last step (it
