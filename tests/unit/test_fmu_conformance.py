@@ -33,7 +33,7 @@ FT = 3.28084
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory) -> dict[str, str]:
     out = tmp_path_factory.mktemp("conformance")
-    built = {"bounce2": str(build_c_fmu("bounce2", out))}
+    built = {n: str(build_c_fmu(n, out)) for n in ("bounce2", "discin2")}
     built.update({n: str(build_c_fmu(n, out, fmi3=True)) for n in ("bounce3", "roberts3",
                                                                      "types3")})
     return built
@@ -240,3 +240,23 @@ def test_model_exchange_steps_rerun_after_a_restore_are_bit_identical(fmus, solv
     finally:
         ball.terminate()
         other.terminate()
+
+
+def test_a_step_whose_input_changed_at_its_start_repeats_from_a_save(fmus) -> None:
+    """A continuous input changed after a save restarts CVODE there, so the step from the save
+    does not depend on the history before it (`repeats_steps`); an unchanged one lets CVODE go
+    on with its history."""
+    comp = FmuComponent("d", fmus["discin2"], interface="model_exchange")
+    comp.setup(0.0, None)
+    comp.initialize()
+    integ = comp._integrator
+    try:
+        for k, u in enumerate([1.0, 1.0, 1.0, 2.0, 2.0]):
+            integ.save()  # as the adaptive master's get_state does (discin2 has no FMU state)
+            comp.u = u
+            comp.evaluate(k * 0.1)
+            comp.do_step(k * 0.1, 0.1)
+            assert comp.repeats_steps() == (k in (0, 3)), k
+        assert comp.x == pytest.approx(0.3 + 0.4, abs=1e-6)
+    finally:
+        comp.terminate()

@@ -22,7 +22,8 @@ its events, as the FMI standard's importer algorithm does it.
   that tolerance from its ends) ends `advance` there, unhandled.
 - **Saves**: CVODE goes on with its history across a `save` (a restart costs it many small
   first-order steps) and restarts at a `restore`; `continued` says that the integration since
-  the last save did not start from a restart there.
+  the last save did not start from a restart there (at the save or after it, as when an input
+  changed).
 """
 from __future__ import annotations
 
@@ -78,6 +79,7 @@ class Integrator:
         self._fresh_at: float | None = None
         #: the integration since the last `save` went on from the solver's history at the save
         self.continued = False
+        self._saved = False  # a save since the last integration
         # fmpy reads FMI 3.0's needsCompletedIntegratorStep and FMI 2.0's
         # completedIntegratorStepNotNeeded into this one flag
         self.completed_needed = bool(md.modelExchange.needsCompletedIntegratorStep)
@@ -157,8 +159,8 @@ class Integrator:
     def save(self) -> tuple[float, float | None, int]:
         """What restoring the FMU's state needs from here: the time [s], the next time event and
         the count of events so far. The solver goes on with its history (`continued`, unless it
-        restarted here and has not moved since); a restore restarts it."""
-        self.continued = self.solver_name == "cvode" and self._fresh_at != self.t
+        restarts here before integrating); a restore restarts it."""
+        self.continued, self._saved = False, True
         return self.t, self.next_event, self.events
 
     def restore(self, saved: tuple[float, float | None, int]) -> None:
@@ -201,6 +203,9 @@ class Integrator:
         t_start = self.t
         self.state_event = None
         self.handle_held()  # not handled by the master: before going on
+        if self._saved:
+            self.continued = self.solver_name == "cvode" and self._fresh_at != self.t
+            self._saved = False
         if not _close(self.t, t_end):
             self._fresh_at = None
         while not _close(self.t, t_end) and self.t < t_end:
