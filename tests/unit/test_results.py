@@ -3,6 +3,7 @@ scipy, pyarrow), thousands of columns, a re-run that never destroys the previous
 from __future__ import annotations
 
 import json
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -139,6 +140,40 @@ def test_every_export_reads_back_every_double_exactly(tmp_path, name) -> None:
     if name == "csv":
         read = pd.read_csv(path)["a.b[1]"].to_numpy()
         assert np.array_equal(read, values[:, 1], equal_nan=True)
+
+
+def test_a_mat_variable_is_compressed_only_where_it_shrinks(tmp_path) -> None:
+    """The time (its regular bits), a constant and a stepped column are stored zlib-compressed,
+    a noise-like one raw (it would shrink a few per cent at ten times the cost); scipy reads
+    every one back exactly.
+    Parquet keeps a dictionary for the constant column only; pyarrow reads both back."""
+    import pyarrow.parquet as pq
+
+    from twmr.observers import writers
+
+    n = 200_000
+    values = np.column_stack([np.arange(n) * 1e-3, np.full(n, 2.5),
+                              np.repeat(np.arange(20.0), n // 20),
+                              np.random.default_rng(5).standard_normal(n)])
+    columns = ["time", "c.y", "s.y", "w.y"]
+    fmt = writers.result_formats(["mat", "parquet"])
+    fmt["mat"].write(tmp_path / "r.mat", columns, ["s", "", "", ""], values)
+    data = (tmp_path / "r.mat").read_bytes()
+    kinds, at = [], 128
+    while at < len(data):
+        kind, size = struct.unpack_from("<II", data, at)
+        kinds.append(kind)
+        at += 8 + size + (-size % 8 if kind != 15 else 0)
+    assert kinds[:4] == [15, 15, 15, 14]  # the noise raw (miMATRIX), the others compressed
+    m = scipy.io.loadmat(tmp_path / "r.mat")
+    assert np.array_equal(np.column_stack([np.ravel(m[n]) for n in
+                                           ("time", "c_y", "s_y", "w_y")]), values)
+    fmt["parquet"].write(tmp_path / "r.parquet", columns, ["s", "", "", ""], values)
+    meta = pq.ParquetFile(tmp_path / "r.parquet").metadata.row_group(0)
+    dictionary = [any("DICTIONARY" in e for e in meta.column(j).encodings)
+                  for j in range(4)]
+    assert dictionary == [False, True, False, False]
+    assert np.array_equal(pq.read_table(tmp_path / "r.parquet").to_pandas().to_numpy(), values)
 
 
 def test_exports_made_in_pieces_keep_row_order(tmp_path, monkeypatch) -> None:
