@@ -13,8 +13,9 @@ and as a ratio to `python -c pass` measured in the same run:
 - `twmr run scenarios/paper_trajectory1_asmc.yaml --quiet` (all 30,000 steps, compiled: what
   importing numba and loading the compiled kinds from its cache add to a run; no target).
 
-Targets (an idle machine): `twmr run` of the 1-step scenario < 0.4 s, `twmr run` of the paper
-scenario for one step < 1.0 s, `twmr check` of the paper scenario < 1.0 s.
+Targets (an idle machine): `twmr run` of the 1-step scenario < 0.4 s and at most 3x `python -c
+pass`, `twmr run` of the paper scenario for one step < 1.0 s, `twmr check` of the paper scenario
+< 1.0 s, the whole 30 s paper run (a warm cache) < 0.3 s.
 Then one `python -X importtime -m twmr.cli run` of the 1-step scenario lists which heavy modules
 (scipy.signal, scipy.interpolate, control, pandas, matplotlib, numba, jsonschema, dask,
 importlib.metadata: the entry points are read from their cache after the first start) it
@@ -51,7 +52,10 @@ record: {signals: [src.y, g.y]}
 """
 HEAVY = ("scipy.signal", "scipy.interpolate", "control", "pandas", "matplotlib", "numba",
          "jsonschema", "dask", "importlib.metadata")
-TARGETS = {"twmr_run_1step": 0.4, "twmr_run_paper_1step": 1.0, "twmr_check_paper": 1.0}
+TARGETS = {"twmr_run_1step": 0.4, "twmr_run_paper_1step": 1.0, "twmr_check_paper": 1.0,
+           "twmr_run_paper": 0.3}
+#: the most `twmr run` of the 1-step scenario may take, in runs of `python -c pass`
+TARGET_RATIO_1STEP = 3.0
 
 
 def twmr_script() -> str:
@@ -149,6 +153,9 @@ def main() -> None:
     for name, target in TARGETS.items():
         figures[f"target_{name}_s"] = target
         figures[f"target_{name}_met"] = median[name] < target
+    figures["target_twmr_run_1step_ratio_to_python"] = TARGET_RATIO_1STEP
+    figures["target_twmr_run_1step_ratio_met"] = \
+        figures["twmr_run_1step_ratio_to_python"] <= TARGET_RATIO_1STEP
     figures["twmr_run_1step_csv_mat_target_met"] = \
         median["twmr_run_1step_csv_mat"] < TARGETS["twmr_run_1step"]
     figures["csv_mat_files"] = written
