@@ -32,7 +32,7 @@ FAULTS = {1: "crashed (signal SIGSEGV) during doStep",
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("fmus")
-    return {name: build_c_fmu(name, folder) for name in ("lag2", "faulty")}
+    return {name: build_c_fmu(name, folder) for name in ("lag2", "faulty", "bounce2s")}
 
 
 def workers(fmu: Path) -> list[int]:
@@ -98,6 +98,28 @@ def test_isolated_lag2_has_the_same_ports_and_bit_identical_results(fmus) -> Non
     assert rb.columns == ra.columns and len(ra) == 2001
     np.testing.assert_array_equal(rb.data, ra.data)  # bit for bit
     assert np.ptp(rb["lag.y[1]"]) > 1.0  # it did follow its input
+
+
+def test_an_isolated_model_exchange_fmu_has_its_events_located_as_in_the_process(fmus) -> None:
+    """Under the adaptive master the worker's FMU holds, stops at and reports its state events
+    as one in the process does: the same rows bit for bit, each bounce in two rows at the
+    crossing CVODE finds."""
+    text = textwrap.dedent(f"""
+        components:
+          ball:
+            kind: fmu
+            parameters: {{path: {fmus["bounce2s"]}, interface: model_exchange, rtol: 1.0e-8,
+                          isolate: ISOLATE}}
+        experiment: {{stop: 1.2, step: 1.0e-3, algorithm: adaptive, rtol: 1.0e-6,
+                      atol: 1.0e-8, max_step: 0.1}}
+        record: {{signals: [ball.h, ball.v, ball.bounces]}}
+    """)
+    plain, isolated = (twmr.simulate(twmr.load(text.replace("ISOLATE", flag)))
+                       for flag in ("false", "true"))
+    np.testing.assert_array_equal(isolated.data, plain.data)
+    t = isolated["time"]
+    at = [t[i] for i in range(1, len(t)) if t[i] == t[i - 1]]
+    assert len(at) == 2 and abs(at[0] - (2 / 9.81) ** 0.5) < 1e-6
 
 
 @pytest.mark.parametrize("mode", sorted(FAULTS))

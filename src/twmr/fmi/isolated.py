@@ -41,7 +41,8 @@ TERMINATE_TIMEOUT = 5.0
 _CALLS = {"create": "loading", "prepare": "prepare", "setup": "instantiation",
           "initialize": "initialization", "evaluate": "evaluate (get/set of inputs and outputs)",
           "do_step": "doStep", "get_state": "getFMUstate", "set_state": "setFMUstate",
-          "release_state": "freeFMUstate", "terminate": "terminate"}
+          "release_state": "freeFMUstate", "event": "event mode (a held state event)",
+          "next_event": "the next time event", "terminate": "terminate"}
 _FIX = ("check the FMU's inputs and parameters at this time (the results up to it are saved), "
         "or report it to the FMU's vendor; anything the FMU printed is on standard error.")
 
@@ -85,6 +86,8 @@ class IsolatedFmu(Component):
         self._pending = False  # a call whose answer was not read (cut short by Ctrl-C)
         self._ended = "it was not started"
         self._t: float | None = None
+        #: after a step: (its first state event, its early event, whether it repeats)
+        self._met: tuple[float | None, float | None, bool] = (None, None, True)
 
     def check(self, given: frozenset[str]) -> list[tuple[str, str, str]]:
         return self._desc.check(given)
@@ -222,7 +225,7 @@ class IsolatedFmu(Component):
         self._t = start
         if self._conn is None:
             self._start()
-        self._call("setup", (start, stop))
+        self._call("setup", (start, stop, self.hold_events))
 
     def initialize(self) -> None:
         outputs = self._call("initialize", (self._settable(), self._inputs, self._outputs))
@@ -237,8 +240,34 @@ class IsolatedFmu(Component):
     def do_step(self, t: float, h: float) -> None:
         self._t = t
         d = self.__dict__
-        values = self._call("do_step", (t, h, tuple([d[n] for n in self._inputs])))
+        values, self._met = self._call("do_step", (t, h, tuple([d[n] for n in self._inputs]),
+                                                   self.stop_at_events))
         d.update(zip(self._outputs, values, strict=False))
+
+    # -- events, as the worker's FmuComponent meets them (`twmr.master.adaptive`) -------------
+    def state_event(self) -> float | None:
+        return self._met[0]
+
+    def early_event(self) -> float | None:
+        return self._met[1]
+
+    def repeats_steps(self) -> bool:
+        return self._met[2]
+
+    def event(self, t: float) -> None:
+        if self._met[0] is None:
+            return  # nothing met in the last step: nothing held
+        self._t = t
+        self.__dict__.update(zip(self._outputs, self._call("event", (t,)), strict=False))
+
+    def next_event(self, t: float) -> float | None:
+        return self._call("next_event", (t,)) if self._conn is not None else None
+
+    def events_unseen(self) -> str | None:
+        return self._desc.events_unseen()
+
+    def controls_its_error(self) -> bool:
+        return self._desc.controls_its_error()
 
     def get_state(self) -> Any:
         """(the worker's `FmuComponent` state, these ports and time): the FMU's own state
@@ -253,6 +282,7 @@ class IsolatedFmu(Component):
         worker, values = state
         self._call("set_state", (worker,))
         super().set_state(values)
+        self._met = (None, None, True)
 
     def why_no_state(self) -> str:
         return self._desc.why_no_state()

@@ -73,7 +73,8 @@ class _Server:
                                     outputs_as_stepped=outputs_as_stepped,
                                     steps_retaken=steps_retaken, fmu_log=fmu_log))
 
-    def setup(self, start: float, stop: float | None) -> None:
+    def setup(self, start: float, stop: float | None, hold_events: bool = False) -> None:
+        self.fmu.hold_events = hold_events
         self.fmu.setup(start, stop)
 
     def initialize(self, values: dict[str, Any], inputs: tuple[str, ...],
@@ -90,11 +91,26 @@ class _Server:
         self.fmu.evaluate(t)
         return [d[n] for n in self.outputs]
 
-    def do_step(self, t: float, h: float, inputs: tuple[Any, ...]) -> list[Any]:
+    def do_step(self, t: float, h: float, inputs: tuple[Any, ...],
+                stop_at_events: float | None = None
+                ) -> tuple[list[Any], tuple[float | None, float | None, bool]]:
+        """The outputs after the step, and what it met: (its first state event, its early
+        event, whether it repeats from a save)."""
         d = self.values
         d.update(zip(self.inputs, inputs, strict=False))
-        self.fmu.do_step(t, h)
-        return [d[n] for n in self.outputs]
+        fmu = self.fmu
+        fmu.stop_at_events = stop_at_events
+        fmu.do_step(t, h)
+        return ([d[n] for n in self.outputs],
+                (fmu.state_event(), fmu.early_event(), fmu.repeats_steps()))
+
+    def event(self, t: float) -> list[Any]:
+        """A state event held at the end of the last step handled; the outputs after it."""
+        self.fmu.event(t)
+        return [self.values[n] for n in self.outputs]
+
+    def next_event(self, t: float) -> float | None:
+        return self.fmu.next_event(t)
 
     def get_state(self) -> Any:
         """The FMU's state as plain values (bytes, or a token for a state held by the FMU)."""
