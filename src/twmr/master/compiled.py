@@ -60,6 +60,7 @@ from twmr.core.errors import Location, Problem
 from twmr.core.kernel import AUTO_MIN_STEPS, Kernel, compiled_pays
 from twmr.master import driver, scenario_loop, stats
 from twmr.master.algorithm import Algorithm, CompileError, NonFinite
+from twmr.master.compile_progress import compile_progress
 from twmr.master.plan import METHODS
 from twmr.master.scenario_loop import (
     HELD_LOOP,
@@ -228,19 +229,21 @@ class CompiledStep(Algorithm):
         comps = system.components
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
-        kinds = ready[1] if ready is not None else \
-            kinds_of(system, kernels) if self.use_driver else None
-        if kinds is not None and own_loop(system, self.python.plan, kernels) is None:
-            self._compile_driver(kinds, kernels, t0)
-            return
-        failure = self._compile_loop(kernels, t0)
-        if failure is not None and kinds is None and self.use_driver:  # `_ready`'s own loop
-            kinds = kinds_of(system, kernels)
-        if failure is not None and kinds is not None:
-            log.debug("the system's own loop did not compile (%s); the driver runs it", failure)
-            self._compile_driver(kinds, kernels, t0)
-        elif failure is not None:
-            self._refuse(failure)
+        with compile_progress("the step loop"):
+            kinds = ready[1] if ready is not None else \
+                kinds_of(system, kernels) if self.use_driver else None
+            if kinds is not None and own_loop(system, self.python.plan, kernels) is None:
+                self._compile_driver(kinds, kernels, t0)
+                return
+            failure = self._compile_loop(kernels, t0)
+            if failure is not None and kinds is None and self.use_driver:  # `_ready`'s loop
+                kinds = kinds_of(system, kernels)
+            if failure is not None and kinds is not None:
+                log.debug("the system's own loop did not compile (%s); the driver runs it",
+                          failure)
+                self._compile_driver(kinds, kernels, t0)
+            elif failure is not None:
+                self._refuse(failure)
 
     def _compile_loop(self, kernels: dict[str, Kernel], t0: float) -> Exception | None:
         """Take (or generate and compile) the loop generated for the system (`held_loop`); the
