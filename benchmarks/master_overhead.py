@@ -10,8 +10,9 @@ Both run 100,000 steps in this process, interleaved and repeated, and the ratio 
 reported. Then a 1-hour simulated run at 1 kHz with 10 recorded signals measures steps/second and
 resident memory sampled along the run from an observer's `rows()` callback (called about every
 0.1 s of wall time; it must stay flat: results stream to disk). The same hour through
-`twmr.simulate` into a folder without exports and with CSV, MAT and Parquet
-(`long_run_exports_ratio`: what the three exports add, everything included).
+`twmr.simulate` into a folder without exports and with CSV, MAT and Parquet, interleaved for
+`--export-rounds` rounds (`long_run_exports_ratio`: the ratio of the medians, what the three
+exports add, everything included; `long_run_exports_ratio_spread`: the rounds' own ratios).
 
 Last line: one JSON object with the figures.
 """
@@ -122,6 +123,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--long-seconds", type=float, default=3600.0, help="simulated seconds")
+    parser.add_argument("--export-rounds", type=int, default=3,
+                        help="rounds of the long run without and with exports, interleaved")
     args = parser.parse_args()
     h = 1e-3
     hand, master, build = [], [], []
@@ -154,8 +157,12 @@ def main() -> None:
     wall = time.perf_counter() - t0
     quarter = max(1, len(samples) // 4)
     exported_run(long_steps, h, ten, ())  # the first pays loading the kinds, paging memory in
-    plain = exported_run(long_steps, h, ten, ())
-    exports = exported_run(long_steps, h, ten, ("csv", "mat", "parquet"))
+    plains, exported = [], []
+    for _ in range(args.export_rounds):  # interleaved: the machine's pace moves both alike
+        plains.append(exported_run(long_steps, h, ten, ()))
+        exported.append(exported_run(long_steps, h, ten, ("csv", "mat", "parquet")))
+    plain, exports = statistics.median(plains), statistics.median(exported)
+    ratios = [e / p for e, p in zip(exported, plains, strict=True)]
     figures = {
         "steps": args.steps,
         "hand_loop_s": round(statistics.median(hand), 4),
@@ -180,6 +187,8 @@ def main() -> None:
         "long_run_simulate_s": round(plain, 2),
         "long_run_simulate_csv_mat_parquet_s": round(exports, 2),
         "long_run_exports_ratio": round(exports / plain, 2),
+        "long_run_exports_ratio_spread": [round(min(ratios), 2), round(max(ratios), 2)],
+        "long_run_export_rounds": args.export_rounds,
     }
     print(json.dumps(figures))
 
