@@ -142,16 +142,18 @@ def read_store(path: str | Path) -> tuple[list[str], list[str], np.ndarray, bool
     """(columns, units, rows x columns float64 array, complete) of a `result.arrows` file.
 
     `complete` is False when the stream ends in a torn batch (the writer died while writing it);
-    every whole batch before it is returned."""
+    every whole batch before it is returned. The file is read twice: mapped, for the batches'
+    sizes (their data untouched), then batch by batch into the array, so the rows are in memory
+    once (not as batches and array at the same time)."""
     import pyarrow as pa
 
-    with pa.OSFile(str(path)) as source:
+    with pa.memory_map(str(path)) as source:
         reader = pa.ipc.open_stream(source)
         schema = reader.schema
-        batches, complete = [], True
+        sizes, complete = [], True
         while True:
             try:
-                batches.append(reader.read_next_batch())
+                sizes.append(reader.read_next_batch().num_rows)
             except StopIteration:
                 break
             except (OSError, pa.ArrowInvalid):
@@ -159,12 +161,15 @@ def read_store(path: str | Path) -> tuple[list[str], list[str], np.ndarray, bool
                 break
     columns = list(schema.names)
     units = [(f.metadata or {}).get(b"unit", b"").decode() for f in schema]
-    data = np.zeros((sum(b.num_rows for b in batches), len(columns)))
+    data = np.zeros((sum(sizes), len(columns)))  # its pages taken as the rows are written
     row = 0
-    for b in batches:  # from the buffers: to_numpy() would import pandas (~0.15 s)
-        for j in range(len(columns)):
-            col = b.column(j)
-            data[row:row + b.num_rows, j] = np.frombuffer(
-                col.buffers()[1], dtype="<f8", count=len(col), offset=8 * col.offset)
-        row += b.num_rows
+    with pa.OSFile(str(path)) as source:
+        reader = pa.ipc.open_stream(source)
+        for n in sizes:
+            b = reader.read_next_batch()
+            for j in range(len(columns)):  # from the buffers: to_numpy() would import pandas
+                col = b.column(j)
+                data[row:row + n, j] = np.frombuffer(
+                    col.buffers()[1], dtype="<f8", count=len(col), offset=8 * col.offset)
+            row += n
     return columns, units, data, complete
