@@ -64,6 +64,28 @@ def test_store_stays_readable_when_its_last_chunk_is_torn(tmp_path) -> None:
     np.testing.assert_array_equal(values, result.values[: len(values)])
 
 
+def test_a_store_cut_short_between_its_two_reads_gives_the_rows_read(tmp_path,
+                                                                      monkeypatch) -> None:
+    """read_store sizes the batches from the file mapped, then reads them again: a file cut
+    short in between (a run overwriting it) gives the whole batches it still has, not an
+    error."""
+    import pyarrow
+
+    text = FIXTURE.read_text().replace("stop: 1.0", "stop: 50.0").replace("decimation: 2",
+                                                                           "decimation: 1")
+    result = twmr.simulate(twmr.load(text), tmp_path / "run")
+    raw = (result.folder / FILENAME).read_bytes()
+    shorter = tmp_path / "shorter.arrows"
+    shorter.write_bytes(raw[: len(raw) // 2])
+    whole = read_store(result.folder / FILENAME)
+    assert whole[3] and len(whole[2]) == len(result)
+    real = pyarrow.OSFile
+    monkeypatch.setattr(pyarrow, "OSFile", lambda path, *a: real(str(shorter), *a))
+    _columns, _, values, intact = read_store(result.folder / FILENAME)
+    assert not intact and 0 < len(values) < len(result)
+    np.testing.assert_array_equal(values, result.values[: len(values)])
+
+
 def test_three_thousand_columns(tmp_path) -> None:
     scenario = {"components": {f"c{i}": {"kind": "constant", "parameters": {"value": float(i)}}
                                for i in range(3000)},

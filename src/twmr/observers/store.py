@@ -166,7 +166,10 @@ def read_store(path: str | Path) -> tuple[list[str], list[str], np.ndarray, bool
     with pa.OSFile(str(path)) as source:
         reader = pa.ipc.open_stream(source)
         for n in sizes:
-            b = reader.read_next_batch()
+            try:
+                b = reader.read_next_batch()
+            except (StopIteration, OSError, pa.ArrowInvalid):  # cut short since it was mapped
+                return columns, units, data[:row], False
             for j in range(len(columns)):  # from the buffers: to_numpy() would import pandas
                 col = b.column(j)
                 data[row:row + n, j] = np.frombuffer(
