@@ -3,6 +3,7 @@ ends; one that ends quickly says nothing."""
 from __future__ import annotations
 
 import logging
+import threading
 import time
 
 import pytest
@@ -36,4 +37,16 @@ def test_a_quick_compile_says_nothing(caplog) -> None:
     caplog.set_level(logging.INFO, logger="twmr.run")
     with progress.compile_progress("the step loop"):
         pass
+    assert lines(caplog) == []
+
+
+@pytest.mark.timeout(60)
+def test_nothing_is_watched_where_no_compile_is_likely(caplog, monkeypatch) -> None:
+    """Every kind held by the process: no thread is started (a sweep's later runs)."""
+    monkeypatch.setattr(progress, "FIRST", 0.0)
+    caplog.set_level(logging.INFO, logger="twmr.run")
+    before = threading.active_count()
+    with progress.compile_progress("the step loop", likely=False):
+        assert threading.active_count() == before
+        time.sleep(0.05)
     assert lines(caplog) == []

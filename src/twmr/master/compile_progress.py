@@ -17,8 +17,12 @@ FIRST, EVERY = 2.0, 5.0
 
 
 @contextmanager
-def compile_progress(what: str) -> Iterator[None]:
-    """Log how long compiling `what` has taken while the block runs longer than `FIRST` s."""
+def compile_progress(what: str, likely: bool = True) -> Iterator[None]:
+    """Log how long compiling `what` has taken while the block runs longer than `FIRST` s;
+    nothing (no thread started) unless a compile is `likely`."""
+    if not likely:
+        yield
+        return
     done = threading.Event()
     t0 = time.perf_counter()
 

@@ -229,9 +229,10 @@ class CompiledStep(Algorithm):
         comps = system.components
         self._kernels = [kernels[n] for n in order]
         self._comps = [comps[n] for n in order]
-        with compile_progress("the step loop"):
-            kinds = ready[1] if ready is not None else \
-                kinds_of(system, kernels) if self.use_driver else None
+        kinds = ready[1] if ready is not None else \
+            kinds_of(system, kernels) if self.use_driver else None
+        held = kinds is not None and driver.held(list(kinds.values()))
+        with compile_progress("the step loop", likely=not held):
             if kinds is not None and own_loop(system, self.python.plan, kernels) is None:
                 self._compile_driver(kinds, kernels, t0)
                 return
