@@ -241,13 +241,13 @@ class Mat(ResultFormat):
         content["variables"] = np.array([mat_name(n) for n in columns], dtype=object)
         content["units"] = np.array(units, dtype=object)
 
-        def element(name: str) -> bytes:  # the variable's miMATRIX element
+        def element(name: str) -> bytes | memoryview:  # the variable's miMATRIX element
             raw = BytesIO()
             scipy.io.savemat(raw, {name: content[name]}, do_compression=False,
                              long_field_names=True)
             body = raw.getbuffer()[_MAT_HEADER:]
             if not _compresses(body):
-                return bytes(body)
+                return body
             packed = zlib.compress(body, MAT_ZLIB_LEVEL)
             return struct.pack("<II", _MI_COMPRESSED, len(packed)) + packed
 
