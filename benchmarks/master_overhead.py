@@ -12,7 +12,10 @@ resident memory sampled along the run from an observer's `rows()` callback (call
 0.1 s of wall time; it must stay flat: results stream to disk). The same hour through
 `twmr.simulate` into a folder without exports and with CSV, MAT and Parquet, interleaved for
 `--export-rounds` rounds (`long_run_exports_ratio`: the ratio of the medians, what the three
-exports add, everything included; `long_run_exports_ratio_spread`: the rounds' own ratios).
+exports add, everything included; `long_run_exports_ratio_spread`: the rounds' own ratios), and
+the time of writing as many bytes as the three files hold, 1 MB at a time, into a new file
+(`long_run_exports_write_s`, and over the run without exports: the least the exports can add
+on this machine, before any formatting).
 
 Last line: one JSON object with the figures.
 """
@@ -102,14 +105,28 @@ def master_run(n_steps: int, h: float, record: str, sample=None) -> Outcome:
     return outcome
 
 
-def exported_run(n_steps: int, h: float, record: str, formats: tuple[str, ...]) -> float:
-    """Wall time [s] of `twmr.simulate` into a temporary folder with the exports `formats`
+def exported_run(n_steps: int, h: float, record: str, formats: tuple[str, ...]
+                 ) -> tuple[float, int]:
+    """(wall time [s] of `twmr.simulate` into a temporary folder with the exports `formats`
     (written from result.arrows after the run, as `twmr run --format` does), everything
-    included."""
+    included; bytes of the exports written)."""
     text = SCENARIO.replace("STOP", repr(n_steps * h)).replace("RECORD", record)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        twmr.simulate(twmr.load(text), Path(tmp) / "out", formats=formats)
+        result = twmr.simulate(twmr.load(text), Path(tmp) / "out", formats=formats)
+        wall = time.perf_counter() - t0
+        return wall, sum((result.folder / f"result.{f}").stat().st_size for f in formats)
+
+
+def write_time(size: int) -> float:
+    """Wall time [s] of writing `size` bytes (1 MB at a time) to a new file in the temporary
+    folder: what storing the exports costs on this machine before any formatting."""
+    block = np.random.default_rng(0).bytes(1 << 20)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        with open(Path(tmp) / "floor.bin", "wb") as f:
+            for _ in range(size >> 20):
+                f.write(block)
         return time.perf_counter() - t0
 
 
@@ -158,9 +175,12 @@ def main() -> None:
     quarter = max(1, len(samples) // 4)
     exported_run(long_steps, h, ten, ())  # the first pays loading the kinds, paging memory in
     plains, exported = [], []
+    size = 0
     for _ in range(args.export_rounds):  # interleaved: the machine's pace moves both alike
-        plains.append(exported_run(long_steps, h, ten, ()))
-        exported.append(exported_run(long_steps, h, ten, ("csv", "mat", "parquet")))
+        plains.append(exported_run(long_steps, h, ten, ())[0])
+        took, size = exported_run(long_steps, h, ten, ("csv", "mat", "parquet"))
+        exported.append(took)
+    floor = write_time(size)
     plain, exports = statistics.median(plains), statistics.median(exported)
     ratios = [e / p for e, p in zip(exported, plains, strict=True)]
     figures = {
@@ -189,6 +209,9 @@ def main() -> None:
         "long_run_exports_ratio": round(exports / plain, 2),
         "long_run_exports_ratio_spread": [round(min(ratios), 2), round(max(ratios), 2)],
         "long_run_export_rounds": args.export_rounds,
+        "long_run_exports_mb": round(size / 1e6),
+        "long_run_exports_write_s": round(floor, 2),
+        "long_run_exports_write_over_plain": round(floor / plain, 2),
     }
     print(json.dumps(figures))
 
