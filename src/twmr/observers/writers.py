@@ -33,8 +33,8 @@ UNITS_FILE = "units.json"
 CSV_ROWS = 100_000
 #: zlib level of the MAT export's variables (1: a few % larger than MATLAB's default, 2x faster)
 MAT_ZLIB_LEVEL = 1
-#: a MAT variable is stored compressed when samples of it shrink below this fraction (smooth
-#: float signals shrink about 10 % at a tenth of the speed of writing them raw)
+#: a MAT variable is stored compressed when samples of it shrink below this fraction (a smooth
+#: float signal hardly shrinks, at many times the cost of writing it raw)
 MAT_COMPRESS_BELOW = 0.8
 #: bytes of each of the three samples (start, middle, end) that decide it
 MAT_SAMPLE = 1 << 16
