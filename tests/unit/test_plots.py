@@ -130,3 +130,18 @@ def test_values_over_decades_go_on_a_log_axis() -> None:
     assert not spans_decades([0.1, 0.12, 0.2, 5.0])  # within two decades
     assert not spans_decades([-1.0, 0.1, 40.0])  # not all positive
     assert spans_decades([np.nan, 1e-3, 1.0])  # what is not finite is left out
+
+
+def test_twmr_plot_of_an_empty_or_header_only_csv_says_so(tmp_path: Path, capsys) -> None:
+    from twmr.cli import main
+
+    (tmp_path / "empty.csv").write_text("")
+    (tmp_path / "header.csv").write_text("time,a\n")
+    (tmp_path / "gap.csv").write_text("time,a\n\n0,1\n1,3\n")
+    assert main(["plot", str(tmp_path / "empty.csv")]) == 1
+    assert "the file is empty (no header row" in capsys.readouterr().err
+    assert main(["plot", str(tmp_path / "header.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "holds no samples" in err and "Warning" not in err
+    assert main(["plot", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "p")]) == 0
+    assert twmr.read_result(tmp_path / "gap.csv").values.tolist() == [[0.0, 1.0], [1.0, 3.0]]

@@ -13,6 +13,7 @@ import logging
 import os
 import re
 import struct
+import warnings
 import zlib
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -175,11 +176,22 @@ class Csv(ResultFormat):
         import csv
 
         with open(path) as f:
-            columns = next(csv.reader([f.readline()]))
-        try:
-            values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-        except ValueError:  # a column of text, an empty cell: NaN there, the numbers kept
-            values = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float, ndmin=2)
+            header = f.readline()
+            if not header.strip():
+                raise CosimError(f"{path}: the file is empty (no header row of column names). "
+                                 f"Fix: give a CSV whose first row names the columns, 'time' "
+                                 f"first.")
+            columns = next(csv.reader([header]))
+        with warnings.catch_warnings():  # a header without rows: no samples, said by the caller
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data")
+            warnings.filterwarnings("ignore", "genfromtxt: Empty input file")
+            try:
+                values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            except ValueError:  # a column of text, an empty cell: NaN there, the numbers kept
+                values = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float,
+                                       ndmin=2)
+        if not values.size:
+            values = np.empty((0, len(columns)))
         try:
             unit_of = json.loads((path.parent / UNITS_FILE).read_text())
         except (OSError, ValueError):

@@ -362,8 +362,8 @@ class _Builder:
                 continue
             if var.kind not in allowed and not (loc.file == OVERRIDE and var.kind in SETTABLE):
                 other = "initial" if section == "parameters" else "parameters"
-                self.problems.append(Problem(loc, f"'{name}.{key}' is a {var.kind}; it is not set "
-                                             f"under '{section}:'.",
+                self.problems.append(Problem(loc, f"'{name}.{key}' is {_a(var.kind)}; it is not "
+                                             f"set under '{section}:'.",
                                              f"move it under '{other}:'."))
                 continue
             try:
@@ -380,7 +380,7 @@ class _Builder:
         where = f"'{name}.{key}[{index}]'"
         if var.kind not in allowed and not (given.where.file == OVERRIDE and
                                             var.kind in SETTABLE):
-            self.problems.append(Problem(given.where, f"{where}: '{key}' is a {var.kind}; it "
+            self.problems.append(Problem(given.where, f"{where}: '{key}' is {_a(var.kind)}; it "
                                          f"is not set under '{section}:'.",
                                          "set a parameter, a state or an input."))
             return
@@ -781,3 +781,8 @@ def _expected(var: Any) -> str:
               f"{var.max if var.max is not None else 'inf'}]"
     unit = f" in {var.unit_text}" if var.unit_text not in ("1", "") else ""
     return f"{what}{unit}{rng}"
+
+
+def _a(word: str) -> str:
+    """`word` with its indefinite article: 'an input', 'a state'."""
+    return f"{'an' if word[:1] in 'aeiou' else 'a'} {word}"
