@@ -216,3 +216,29 @@ def test_exports_made_in_pieces_keep_row_order(tmp_path, monkeypatch) -> None:
     m = scipy.io.loadmat(tmp_path / "r.mat")
     assert np.array_equal(np.column_stack([np.ravel(m[n]) for n in
                                            ("time", "p_y_1", "p_y_2", "q_y", "r_s")]), values)
+
+
+@pytest.mark.parametrize(("text", "columns", "values"), [
+    (b"\xef\xbb\xbftime,a\n0,1\n1,4\n", ["time", "a"], [[0, 1], [1, 4]]),  # Excel's BOM
+    (b"time;a\r\n0;1,5\r\n1;2,25\r\n", ["time", "a"], [[0, 1.5], [1, 2.25]]),  # decimal comma
+    (b"time\tTemp \xb0C\n0\t1\n1\t2\n", ["time", "Temp \u00b0C"], [[0, 1], [1, 2]]),  # Latin-1
+    (b"time,a\n0,\n1,x\n", ["time", "a"], [[0, np.nan], [1, np.nan]]),  # empty and text: NaN
+], ids=["bom", "semicolon", "tab-latin1", "nan"])
+def test_csv_files_from_spreadsheets_and_loggers_read(tmp_path, text, columns, values) -> None:
+    (tmp_path / "data.csv").write_bytes(text)
+    result = twmr.read_result(tmp_path / "data.csv")
+    assert result.columns == columns
+    np.testing.assert_array_equal(result.values, np.array(values, dtype=float))
+
+
+@pytest.mark.parametrize(("text", "said"), [
+    (b"time,a,b\n0,1,2\n1,2\n", "line 3 has 2 values where the rows before it have 3"),
+    (b"time;a\n0;1\n1;2;3\n", "line 3 has 3 values where the rows before it have 2"),
+    (b"time,a,b\n0,1\n1,2\n", "the header names 3 column(s) but the rows hold 2 value(s)"),
+    (b"", "the file is empty"),
+], ids=["short-row", "long-row-semicolon", "short-header", "empty"])
+def test_a_csv_of_uneven_rows_is_named_by_its_line(tmp_path, text, said) -> None:
+    (tmp_path / "data.csv").write_bytes(text)
+    with pytest.raises(twmr.CosimError, match=r"data\.csv: ") as err:
+        twmr.read_result(tmp_path / "data.csv")
+    assert said in str(err.value) and "Fix:" in str(err.value)

@@ -173,30 +173,77 @@ class Csv(ResultFormat):
                 out.writerow([f"{t:.17g}", *("" if v is None else v.hex() for v in row)])
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
-        import csv
-
-        with open(path) as f:
-            header = f.readline()
-            if not header.strip():
-                raise CosimError(f"{path}: the file is empty (no header row of column names). "
-                                 f"Fix: give a CSV whose first row names the columns, 'time' "
-                                 f"first.")
-            columns = next(csv.reader([header]))
-        with warnings.catch_warnings():  # a header without rows: no samples, said by the caller
-            warnings.filterwarnings("ignore", "loadtxt: input contained no data")
-            warnings.filterwarnings("ignore", "genfromtxt: Empty input file")
-            try:
-                values = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-            except ValueError:  # a column of text, an empty cell: NaN there, the numbers kept
-                values = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=float,
-                                       ndmin=2)
-        if not values.size:
-            values = np.empty((0, len(columns)))
+        columns, values = read_csv_table(path)
         try:
             unit_of = json.loads((path.parent / UNITS_FILE).read_text())
         except (OSError, ValueError):
             unit_of = {}
         return columns, [unit_of.get(c, "") for c in columns], values.reshape(-1, len(columns))
+
+
+#: the separators a CSV may use, as the header shows: ',' and, from spreadsheets set for a
+#: decimal comma, ';' (then '0,5' is 0.5) or a tab
+CSV_SEPARATORS = (",", ";", "\t")
+
+
+def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
+    """(column names, float64 rows) of a CSV: a header row of names, then rows of numbers (an
+    empty or text cell reads as NaN). The header may start with a byte-order mark and be in
+    UTF-8 or Latin-1; the separator is the one of `CSV_SEPARATORS` the header uses most.
+    CosimError for an empty file and for rows whose length differs from the header's."""
+    import csv
+
+    with open(path, "rb") as f:
+        raw = f.readline()
+    try:
+        header = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        header = raw.decode("latin-1")
+    if not header.strip():
+        raise CosimError(f"{path}: the file is empty (no header row of column names). Fix: give "
+                         f"a CSV whose first row names the columns, 'time' first.")
+    sep = max(CSV_SEPARATORS, key=header.count)
+    columns = [c.strip() for c in next(csv.reader([header], delimiter=sep))]
+    source: Any = path
+    if sep == ";":  # a decimal comma
+        with open(path, "rb") as f:
+            f.readline()
+            source = BytesIO(f.read().replace(b",", b"."))
+    with warnings.catch_warnings():  # a header without rows: no samples, said by the caller
+        warnings.filterwarnings("ignore", "loadtxt: input contained no data")
+        warnings.filterwarnings("ignore", "genfromtxt: Empty input file")
+        skip = 0 if sep == ";" else 1
+        try:
+            values = np.loadtxt(source, delimiter=sep, skiprows=skip, ndmin=2,
+                                encoding="latin-1")  # numbers: any byte decodes
+        except ValueError:  # a column of text, an empty cell: NaN there, the numbers kept
+            if isinstance(source, BytesIO):
+                source.seek(0)
+            try:
+                values = np.genfromtxt(source, delimiter=sep, skip_header=skip, dtype=float,
+                                       ndmin=2, encoding="latin-1")
+            except ValueError as err:
+                raise CosimError(f"{path}: {_ragged(str(err), 1 - skip)}. Fix: give every row "
+                                 f"one value per column of the header ({len(columns)}), an "
+                                 f"empty cell where a value is missing.") from None
+    if not values.size:
+        return columns, np.empty((0, len(columns)))
+    if values.shape[1] != len(columns):
+        raise CosimError(f"{path}: the header names {len(columns)} column(s) but the rows hold "
+                         f"{values.shape[1]} value(s). Fix: give every row one value per column "
+                         f"of the header, an empty cell where a value is missing.")
+    return columns, values
+
+
+def _ragged(numpy_says: str, lines_before: int) -> str:
+    """numpy's report of rows of different lengths, as one sentence (its line numbers count
+    from the text it was given: `lines_before` lines of the file precede that)."""
+    found = re.search(r"Line #(\d+) \(got (\d+) columns instead of (\d+)\)", numpy_says)
+    if not found:
+        return f"cannot read the rows as numbers ({numpy_says.strip()})"
+    line, got, wanted = found.groups()
+    return (f"line {int(line) + lines_before} has {got} values where the rows before it have "
+            f"{wanted}")
 
 
 def _arrow_columns(values: np.ndarray) -> list[Any]:
