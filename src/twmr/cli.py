@@ -236,8 +236,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
     results = [read_result(p) for p in paths]
     for path, result in zip(paths, results, strict=True):
         if not len(result):
-            raise CosimError(f"{path}: the result holds no samples, so there is nothing to plot. "
-                             f"Fix: give a result with rows (a run that recorded at least once).")
+            log.warning("warning: %s holds no samples (a header without rows, or a run cut "
+                        "short before its first rows reached the disk): its figures are empty.",
+                        path)
     first = paths[0]
     out = Path(args.out) if args.out else (first if first.is_dir() else first.parent) / "plots"
     if len(results) == 1 and not args.signals:
