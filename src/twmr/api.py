@@ -388,7 +388,10 @@ def sweep(scenario: str | Path, vary: dict[str, str] | Sequence[str], *, samples
     needs the usual `if __name__ == "__main__":` guard."""
     from twmr.sweeps import spec_from
     from twmr.sweeps import sweep as run_sweep
+    from twmr.sweeps.engine import refuse_unguarded_workers
 
+    if scheduler is None:
+        refuse_unguarded_workers()
     texts = [f"{k}={v}" for k, v in vary.items()] if isinstance(vary, dict) else list(vary)
     spec = spec_from(str(scenario), texts, samples=samples, method=method, seed=seed,
                      metrics=list(metrics), fixed=list(overrides))

@@ -65,7 +65,7 @@ def test_the_upright_pendulum_is_trimmed_and_linearised_there() -> None:
     np.testing.assert_allclose(np.log(z) / 0.001, analytic, rtol=0.01)
     # the same poles by finite differences through the start values (the states set)
     assert point.step_matrix is not None and point.step_matrix_error < 1e-6
-    np.testing.assert_allclose(np.sort(point.poles().real), z, rtol=1e-7)
+    np.testing.assert_allclose(np.sort(point.poles().real), z, rtol=1e-6)  # as the step map
 
 
 def test_more_unknowns_than_needed_give_one_point_of_the_family() -> None:

@@ -137,6 +137,19 @@ def vector_bases(scenario: Any, varies: list[Vary]) -> dict[str, Any]:
     return bases
 
 
+def refuse_unguarded_workers() -> None:
+    """SweepError when the running script starts local worker processes from its top level,
+    outside `if __name__ == "__main__":` (each worker would import it again and start its own):
+    said before any worker starts, from the public call, so the traceback is short."""
+    unguarded = unguarded_call()
+    if unguarded is not None:
+        raise SweepError(f"{unguarded[0]} line {unguarded[1]} starts local worker processes at "
+                         f"the script's top level; each worker imports the script again "
+                         f"(multiprocessing's spawn) and would start its own. Fix: put that "
+                         f"call, and what it needs, under `if __name__ == \"__main__\":` (or "
+                         f"give scheduler= a running cluster).")
+
+
 def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = False,
                 pooled: bool = True) -> tuple[Any, Any]:
     """(client, cluster or None): a LocalCluster of worker processes on 127.0.0.1 (with its
@@ -170,13 +183,7 @@ def dask_client(workers: int | None, scheduler: str | None, dashboard: bool = Fa
         client = _pool_client(workers)
         if client is not None:
             return client, None
-    unguarded = unguarded_call()
-    if unguarded is not None:
-        raise SweepError(f"{unguarded[0]} line {unguarded[1]} starts local worker processes at "
-                         f"the script's top level; each worker imports the script again "
-                         f"(multiprocessing's spawn) and would start its own. Fix: put that "
-                         f"call, and what it needs, under `if __name__ == \"__main__\":` (or "
-                         f"give scheduler= a running cluster).")
+    refuse_unguarded_workers()
     n = workers or os.cpu_count() or 1
     cluster = None
     try:
