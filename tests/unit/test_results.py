@@ -242,3 +242,41 @@ def test_a_csv_of_uneven_rows_is_named_by_its_line(tmp_path, text, said) -> None
     with pytest.raises(twmr.CosimError, match=r"data\.csv: ") as err:
         twmr.read_result(tmp_path / "data.csv")
     assert said in str(err.value) and "Fix:" in str(err.value)
+
+
+def test_a_mat_file_saved_by_matlab_or_a_logger_reads_as_columns(tmp_path) -> None:
+    """Not twmr's export: vectors (row or column), a matrix as name[j], a struct's fields as
+    struct.field (Simulink's 'structure with time'), time first; scalars and text left out."""
+    t = np.arange(5) * 0.1
+    scipy.io.savemat(tmp_path / "log.mat", {
+        "x": t ** 2, "Ts": 0.1, "note": "bench 3", "time": t.reshape(1, -1),
+        "pose": np.column_stack([t, 2 * t])})
+    log = twmr.read_result(tmp_path / "log.mat")
+    assert log.columns == ["time", "x", "pose[1]", "pose[2]"]
+    np.testing.assert_array_equal(log.values, np.column_stack([t, t ** 2, t, 2 * t]))
+    scipy.io.savemat(tmp_path / "yout.mat", {"yout": {"signals": {"values": np.column_stack(
+        [t, -t])}, "time": t}})
+    yout = twmr.read_result(tmp_path / "yout.mat")
+    assert yout.columns == ["yout.time", "yout.signals.values[1]", "yout.signals.values[2]"]
+    np.testing.assert_array_equal(yout.values[:, 2], -t)
+
+
+@pytest.mark.parametrize(("content", "said"), [
+    ({"time": np.arange(5.0), "x": np.arange(3.0)},
+     "its vectors differ in length: time (5), x (3)"),
+    ({"k": 3.0, "name": "abc"}, "no numeric vector in this MAT file"),
+], ids=["uneven", "no-vector"])
+def test_a_foreign_mat_file_without_columns_is_said_plainly(tmp_path, content, said) -> None:
+    scipy.io.savemat(tmp_path / "log.mat", content)
+    with pytest.raises(twmr.CosimError, match="Fix:") as err:
+        twmr.read_result(tmp_path / "log.mat")
+    assert said in str(err.value)
+
+
+def test_a_matlab_v73_file_is_refused_with_the_fix(tmp_path) -> None:
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, HDF5 schema 1.00 .".ljust(116, b" ")
+    (tmp_path / "v73.mat").write_bytes((header + bytes(8) + b"\x00\x02IM").ljust(512, b"\x00")
+                                       + b"\x89HDF\r\n\x1a\n" + bytes(64))
+    with pytest.raises(twmr.CosimError, match=r"v7\.3 file") as err:
+        twmr.read_result(tmp_path / "v73.mat")
+    assert "-v7" in str(err.value)

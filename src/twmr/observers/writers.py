@@ -319,7 +319,16 @@ class Mat(ResultFormat):
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
         import scipy.io
 
+        from twmr.observers.matfiles import is_hdf5_mat, plain_columns
+
+        if is_hdf5_mat(path):
+            raise CosimError(f"{path}: a MATLAB v7.3 file (HDF5), which this reader does not "
+                             f"read. Fix: save it as v7 in MATLAB (save('log.mat', ..., '-v7')) "
+                             f"or export the signals as CSV.")
         m = scipy.io.loadmat(path)
+        if "columns" not in m:  # saved by MATLAB or a logger, not by twmr
+            plain, values = plain_columns(path, m)
+            return plain, [""] * len(plain), values
         columns = [str(np.ravel(c)[0]) for c in np.ravel(m["columns"])]
         units = [str(np.ravel(c)[0]) if np.size(c) else "" for c in np.ravel(m["units"])]
         return columns, units, np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
