@@ -280,3 +280,18 @@ def test_a_matlab_v73_file_is_refused_with_the_fix(tmp_path) -> None:
     with pytest.raises(twmr.CosimError, match=r"v7\.3 file") as err:
         twmr.read_result(tmp_path / "v73.mat")
     assert "-v7" in str(err.value)
+
+
+def test_a_loggers_parquet_with_timestamps_reads_time_in_seconds(tmp_path) -> None:
+    """pandas' DatetimeIndex (time-zone aware, unnamed) and a timedelta column become seconds
+    from the first sample, exact to the nanosecond; the time goes first; text is left out."""
+    stamps = pd.date_range("2026-01-01 08:00", periods=4, freq="250ms", tz="Europe/Berlin")
+    pd.DataFrame({"x": np.arange(4.0), "label": list("abcd")}, index=stamps).to_parquet(
+        tmp_path / "log.parquet")
+    log = twmr.read_result(tmp_path / "log.parquet")
+    assert log.columns == ["time", "x"] and log.units["time"] == "s"
+    assert log.values[:, 0].tolist() == [0.0, 0.25, 0.5, 0.75]
+    pd.DataFrame({"x": [1.0, 2.0], "t": pd.to_timedelta([5, 105], unit="ms")}).to_parquet(
+        tmp_path / "delta.parquet", index=False)
+    delta = twmr.read_result(tmp_path / "delta.parquet")
+    assert delta.columns == ["t", "x"] and delta.values[:, 0].tolist() == [0.005, 0.105]

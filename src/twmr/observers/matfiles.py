@@ -12,9 +12,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError
-
-#: names a time vector goes by, first found first
-TIME_NAMES = ("time", "t", "Time", "TIME")
+from twmr.observers.writers import time_column
 
 
 def is_hdf5_mat(path: Path) -> bool:
@@ -40,8 +38,7 @@ def plain_columns(path: Path, content: dict[str, Any]) -> tuple[list[str], np.nd
         listed = ", ".join(f"{n} ({k})" for n, k in lengths.items())
         raise CosimError(f"{path}: its vectors differ in length: {listed}. Fix: save only "
                          f"signals sampled together, one value per sample time.")
-    time = next((n for n in TIME_NAMES if n in found), None) or next(
-        (n for n in found if n.rsplit(".", 1)[-1] in TIME_NAMES), None)  # a struct's time
+    time = time_column(found)
     names = ([time] if time else []) + [n for n in found if n != time]
     return names, np.column_stack([found[n] for n in names])
 

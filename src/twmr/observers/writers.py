@@ -334,6 +334,46 @@ class Mat(ResultFormat):
         return columns, units, np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
 
 
+#: names a time column goes by, first found first
+TIME_NAMES = ("time", "t", "Time", "TIME")
+
+
+def time_column(names: Iterable[str]) -> str | None:
+    """The column of `names` that is the time: one named as `TIME_NAMES` says, else a struct's
+    field of that name ('yout.time'); None if none is."""
+    names = list(names)
+    return next((n for n in TIME_NAMES if n in names), None) or next(
+        (n for n in names if n.rsplit(".", 1)[-1] in TIME_NAMES), None)
+
+
+def _seconds(table: Any) -> Any:
+    """`table` with its timestamp and duration columns as float seconds (unit 's'): timestamps
+    counted from the earliest of them all, durations as they are; pandas' unnamed time index
+    (`__index_level_0__`) named 'time' when the table has none."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    def nanoseconds(column: Any) -> Any:
+        unit = pa.timestamp("ns") if pa.types.is_timestamp(column.type) else pa.duration("ns")
+        return column.cast(unit).cast(pa.int64())
+
+    timed = {f.name: nanoseconds(table[f.name]) for f in table.schema
+             if pa.types.is_timestamp(f.type) or pa.types.is_duration(f.type)}
+    stamps = [n for n in timed if pa.types.is_timestamp(table.schema.field(n).type)]
+    firsts = [pc.min(timed[n]).as_py() for n in stamps]
+    origin = min((v for v in firsts if v is not None), default=0)
+    for name, ns in timed.items():
+        if name in stamps:  # relative first, in integers: float64 holds ns since 1970 to ~0.1 us
+            ns = pc.subtract(ns, origin)
+        seconds = pc.divide(ns.cast(pa.float64()), 1e9)
+        label = "time" if name.startswith("__index_level_") and "time" not in \
+            table.column_names else name
+        table = table.set_column(table.schema.get_field_index(name),
+                                 pa.field(label, pa.float64(), metadata={b"unit": b"s"}),
+                                 seconds)
+    return table
+
+
 def _compresses(body: memoryview) -> bool:
     """Whether zlib shrinks samples of `body` (its start, middle and end) below
     `MAT_COMPRESS_BELOW` of their size (a constant or stepped signal does; noise-like float
@@ -382,8 +422,13 @@ class Parquet(ResultFormat):
         import pyarrow.parquet as pq
 
         table = pq.read_table(path)
+        table = _seconds(table)  # a logger's timestamps (pandas' DatetimeIndex) or durations
         numeric = [f.name for f in table.schema if pa.types.is_integer(f.type) or
                    pa.types.is_floating(f.type) or pa.types.is_boolean(f.type)]
+        timed = [n for n in numeric if (table.schema.field(n).metadata or {}).get(b"unit") == b"s"]
+        first = time_column(numeric) or time_column(timed) or (timed[0] if timed else None)
+        if first is not None:
+            numeric = [first, *(n for n in numeric if n != first)]
         table = table.select(numeric)  # a file written by another tool may hold text too
         units = [(f.metadata or {}).get(b"unit", b"").decode() for f in table.schema]
         values = np.column_stack([c.to_numpy().astype(float) for c in table.columns]) \
