@@ -115,10 +115,15 @@ record: {{signals: [d.y]}}
     ("0.0,0,1,0\n0.5,1,2,0\n0.4,2,3,0\n", "[x]", r"goes back from 0\.5 to 0\.4 at line 4"),
     ("0.0,0,1,0\n0.5,,2,0\n1.0,2,3,0\n", "[x, y]",
      r"column 'x' has no number \(empty, or text\) at line 3"),
+    ("0.0,0,1,0\n0.5,,2,0\n1.0,2,3,0\n", "[x, y]",  # below a logger's two '#' lines
+     r"column 'x' has no number \(empty, or text\) at line 5"),
 ])
 def test_what_cannot_be_played_is_refused_naming_file_column_and_row(
         tmp_path: Path, rows: str, columns: str, said: str) -> None:
     write_csv(tmp_path / "m.csv", rows)
+    if said.endswith("line 5"):
+        text = (tmp_path / "m.csv").read_text()
+        (tmp_path / "m.csv").write_text(f"# logger 2.1\n# 10 Hz\n{text}")
     path = tmp_path / "s.yaml"
     path.write_text(f"""components:
   d: {{kind: data, parameters: {{file: m.csv, columns: {columns}}}}}

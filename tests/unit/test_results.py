@@ -223,7 +223,8 @@ def test_exports_made_in_pieces_keep_row_order(tmp_path, monkeypatch) -> None:
     (b"time;a\r\n0;1,5\r\n1;2,25\r\n", ["time", "a"], [[0, 1.5], [1, 2.25]]),  # decimal comma
     (b"time\tTemp \xb0C\n0\t1\n1\t2\n", ["time", "Temp \u00b0C"], [[0, 1], [1, 2]]),  # Latin-1
     (b"time,a\n0,\n1,x\n", ["time", "a"], [[0, np.nan], [1, np.nan]]),  # empty and text: NaN
-], ids=["bom", "semicolon", "tab-latin1", "nan"])
+    (b"# logger 2.1\n# 10 Hz\ntime,a\n0,1\n# paused\n1,2\n", ["time", "a"], [[0, 1], [1, 2]]),
+], ids=["bom", "semicolon", "tab-latin1", "nan", "comments"])
 def test_csv_files_from_spreadsheets_and_loggers_read(tmp_path, text, columns, values) -> None:
     (tmp_path / "data.csv").write_bytes(text)
     result = twmr.read_result(tmp_path / "data.csv")
@@ -234,9 +235,10 @@ def test_csv_files_from_spreadsheets_and_loggers_read(tmp_path, text, columns, v
 @pytest.mark.parametrize(("text", "said"), [
     (b"time,a,b\n0,1,2\n1,2\n", "line 3 has 2 values where the rows before it have 3"),
     (b"time;a\n0;1\n1;2;3\n", "line 3 has 3 values where the rows before it have 2"),
+    (b"# logger\ntime,a\n0,1\n1,2,3\n", "line 4 has 3 values where the rows before it have 2"),
     (b"time,a,b\n0,1\n1,2\n", "the header names 3 column(s) but the rows hold 2 value(s)"),
     (b"", "the file is empty"),
-], ids=["short-row", "long-row-semicolon", "short-header", "empty"])
+], ids=["short-row", "long-row-semicolon", "after-comments", "short-header", "empty"])
 def test_a_csv_of_uneven_rows_is_named_by_its_line(tmp_path, text, said) -> None:
     (tmp_path / "data.csv").write_bytes(text)
     with pytest.raises(twmr.CosimError, match=r"data\.csv: ") as err:

@@ -122,4 +122,8 @@ def split_units(columns: list[str], units: dict[str, str]) -> tuple[list[str], l
 def _row(path: Path, k: int) -> str:
     """Row k of the samples as a user finds it: the line of a CSV file (after its header),
     else the row counted from 0."""
-    return f"line {k + 2}" if path.suffix.lower() == ".csv" else f"row {k} (counted from 0)"
+    if path.suffix.lower() != ".csv":
+        return f"row {k} (counted from 0)"
+    from twmr.observers.writers import csv_first_row_line
+
+    return f"line {k + csv_first_row_line(path)}"

@@ -187,14 +187,14 @@ CSV_SEPARATORS = (",", ";", "\t")
 
 
 def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
-    """(column names, float64 rows) of a CSV: a header row of names, then rows of numbers (an
-    empty or text cell reads as NaN). The header may start with a byte-order mark and be in
-    UTF-8 or Latin-1; the separator is the one of `CSV_SEPARATORS` the header uses most.
-    CosimError for an empty file and for rows whose length differs from the header's."""
+    """(column names, float64 rows) of a CSV: a header row of names (after any lines starting
+    with '#'), then rows of numbers (an empty or text cell reads as NaN). The header may start
+    with a byte-order mark and be in UTF-8 or Latin-1; the separator is the one of
+    `CSV_SEPARATORS` the header uses most. CosimError for an empty file and for rows whose
+    length differs from the header's."""
     import csv
 
-    with open(path, "rb") as f:
-        raw = f.readline()
+    raw, above = _csv_header(path)
     try:
         header = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -207,12 +207,13 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
     source: Any = path
     if sep == ";":  # a decimal comma
         with open(path, "rb") as f:
-            f.readline()
+            for _ in range(above):
+                f.readline()
             source = BytesIO(f.read().replace(b",", b"."))
     with warnings.catch_warnings():  # a header without rows: no samples, said by the caller
         warnings.filterwarnings("ignore", "loadtxt: input contained no data")
         warnings.filterwarnings("ignore", "genfromtxt: Empty input file")
-        skip = 0 if sep == ";" else 1
+        skip = 0 if sep == ";" else above
         try:
             values = np.loadtxt(source, delimiter=sep, skiprows=skip, ndmin=2,
                                 encoding="latin-1")  # numbers: any byte decodes
@@ -223,7 +224,7 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
                 values = np.genfromtxt(source, delimiter=sep, skip_header=skip, dtype=float,
                                        ndmin=2, encoding="latin-1")
             except ValueError as err:
-                raise CosimError(f"{path}: {_ragged(str(err), 1 - skip)}. Fix: give every row "
+                raise CosimError(f"{path}: {_ragged(str(err), above - skip)}. Fix: give every row "
                                  f"one value per column of the header ({len(columns)}), an "
                                  f"empty cell where a value is missing.") from None
     if not values.size:
@@ -233,6 +234,21 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
                          f"{values.shape[1]} value(s). Fix: give every row one value per column "
                          f"of the header, an empty cell where a value is missing.")
     return columns, values
+
+
+def _csv_header(path: Path) -> tuple[bytes, int]:
+    """(the header line of a CSV, the number of lines up to and with it): a logger's lines
+    starting with '#' before the header are left out."""
+    with open(path, "rb") as f:
+        raw, lines = f.readline(), 1
+        while raw.removeprefix(b"\xef\xbb\xbf").startswith(b"#"):
+            raw, lines = f.readline(), lines + 1
+    return raw, lines
+
+
+def csv_first_row_line(path: Path) -> int:
+    """The line number (from 1) of a CSV's first row of samples, below its header."""
+    return _csv_header(path)[1] + 1
 
 
 def _ragged(numpy_says: str, lines_before: int) -> str:
