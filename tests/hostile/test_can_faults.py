@@ -436,8 +436,17 @@ def test_fault_stops_the_run_with_zero_torque_and_the_drives_disabled(case: Case
     # a case that is not about missing feedback gives the host's watchdog ten times its room:
     # on a loaded machine an emulated drive's thread can be held back past N periods, and the
     # host would trip on that first (it did, in CI, before node 1's heartbeat reported IDLE)
-    room = {} if any("no feedback frame" in e for e in case.expect) else \
-        {"watchdog_periods": 10 * N}
+    silent = any("no feedback frame" in e for e in case.expect)
+    room = {} if silent else {"watchdog_periods": 10 * N}
+    for attempt in range(3):
+        if _checked(case, room, deaths, last=attempt == 2):
+            return
+
+
+def _checked(case: Case, room: dict[str, Any], deaths: list[str], last: bool) -> bool:
+    """One run of `case`; False (to run it again) when, on a case about a drive that falls
+    silent, the host's watchdog tripped on another drive first: a thread of that emulated drive
+    held back past the watchdog by a loaded machine, not the fault."""
     bench = open_bench(case.protocol, **{**room, **dict(case.params)})
     nodes = ODRIVE_NODES if case.protocol == "odrive" else CIA_NODES
     mon = Monitor(bench.ch)
@@ -448,6 +457,8 @@ def test_fault_stops_the_run_with_zero_torque_and_the_drives_disabled(case: Case
         steps, err = run_to_trip(loop, case.within + 60)
         text = str(err)
         assert "component 'motor'" in text, text
+        if not last and "no feedback frame" in text and case.expect[0] not in text:
+            return False
         for part in case.expect:
             assert part in text, f"{part!r} not in: {text}"
         link = bench.drive.link
@@ -471,6 +482,7 @@ def test_fault_stops_the_run_with_zero_torque_and_the_drives_disabled(case: Case
         assert_was_driving(frames, case.protocol, nodes)
         assert_zero_then_disabled(frames, case.protocol, nodes)
         assert_no_thread_died(deaths)
+        return True
     finally:
         bench.close()
         mon.close()

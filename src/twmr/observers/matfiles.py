@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from twmr.core.errors import CosimError
-from twmr.observers.writers import time_column
+from twmr.observers.timecolumn import time_column
 
 
 def is_hdf5_mat(path: Path) -> bool:

@@ -27,6 +27,7 @@ import numpy as np
 from twmr.core.errors import CosimError
 from twmr.observers.ticks import FILENAME as TICKS
 from twmr.observers.ticks import TickTable
+from twmr.observers.timecolumn import time_column
 from twmr.registry import FORMATS, plugin, plugins
 
 UNITS_FILE = "units.json"
@@ -348,18 +349,6 @@ class Mat(ResultFormat):
         columns = [str(np.ravel(c)[0]) for c in np.ravel(m["columns"])]
         units = [str(np.ravel(c)[0]) if np.size(c) else "" for c in np.ravel(m["units"])]
         return columns, units, np.column_stack([np.ravel(m[mat_name(c)]) for c in columns])
-
-
-#: names a time column goes by, first found first
-TIME_NAMES = ("time", "t", "Time", "TIME")
-
-
-def time_column(names: Iterable[str]) -> str | None:
-    """The column of `names` that is the time: one named as `TIME_NAMES` says, else a struct's
-    field of that name ('yout.time'); None if none is."""
-    names = list(names)
-    return next((n for n in TIME_NAMES if n in names), None) or next(
-        (n for n in names if n.rsplit(".", 1)[-1] in TIME_NAMES), None)
 
 
 def _seconds(table: Any) -> Any:
