@@ -297,3 +297,12 @@ def test_a_loggers_parquet_with_timestamps_reads_time_in_seconds(tmp_path) -> No
         tmp_path / "delta.parquet", index=False)
     delta = twmr.read_result(tmp_path / "delta.parquet")
     assert delta.columns == ["t", "x"] and delta.values[:, 0].tolist() == [0.005, 0.105]
+
+
+def test_a_loggers_units_row_below_the_header_gives_the_units(tmp_path) -> None:
+    (tmp_path / "log.csv").write_bytes(b"Zeit;Weg;Winkel\n[s];[mm];rad\n0;1,5;0\n1;2,5;\n")
+    log = twmr.read_result(tmp_path / "log.csv")
+    assert log.units == {"Zeit": "s", "Weg": "mm", "Winkel": "rad"}
+    np.testing.assert_array_equal(log.values, [[0.0, 1.5, 0.0], [1.0, 2.5, np.nan]])
+    (tmp_path / "plain.csv").write_text("time,x\n0,1\n1,2\n")  # a first row of numbers: data
+    assert twmr.read_result(tmp_path / "plain.csv").values.tolist() == [[0, 1], [1, 2]]

@@ -174,12 +174,13 @@ class Csv(ResultFormat):
                 out.writerow([f"{t:.17g}", *("" if v is None else v.hex() for v in row)])
 
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
-        columns, values = read_csv_table(path)
+        columns, units, values = read_csv_table(path)
         try:
             unit_of = json.loads((path.parent / UNITS_FILE).read_text())
         except (OSError, ValueError):
             unit_of = {}
-        return columns, [unit_of.get(c, "") for c in columns], values.reshape(-1, len(columns))
+        units = [u or unit_of.get(c, "") for c, u in zip(columns, units, strict=True)]
+        return columns, units, values.reshape(-1, len(columns))
 
 
 #: the separators a CSV may use, as the header shows: ',' and, from spreadsheets set for a
@@ -187,24 +188,14 @@ class Csv(ResultFormat):
 CSV_SEPARATORS = (",", ";", "\t")
 
 
-def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
-    """(column names, float64 rows) of a CSV: a header row of names (after any lines starting
-    with '#'), then rows of numbers (an empty or text cell reads as NaN). The header may start
-    with a byte-order mark and be in UTF-8 or Latin-1; the separator is the one of
-    `CSV_SEPARATORS` the header uses most. CosimError for an empty file and for rows whose
-    length differs from the header's."""
-    import csv
-
-    raw, above = _csv_header(path)
-    try:
-        header = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        header = raw.decode("latin-1")
-    if not header.strip():
-        raise CosimError(f"{path}: the file is empty (no header row of column names). Fix: give "
-                         f"a CSV whose first row names the columns, 'time' first.")
-    sep = max(CSV_SEPARATORS, key=header.count)
-    columns = [c.strip() for c in next(csv.reader([header], delimiter=sep))]
+def read_csv_table(path: Path) -> tuple[list[str], list[str], np.ndarray]:
+    """(column names, their units ('' where none), float64 rows) of a CSV: a header row of
+    names (after any lines starting with '#'), a row of units if the next row holds only text
+    (a logger's 's,m,rad' or '[s],[m]'), then rows of numbers (an empty or text cell reads as
+    NaN). The header may start with a byte-order mark and be in UTF-8 or Latin-1; the separator
+    is the one of `CSV_SEPARATORS` the header uses most. CosimError for an empty file and for
+    rows whose length differs from the header's."""
+    columns, units, sep, above = _csv_head(path)
     source: Any = path
     if sep == ";":  # a decimal comma
         with open(path, "rb") as f:
@@ -229,27 +220,57 @@ def read_csv_table(path: Path) -> tuple[list[str], np.ndarray]:
                                  f"one value per column of the header ({len(columns)}), an "
                                  f"empty cell where a value is missing.") from None
     if not values.size:
-        return columns, np.empty((0, len(columns)))
+        return columns, units, np.empty((0, len(columns)))
     if values.shape[1] != len(columns):
         raise CosimError(f"{path}: the header names {len(columns)} column(s) but the rows hold "
                          f"{values.shape[1]} value(s). Fix: give every row one value per column "
                          f"of the header, an empty cell where a value is missing.")
-    return columns, values
+    return columns, units, values
 
 
-def _csv_header(path: Path) -> tuple[bytes, int]:
-    """(the header line of a CSV, the number of lines up to and with it): a logger's lines
-    starting with '#' before the header are left out."""
+def _csv_head(path: Path) -> tuple[list[str], list[str], str, int]:
+    """(column names, units ('' each where the file has no units row), separator, number of
+    lines up to and with the header and units rows) of a CSV; a logger's lines starting with
+    '#' before the header are left out."""
+    import csv
+
     with open(path, "rb") as f:
         raw, lines = f.readline(), 1
         while raw.removeprefix(b"\xef\xbb\xbf").startswith(b"#"):
             raw, lines = f.readline(), lines + 1
-    return raw, lines
+        second = f.readline()
+    header, below = (_text(line) for line in (raw, second))
+    if not header.strip():
+        raise CosimError(f"{path}: the file is empty (no header row of column names). Fix: give "
+                         f"a CSV whose first row names the columns, 'time' first.")
+    sep = max(CSV_SEPARATORS, key=header.count)
+    columns = [c.strip() for c in next(csv.reader([header], delimiter=sep))]
+    cells = [c.strip() for c in next(csv.reader([below], delimiter=sep))] if below.strip() \
+        else []
+    if len(cells) == len(columns) and any(cells) and not any(_number(c) for c in cells if c):
+        return columns, [c.removeprefix("[").removesuffix("]") for c in cells], sep, lines + 1
+    return columns, [""] * len(columns), sep, lines
+
+
+def _text(line: bytes) -> str:
+    try:
+        return line.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return line.decode("latin-1")
+
+
+def _number(cell: str) -> bool:
+    try:
+        float(cell.replace(",", "."))
+    except ValueError:
+        return False
+    return True
 
 
 def csv_first_row_line(path: Path) -> int:
-    """The line number (from 1) of a CSV's first row of samples, below its header."""
-    return _csv_header(path)[1] + 1
+    """The line number (from 1) of a CSV's first row of samples, below its header (and units
+    row)."""
+    return _csv_head(path)[3] + 1
 
 
 def _ragged(numpy_says: str, lines_before: int) -> str:
