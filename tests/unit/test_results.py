@@ -306,3 +306,6 @@ def test_a_loggers_units_row_below_the_header_gives_the_units(tmp_path) -> None:
     np.testing.assert_array_equal(log.values, [[0.0, 1.5, 0.0], [1.0, 2.5, np.nan]])
     (tmp_path / "plain.csv").write_text("time,x\n0,1\n1,2\n")  # a first row of numbers: data
     assert twmr.read_result(tmp_path / "plain.csv").values.tolist() == [[0, 1], [1, 2]]
+    (tmp_path / "na.csv").write_text("time,x\nNA,N/A\n1,2\n")  # a row of missing values: data
+    na = twmr.read_result(tmp_path / "na.csv")
+    assert na.units == {"time": "", "x": ""} and len(na) == 2

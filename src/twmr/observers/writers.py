@@ -259,7 +259,14 @@ def _text(line: bytes) -> str:
         return line.decode("latin-1")
 
 
+#: cells a data row leaves without a value (so a row of them is no units row)
+MISSING = frozenset({"na", "n/a", "null", "none", "nil", "missing"})
+
+
 def _number(cell: str) -> bool:
+    """Whether a cell is a number or a missing value, not a unit."""
+    if cell.lower() in MISSING:
+        return True
     try:
         float(cell.replace(",", "."))
     except ValueError:
