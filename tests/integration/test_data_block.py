@@ -109,21 +109,19 @@ record: {{signals: [d.y]}}
     np.testing.assert_array_equal(result["d.y[2]"], [0.0, 0.5, 1.0, 1.5, 2.0, 2.0])
 
 
-@pytest.mark.parametrize("rows, columns, said", [
-    (GOOD, "[x, z]", r"m\.csv: no column 'z'"),
-    (GOOD, "[x, a]", r"different units \(x \[m\], a \[rad\]\)"),
-    ("0.0,0,1,0\n0.5,1,2,0\n0.4,2,3,0\n", "[x]", r"goes back from 0\.5 to 0\.4 at line 4"),
+@pytest.mark.parametrize("rows, columns, said, above", [
+    (GOOD, "[x, z]", r"m\.csv: no column 'z'", ""),
+    (GOOD, "[x, a]", r"different units \(x \[m\], a \[rad\]\)", ""),
+    ("0.0,0,1,0\n0.5,1,2,0\n0.4,2,3,0\n", "[x]", r"goes back from 0\.5 to 0\.4 at line 4", ""),
     ("0.0,0,1,0\n0.5,,2,0\n1.0,2,3,0\n", "[x, y]",
-     r"column 'x' has no number \(empty, or text\) at line 3"),
+     r"column 'x' has no number \(empty, or text\) at line 3", ""),
     ("0.0,0,1,0\n0.5,,2,0\n1.0,2,3,0\n", "[x, y]",  # below a logger's two '#' lines
-     r"column 'x' has no number \(empty, or text\) at line 5"),
+     r"column 'x' has no number \(empty, or text\) at line 5", "# logger 2.1\n# 10 Hz\n"),
 ])
 def test_what_cannot_be_played_is_refused_naming_file_column_and_row(
-        tmp_path: Path, rows: str, columns: str, said: str) -> None:
+        tmp_path: Path, rows: str, columns: str, said: str, above: str) -> None:
     write_csv(tmp_path / "m.csv", rows)
-    if said.endswith("line 5"):
-        text = (tmp_path / "m.csv").read_text()
-        (tmp_path / "m.csv").write_text(f"# logger 2.1\n# 10 Hz\n{text}")
+    (tmp_path / "m.csv").write_text(above + (tmp_path / "m.csv").read_text())
     path = tmp_path / "s.yaml"
     path.write_text(f"""components:
   d: {{kind: data, parameters: {{file: m.csv, columns: {columns}}}}}

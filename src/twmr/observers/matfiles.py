@@ -1,8 +1,7 @@
 """Columns of a MATLAB `.mat` file that twmr did not write: what a logger or a script saved with
 `save(...)` — vectors of one length (a variable `time`, `t` or `Time`, else a struct's field of
 that name, goes first), a matrix of that many rows as columns `name[1]`, `name[2]`, ..., a
-struct's fields as `struct.field`; scalars, text and cell arrays are left out. A MATLAB v7.3
-file (HDF5) is refused with the fix.
+struct's fields as `struct.field`; scalars, text and cell arrays are left out.
 """
 from __future__ import annotations
 
@@ -13,13 +12,6 @@ import numpy as np
 
 from twmr.core.errors import CosimError
 from twmr.observers.timecolumn import time_column
-
-
-def is_hdf5_mat(path: Path) -> bool:
-    """Whether `path` is a MATLAB v7.3 file (an HDF5 file behind a 512-byte MATLAB header)."""
-    with open(path, "rb") as f:
-        head = f.read(520)
-    return head[512:520] == b"\x89HDF\r\n\x1a\n" or head.startswith(b"\x89HDF\r\n\x1a\n")
 
 
 def plain_columns(path: Path, content: dict[str, Any]) -> tuple[list[str], np.ndarray]:

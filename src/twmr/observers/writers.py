@@ -364,13 +364,14 @@ class Mat(ResultFormat):
     def read(self, path: Path) -> tuple[list[str], list[str], np.ndarray]:
         import scipy.io
 
-        from twmr.observers.matfiles import is_hdf5_mat, plain_columns
+        from twmr.observers.matfiles import plain_columns
 
-        if is_hdf5_mat(path):
+        try:
+            m = scipy.io.loadmat(path)
+        except NotImplementedError:  # scipy's answer to a v7.3 file
             raise CosimError(f"{path}: a MATLAB v7.3 file (HDF5), which this reader does not "
                              f"read. Fix: save it as v7 in MATLAB (save('log.mat', ..., '-v7')) "
-                             f"or export the signals as CSV.")
-        m = scipy.io.loadmat(path)
+                             f"or export the signals as CSV.") from None
         if "columns" not in m:  # saved by MATLAB or a logger, not by twmr
             plain, values = plain_columns(path, m)
             return plain, [""] * len(plain), values
@@ -459,7 +460,7 @@ class Parquet(ResultFormat):
         numeric = [f.name for f in table.schema if pa.types.is_integer(f.type) or
                    pa.types.is_floating(f.type) or pa.types.is_boolean(f.type)]
         timed = [n for n in numeric if (table.schema.field(n).metadata or {}).get(b"unit") == b"s"]
-        first = time_column(numeric) or time_column(timed) or (timed[0] if timed else None)
+        first = time_column(numeric) or (timed[0] if timed else None)
         if first is not None:
             numeric = [first, *(n for n in numeric if n != first)]
         table = table.select(numeric)  # a file written by another tool may hold text too
